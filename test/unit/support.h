@@ -1,0 +1,36 @@
+#pragma once
+// Shared helpers for the core unit tests: temporary folders and the location of
+// the real-data folder beside the checkout.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+namespace relocalizer::testing {
+
+// A fresh folder under the system temp dir, removed when the object dies.
+class TempDir {
+ public:
+  explicit TempDir(const std::string& prefix = "relocalizer_test");
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::string str() const { return path_.string(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// ../shared/data/7scenes-redkitchen-dev beside the checkout, or empty when absent.
+std::string redkitchenDir();
+
+}  // namespace relocalizer::testing
+
+// Real-data tests say clearly why they did not run.
+#define RELOCALIZER_REQUIRE_REDKITCHEN(dir_variable)                                     \
+  const std::string dir_variable = ::relocalizer::testing::redkitchenDir();              \
+  if (dir_variable.empty())                                                              \
+  GTEST_SKIP() << "real-data check skipped: ../shared/data/7scenes-redkitchen-dev is "   \
+                  "absent beside the checkout"

@@ -1,0 +1,185 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "relocalizer/frame.h"
+#include "relocalizer/metrics.h"
+#include "relocalizer/pose.h"
+#include "support.h"
+
+using namespace relocalizer;
+
+namespace {
+Pose makePose(double angle_deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
+  Pose p = Pose::Identity();
+  p.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180.0, axis.normalized()).toRotationMatrix();
+  p.translation() = t;
+  return p;
+}
+}  // namespace
+
+TEST(PoseErrors, TenDegreeRotationReadsAsTen) {
+  const Pose truth = makePose(30, {0.2, 1, 0.1}, {1, 2, 3});
+  const Pose estimate = truth * makePose(10, {1, -0.5, 0.3}, Eigen::Vector3d::Zero());
+  EXPECT_NEAR(rotationErrorDegrees(estimate, truth), 10.0, 1e-9);
+  EXPECT_NEAR(translationError(estimate, truth), 0.0, 1e-12);
+}
+
+TEST(PoseErrors, TranslationErrorIsCentreDistance) {
+  const Pose truth = makePose(0, {0, 0, 1}, {0, 0, 0});
+  const Pose estimate = makePose(0, {0, 0, 1}, {0.03, 0.04, 0});
+  EXPECT_NEAR(translationError(estimate, truth), 0.05, 1e-12);
+}
+
+TEST(PoseErrors, SmallAnglesAreAccurate) {
+  const Pose truth = makePose(45, {1, 1, 0}, {0, 0, 0});
+  const Pose estimate = truth * makePose(0.01, {0, 0, 1}, Eigen::Vector3d::Zero());
+  EXPECT_NEAR(rotationErrorDegrees(estimate, truth), 0.01, 1e-9);
+}
+
+TEST(PoseErrors, NonOrthonormalGroundTruthIsProjectedFirst) {
+  // Column norms of 0.9999, as in KinectFusion ground truth: a perfect estimate
+  // must read as (nearly) zero, not the ~0.8 degrees of the raw trace formula.
+  const Pose exact = makePose(20, {0.3, 0.4, 1}, {0.5, 0.1, 0.2});
+  Eigen::Matrix4d shrunk = exact.matrix();
+  shrunk.topLeftCorner<3, 3>() *= 0.9999;
+  const double raw_trace_angle =
+      std::acos(std::clamp((shrunk.topLeftCorner<3, 3>().transpose() * exact.linear()).trace() / 2.0 - 0.5, -1.0, 1.0)) * 180 / M_PI;
+  EXPECT_GT(raw_trace_angle, 0.5);
+  auto parsed = poseFromMatrix(shrunk);
+  ASSERT_TRUE(parsed.ok()) << parsed.error();
+  EXPECT_LT(rotationErrorDegrees(*parsed, exact), 1e-6);
+}
+
+TEST(PoseFromMatrix, RejectsNaNAndBadLastRow) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m(0, 3) = std::nan("");
+  EXPECT_FALSE(poseFromMatrix(m).ok());
+  EXPECT_NE(poseFromMatrix(m).error().find("NaN"), std::string::npos);
+  m = Eigen::Matrix4d::Identity();
+  m(3, 0) = 1;
+  EXPECT_FALSE(poseFromMatrix(m).ok());
+  m = Eigen::Matrix4d::Identity() * 2;
+  m(3, 3) = 1;
+  EXPECT_FALSE(poseFromMatrix(m).ok());
+}
+
+TEST(Horn, RecoversKnownRigidTransform) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-2, 2);
+  const Pose known = makePose(37, {0.1, -0.7, 0.4}, {0.3, -1.2, 2.5});
+  std::vector<Eigen::Vector3d> source, target;
+  for (int i = 0; i < 50; ++i) {
+    Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    source.push_back(p);
+    target.push_back(known * p);
+  }
+  const Pose found = hornAlignment(source, target);
+  EXPECT_LT((found.matrix() - known.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST(Metrics, SharesMediansAndAteAgainstHandComputedValues) {
+  const Pose truth = Pose::Identity();
+  std::vector<FrameError> errors;
+  std::vector<std::optional<Pose>> estimates;
+  std::vector<Pose> truths;
+  // Four frames: 1 cm / 1 deg, 3 cm / 1 deg, 10 cm / 0 deg, no pose.
+  const std::vector<std::optional<Pose>> cases = {
+      makePose(1, {0, 0, 1}, {0.01, 0, 0}), makePose(1, {0, 1, 0}, {0, 0.03, 0}),
+      makePose(0, {0, 0, 1}, {0, 0, 0.10}), std::nullopt};
+  for (size_t i = 0; i < cases.size(); ++i) {
+    errors.push_back(frameError(static_cast<int>(i), cases[i], truth));
+    estimates.push_back(cases[i]);
+    truths.push_back(truth);
+  }
+  const AccuracySummary s = summarizeAccuracy(errors, estimates, truths);
+  EXPECT_EQ(s.frames, 4);
+  EXPECT_EQ(s.frames_with_pose, 3);
+  EXPECT_DOUBLE_EQ(s.within_5cm_5deg, 0.5);
+  EXPECT_DOUBLE_EQ(s.within_2cm_2deg, 0.25);
+  // Sorted translations: 0.01, 0.03, 0.10, inf -> median (0.03 + 0.10) / 2.
+  EXPECT_NEAR(s.median_translation_m, 0.065, 1e-12);
+  EXPECT_NEAR(s.median_rotation_deg, 1.0, 1e-9);
+  EXPECT_TRUE(std::isfinite(s.ate_rmse_m));
+  EXPECT_GE(s.ate_rmse_m, 0.0);
+}
+
+TEST(Metrics, AteIsZeroForRigidlyMovedTrajectory) {
+  const Pose offset = makePose(15, {0, 0, 1}, {1, 2, 0});
+  std::vector<FrameError> errors;
+  std::vector<std::optional<Pose>> estimates;
+  std::vector<Pose> truths;
+  for (int i = 0; i < 10; ++i) {
+    const Pose t = makePose(i * 3, {0, 1, 0}, {0.1 * i, std::sin(i), 0.05 * i * i});
+    truths.push_back(t);
+    estimates.push_back(offset * t);
+    errors.push_back(frameError(i, estimates.back(), t));
+  }
+  EXPECT_NEAR(summarizeAccuracy(errors, estimates, truths).ate_rmse_m, 0.0, 1e-9);
+}
+
+TEST(Percentile, InterpolatesLinearly) {
+  EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4, 5}, 50), 3);
+  EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4}, 50), 2.5);
+  EXPECT_DOUBLE_EQ(percentile({10, 0}, 95), 9.5);
+  EXPECT_TRUE(std::isnan(median({})));
+}
+
+TEST(Depth, MillimetresToMetresWithInvalidMarkers) {
+  cv::Mat raw(1, 4, CV_16UC1);
+  raw.at<uint16_t>(0, 0) = 0;
+  raw.at<uint16_t>(0, 1) = 1500;
+  raw.at<uint16_t>(0, 2) = 65535;
+  raw.at<uint16_t>(0, 3) = 5000;
+  auto metres = depthToMetres(raw, 1000.0);
+  ASSERT_TRUE(metres.ok());
+  EXPECT_TRUE(std::isnan(metres->at<float>(0, 0)));
+  EXPECT_FLOAT_EQ(metres->at<float>(0, 1), 1.5f);
+  EXPECT_TRUE(std::isnan(metres->at<float>(0, 2)));
+  EXPECT_FLOAT_EQ(metres->at<float>(0, 3), 5.0f);
+  EXPECT_EQ(countValidDepth(*metres), 2);
+  auto tum = depthToMetres(raw, 5000.0);
+  EXPECT_FLOAT_EQ(tum->at<float>(0, 3), 1.0f);
+}
+
+TEST(Depth, FloatMetresDropNonPositiveAndNonFinite) {
+  cv::Mat raw = (cv::Mat_<float>(1, 4) << 1.25f, -1.0f, std::numeric_limits<float>::infinity(), 0.0f);
+  auto metres = depthToMetres(raw);
+  ASSERT_TRUE(metres.ok());
+  EXPECT_FLOAT_EQ(metres->at<float>(0, 0), 1.25f);
+  EXPECT_EQ(countValidDepth(*metres), 1);
+}
+
+TEST(Depth, RejectsColourImages) {
+  cv::Mat colour(2, 2, CV_8UC3, cv::Scalar(1, 2, 3));
+  auto metres = depthToMetres(colour);
+  ASSERT_FALSE(metres.ok());
+  EXPECT_NE(metres.error().find("16-bit"), std::string::npos);
+}
+
+TEST(Colour, ConvertsRgbAndMonoAndRejectsOthers) {
+  cv::Mat rgb(1, 1, CV_8UC3, cv::Scalar(10, 20, 30));
+  auto bgr = colourToBgr8(rgb, "rgb8");
+  ASSERT_TRUE(bgr.ok());
+  EXPECT_EQ(bgr->at<cv::Vec3b>(0, 0), cv::Vec3b(30, 20, 10));
+  cv::Mat mono(1, 1, CV_8UC1, cv::Scalar(77));
+  EXPECT_EQ(colourToBgr8(mono, "mono8")->at<cv::Vec3b>(0, 0), cv::Vec3b(77, 77, 77));
+  auto bad = colourToBgr8(rgb, "yuv422");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("yuv422"), std::string::npos);
+}
+
+TEST(Frame, ValidationNamesTheMismatch) {
+  RgbdFrame f;
+  f.colour = cv::Mat(480, 640, CV_8UC3);
+  f.depth = cv::Mat(240, 320, CV_32FC1);
+  EXPECT_NE(frameValidationError(f).find("differ in size"), std::string::npos);
+  f.depth = cv::Mat(480, 640, CV_32FC1);
+  EXPECT_EQ(frameValidationError(f), "");
+  f.camera.fx = 0;
+  EXPECT_NE(frameValidationError(f).find("focal"), std::string::npos);
+  f.camera.fx = 585;
+  f.camera.width = 320;
+  EXPECT_NE(frameValidationError(f).find("intrinsics are for"), std::string::npos);
+}
