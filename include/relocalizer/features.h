@@ -1,0 +1,96 @@
+#pragma once
+// Split features and the patch descriptor shared by training and prediction.
+//
+// Split feature (depth-adaptive pixel comparison, as in SCoRe forests):
+//   colour: f = I(p, c1) - I(p + delta / D(p), c2)            (intensity units)
+//   depth : f = D(p + delta / D(p)) - D(p)                      (metres)
+// delta is in pixel-metres, so the second pixel moves with the surface when the
+// camera moves closer or further. The rule at the second pixel q:
+//   - q outside the image is clamped to the nearest border pixel (colour and
+//     depth alike), so a feature never reads outside the image and is defined
+//     everywhere;
+//   - for depth features, invalid depth at q reads as kFarDepth (10 m): holes
+//     are mostly "something behind" (edges, out of range), so they sort with
+//     far background rather than being dropped.
+// The same code evaluates features in training and at test time.
+//
+// Descriptor: Walsh-Hadamard (WHT) projections of the 16x16 pixel patch centred
+// on the sample, box-filtered 2x2 down to 8x8, per colour channel; the 4x4
+// lowest-sequency coefficients of each channel (16 x 3 = 48 values), the whole
+// vector L2-normalised and quantised to int8 (x127). Leaves keep the mean
+// descriptor of each mode so prediction can pick, among many modes, the one
+// whose local appearance matches.
+
+#include <array>
+#include <cstdint>
+#include <opencv2/core.hpp>
+
+namespace relocalizer {
+
+enum class FeatureType : uint8_t { Colour = 0, Depth = 1 };
+
+constexpr float kFarDepth = 10.0f;
+
+struct PixelFeature {
+  int16_t offset_u = 0;  // pixel-metres
+  int16_t offset_v = 0;
+  FeatureType type = FeatureType::Colour;
+  uint8_t channel_p = 0;  // BGR channel at p (colour features)
+  uint8_t channel_q = 0;  // BGR channel at q
+  uint8_t padding = 0;
+};
+static_assert(sizeof(PixelFeature) == 8, "PixelFeature is packed into split nodes");
+
+// Non-owning view of one frame's images in the layout features read.
+struct FeatureImage {
+  const uint8_t* colour = nullptr;  // BGR interleaved, `colour_stride` bytes per row
+  const float* depth = nullptr;     // metres, NaN invalid, `depth_stride` floats per row
+  int width = 0;
+  int height = 0;
+  size_t colour_stride = 0;
+  size_t depth_stride = 0;
+
+  // `colour` CV_8UC3 and `depth` CV_32FC1 of the same size; both must outlive the view.
+  static FeatureImage of(const cv::Mat& colour, const cv::Mat& depth);
+};
+
+// f for the sample at integer pixel (u, v) with valid depth `depth_p` > 0.
+inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image, int u, int v,
+                             float depth_p) {
+  const float inverse_depth = 1.0f / depth_p;
+  int qu = u + static_cast<int>(feature.offset_u * inverse_depth + (feature.offset_u >= 0 ? 0.5f : -0.5f));
+  int qv = v + static_cast<int>(feature.offset_v * inverse_depth + (feature.offset_v >= 0 ? 0.5f : -0.5f));
+  qu = qu < 0 ? 0 : (qu >= image.width ? image.width - 1 : qu);
+  qv = qv < 0 ? 0 : (qv >= image.height ? image.height - 1 : qv);
+  if (feature.type == FeatureType::Colour) {
+    const int p = image.colour[v * image.colour_stride + u * 3 + feature.channel_p];
+    const int q = image.colour[qv * image.colour_stride + qu * 3 + feature.channel_q];
+    return static_cast<float>(p - q);
+  }
+  const float depth_q = image.depth[qv * image.depth_stride + qu];
+  return (depth_q == depth_q ? depth_q : kFarDepth) - depth_p;  // NaN != NaN
+}
+
+constexpr int kDescriptorPatch = 16;         // pixels per side
+constexpr int kDescriptorPerChannel = 16;    // 4x4 lowest-sequency WHT coefficients
+constexpr int kDescriptorSize = 3 * kDescriptorPerChannel;
+using Descriptor = std::array<int8_t, kDescriptorSize>;
+using DescriptorF = std::array<float, kDescriptorSize>;
+
+// Unit-length float descriptor of the patch centred on (u, v); the patch is
+// clamped to the image like the features.
+DescriptorF computeDescriptor(const FeatureImage& image, int u, int v);
+
+Descriptor quantizeDescriptor(const DescriptorF& descriptor);
+
+// Squared Euclidean distance between quantised descriptors (units of 1/127^2).
+inline int32_t descriptorDistance(const Descriptor& a, const Descriptor& b) {
+  int32_t sum = 0;
+  for (int i = 0; i < kDescriptorSize; ++i) {
+    const int32_t d = static_cast<int32_t>(a[i]) - static_cast<int32_t>(b[i]);
+    sum += d * d;
+  }
+  return sum;
+}
+
+}  // namespace relocalizer

@@ -1,0 +1,89 @@
+#include "relocalizer/config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "relocalizer/model_io.h"
+
+namespace relocalizer {
+
+namespace {
+
+using nlohmann::json;
+
+// Overlays `node` onto `target`, which holds the defaults and so defines which
+// keys and types are allowed.
+std::string overlay(const YAML::Node& node, json& target, const std::string& path) {
+  if (target.is_object()) {
+    if (node.IsNull()) return {};
+    if (!node.IsMap()) return "'" + path + "' must be a mapping";
+    for (const auto& entry : node) {
+      const std::string key = entry.first.as<std::string>();
+      const std::string child = path.empty() ? key : path + "." + key;
+      if (!target.contains(key)) return "unknown parameter '" + child + "'";
+      const std::string why = overlay(entry.second, target[key], child);
+      if (!why.empty()) return why;
+    }
+    return {};
+  }
+  if (!node.IsScalar()) return "'" + path + "' must be a single value";
+  try {
+    if (target.is_boolean()) {
+      target = node.as<bool>();
+    } else if (target.is_number_unsigned()) {
+      const long long v = node.as<long long>();
+      if (v < 0) return "'" + path + "' must not be negative";
+      target = static_cast<unsigned long long>(v);
+    } else if (target.is_number_integer()) {
+      target = node.as<long long>();
+    } else if (target.is_number_float()) {
+      target = node.as<double>();
+    } else if (target.is_string()) {
+      target = node.as<std::string>();
+    } else {
+      return "'" + path + "' has an unsupported type";
+    }
+  } catch (const YAML::Exception&) {
+    return "'" + path + "' has the wrong type (got '" + node.Scalar() + "', expected " +
+           std::string(target.type_name()) + ")";
+  }
+  return {};
+}
+
+}  // namespace
+
+Expected<std::string> mergeYamlOntoJson(const std::string& yaml_text, const std::string& defaults_json,
+                                        const std::string& source) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    return makeError(source + ": not valid YAML: " + e.what());
+  }
+  json merged = json::parse(defaults_json);
+  const std::string why = overlay(root, merged, "");
+  if (!why.empty()) return makeError(source + ": " + why);
+  return merged.dump();
+}
+
+Expected<TrainingParams> parseTrainingParams(const std::string& yaml_text, const std::string& source,
+                                             const TrainingParams& defaults) {
+  auto merged = mergeYamlOntoJson(yaml_text, trainingParamsToJson(defaults), source);
+  if (!merged) return makeError(merged.error());
+  auto params = trainingParamsFromJson(*merged);
+  if (!params) return makeError(source + ": " + params.error());
+  return params;
+}
+
+Expected<TrainingParams> loadTrainingParams(const std::string& path, const TrainingParams& defaults) {
+  std::ifstream in(path);
+  if (!in) return makeError(path + ": cannot open configuration file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parseTrainingParams(text.str(), path, defaults);
+}
+
+}  // namespace relocalizer

@@ -1,0 +1,351 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <tbb/global_control.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "relocalizer/config.h"
+#include "relocalizer/forest.h"
+#include "relocalizer/mean_shift.h"
+#include "relocalizer/model_io.h"
+#include "relocalizer/sampling.h"
+#include "relocalizer/training.h"
+#include "support.h"
+
+using namespace relocalizer;
+
+namespace {
+
+Eigen::Vector3f gaussianSample(std::mt19937& rng, const Eigen::Vector3f& mean,
+                               const Eigen::Matrix3f& sqrt_cov) {
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  return mean + sqrt_cov * Eigen::Vector3f(n(rng), n(rng), n(rng));
+}
+
+// Random-texture frames with a fronto-parallel depth ramp: enough structure
+// for trees to split, with exactly known world coordinates.
+std::vector<TrainingImage> randomImages(int count, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::vector<TrainingImage> images;
+  for (int i = 0; i < count; ++i) {
+    TrainingImage image;
+    image.camera = CameraIntrinsics{100, 100, 40, 30, 80, 60};
+    cv::Mat small(15, 20, CV_8UC3);
+    cv::randu(small, 0, 255);
+    cv::resize(small, image.colour, cv::Size(80, 60), 0, 0, cv::INTER_LINEAR);
+    image.depth = cv::Mat(60, 80, CV_32FC1);
+    for (int v = 0; v < 60; ++v)
+      for (int u = 0; u < 80; ++u) image.depth.at<float>(v, u) = 1.0f + 0.01f * u + 0.005f * v;
+    image.depth.at<float>(5, 5) = std::numeric_limits<float>::quiet_NaN();
+    image.pose = Pose::Identity();
+    image.pose.translation() = Eigen::Vector3d(0.1 * i, 0.0, 0.0);
+    images.push_back(image);
+  }
+  return images;
+}
+
+TrainingParams smallParams() {
+  TrainingParams p;
+  p.points.trees = 2;
+  p.points.max_depth = 10;
+  p.points.min_samples_leaf = 5;
+  p.points.samples_per_image = 300;
+  p.points.feature_candidates = 16;
+  p.lines = p.points;
+  return p;
+}
+
+}  // namespace
+
+TEST(Entropy, ClosedFormOfDiagonalGaussian) {
+  Eigen::Matrix3d sigma = Eigen::Vector3d(0.04, 0.01, 0.09).asDiagonal();
+  const double expected =
+      1.5 * std::log(2 * M_PI * M_E) + 0.5 * (std::log(0.04) + std::log(0.01) + std::log(0.09));
+  EXPECT_NEAR(gaussianEntropy(sigma), expected, 1e-12);
+}
+
+TEST(Entropy, SampleStatisticsMatchTheGaussianTheyCameFrom) {
+  std::mt19937 rng(3);
+  Eigen::Matrix3f a;
+  a << 0.2f, 0.0f, 0.0f, 0.05f, 0.1f, 0.0f, -0.03f, 0.02f, 0.3f;
+  const Eigen::Matrix3d sigma = (a * a.transpose()).cast<double>();
+  LabelStats stats;
+  for (int i = 0; i < 200000; ++i) stats.add(gaussianSample(rng, {1, 2, 3}, a));
+  EXPECT_NEAR(stats.entropy(), gaussianEntropy(sigma), 0.02);
+  EXPECT_LT((stats.covariance() - sigma).cwiseAbs().maxCoeff(), 2e-3);
+}
+
+TEST(MeanShift, RecoversSeparatedClustersWithTheirCovariances) {
+  std::mt19937 rng(11);
+  const Eigen::Vector3f centre_a(0, 0, 0), centre_b(1, 0.5, 0.2);
+  const Eigen::Matrix3f sqrt_a = Eigen::Vector3f(0.02f, 0.03f, 0.015f).asDiagonal();
+  Eigen::Matrix3f sqrt_b;
+  sqrt_b << 0.03f, 0, 0, 0.01f, 0.02f, 0, 0, 0, 0.025f;
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < 3000; ++i) points.push_back(gaussianSample(rng, centre_a, sqrt_a));
+  for (int i = 0; i < 1500; ++i) points.push_back(gaussianSample(rng, centre_b, sqrt_b));
+  MeanShiftParams params;
+  params.min_std = 0.0f;  // no floor: compare covariances exactly
+  std::vector<int> assignment;
+  const auto modes = meanShiftModes(points, params, &assignment);
+  ASSERT_EQ(modes.size(), 2u);
+  EXPECT_EQ(modes[0].support, 3000);
+  EXPECT_EQ(modes[1].support, 1500);
+  EXPECT_LT((modes[0].mean - centre_a).norm(), 0.003f);
+  EXPECT_LT((modes[1].mean - centre_b).norm(), 0.003f);
+  const Eigen::Matrix3f cov_a = sqrt_a * sqrt_a.transpose(), cov_b = sqrt_b * sqrt_b.transpose();
+  EXPECT_LT((modes[0].covariance - cov_a).cwiseAbs().maxCoeff(), 1e-4f);
+  EXPECT_LT((modes[1].covariance - cov_b).cwiseAbs().maxCoeff(), 1e-4f);
+  EXPECT_EQ(assignment[0], 0);
+  EXPECT_EQ(assignment[4000], 1);
+}
+
+TEST(MeanShift, DropsWeakModesAndKeepsAtMostMaxModes) {
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < 90; ++i) points.emplace_back(0.001f * (i % 3), 0, 0);
+  for (int i = 0; i < 5; ++i) points.emplace_back(3.0f, 0, 0);  // 5%: under the 10% share
+  const auto modes = meanShiftModes(points, MeanShiftParams{});
+  ASSERT_EQ(modes.size(), 1u);
+  EXPECT_EQ(modes[0].support, 90);
+}
+
+TEST(LineRansac, RejectsInjectedOutliers) {
+  std::mt19937 rng(5);
+  std::normal_distribution<float> noise(0.0f, 0.002f);
+  const Eigen::Vector3f origin(0.2f, -0.1f, 2.0f), direction = Eigen::Vector3f(1, 0.5f, 0.2f).normalized();
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < 30; ++i)
+    points.push_back(origin + direction * (0.02f * i) + Eigen::Vector3f(noise(rng), noise(rng), noise(rng)));
+  // Every fourth point jumps to the background, as at a depth edge.
+  for (int i = 0; i < 30; i += 4) points[i].z() += 0.5f;
+  Line3D line;
+  std::vector<int> inliers;
+  ASSERT_TRUE(fitLineRansac(points, 0.015f, 64, rng, line, inliers));
+  EXPECT_EQ(inliers.size(), 22u);
+  for (int i : inliers) EXPECT_NE(i % 4, 0);
+  EXPECT_GT(std::abs(line.direction.dot(direction)), 0.999f);
+  EXPECT_LT(line.distance(origin), 0.005f);
+}
+
+TEST(Features, SecondPixelIsClampedAndInvalidDepthReadsFar) {
+  cv::Mat colour(10, 10, CV_8UC3, cv::Scalar(0, 0, 0));
+  colour.at<cv::Vec3b>(0, 9) = cv::Vec3b(200, 100, 50);
+  cv::Mat depth(10, 10, CV_32FC1, cv::Scalar(2.0f));
+  depth.at<float>(9, 0) = std::numeric_limits<float>::quiet_NaN();
+  const FeatureImage image = FeatureImage::of(colour, depth);
+  PixelFeature f;
+  f.offset_u = 1000;  // 500 px at 2 m: far outside, clamps to column 9
+  f.offset_v = -1000;
+  f.channel_p = 0;
+  f.channel_q = 0;
+  EXPECT_FLOAT_EQ(evaluateFeature(f, image, 5, 5, 2.0f), -200.0f);
+  f.channel_q = 2;
+  EXPECT_FLOAT_EQ(evaluateFeature(f, image, 5, 5, 2.0f), -50.0f);
+  PixelFeature d;
+  d.type = FeatureType::Depth;
+  d.offset_u = -1000;
+  d.offset_v = 1000;  // clamps to (0, 9), which has no depth
+  EXPECT_FLOAT_EQ(evaluateFeature(d, image, 5, 5, 2.0f), kFarDepth - 2.0f);
+  d.offset_u = 2;  // 1 px right at 2 m
+  d.offset_v = 0;
+  EXPECT_FLOAT_EQ(evaluateFeature(d, image, 5, 5, 2.0f), 0.0f);
+}
+
+TEST(Descriptor, UnitLengthAndInvariantToContrastGain) {
+  cv::Mat colour(40, 40, CV_8UC3);
+  cv::randu(colour, 0, 120);
+  cv::Mat brighter = colour * 2;
+  cv::Mat depth(40, 40, CV_32FC1, cv::Scalar(1.0f));
+  const DescriptorF a = computeDescriptor(FeatureImage::of(colour, depth), 20, 20);
+  const DescriptorF b = computeDescriptor(FeatureImage::of(brighter, depth), 20, 20);
+  float norm = 0, diff = 0;
+  for (int i = 0; i < kDescriptorSize; ++i) {
+    norm += a[i] * a[i];
+    diff += (a[i] - b[i]) * (a[i] - b[i]);
+  }
+  EXPECT_NEAR(norm, 1.0f, 1e-5f);
+  EXPECT_LT(diff, 1e-8f);
+  // A flat patch has only DC energy.
+  cv::Mat flat(40, 40, CV_8UC3, cv::Scalar(10, 20, 30));
+  const DescriptorF f = computeDescriptor(FeatureImage::of(flat, depth), 20, 20);
+  for (int c = 0; c < 3; ++c)
+    for (int k = 1; k < kDescriptorPerChannel; ++k) EXPECT_EQ(f[c * kDescriptorPerChannel + k], 0.0f);
+  EXPECT_GT(f[2 * kDescriptorPerChannel], f[0]);  // red (30) over blue (10)
+}
+
+class TrainedTree : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    images_ = randomImages(6, 21);
+    params_ = smallParams();
+    forest_ = trainForest(images_, ForestKind::Points, params_);
+  }
+  std::vector<TrainingImage> images_;
+  TrainingParams params_;
+  Forest forest_;
+};
+
+TEST_F(TrainedTree, GrowsWithinLimitsAndEveryLeafHasAMode) {
+  ASSERT_EQ(forest_.trees.size(), 2u);
+  for (const Tree& t : forest_.trees) {
+    EXPECT_GT(t.leaves.size(), 10u);
+    EXPECT_LE(t.depth(), params_.points.max_depth);
+    for (const LeafRange& l : t.leaves) EXPECT_GE(l.mode_count, 1u);
+  }
+}
+
+TEST_F(TrainedTree, OneLeafBacktrackingEqualsPlainDescentAndMoreLeavesNeverWorsen) {
+  std::mt19937 rng(1);
+  const TrainingImage& image = images_[2];
+  RgbdFrame frame;
+  frame.colour = image.colour;
+  frame.depth = image.depth;
+  frame.camera = image.camera;
+  std::vector<Sample> samples;
+  samplePoints(frame, 200, rng, samples);
+  std::vector<Descriptor> descriptors;
+  computeDescriptors(image.view(), samples, descriptors);
+  const Tree& tree = forest_.trees[0];
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const Sample& s = samples[i];
+    const int32_t leaf = tree.descend(image.view(), s.u, s.v, s.depth);
+    const LeafRange& range = tree.leaves[leaf];
+    int32_t nearest = std::numeric_limits<int32_t>::max();
+    for (uint32_t m = range.first_mode; m < range.first_mode + range.mode_count; ++m)
+      nearest = std::min(nearest, descriptorDistance(tree.modes[m].descriptor, descriptors[i]));
+    const ModeCandidate one = predictInTree(tree, image.view(), s, descriptors[i], 1);
+    ASSERT_NE(one.mode, nullptr);
+    EXPECT_EQ(one.descriptor_distance, nearest);
+    EXPECT_GE(one.mode, &tree.modes[range.first_mode]);
+    EXPECT_LT(one.mode, &tree.modes[range.first_mode + range.mode_count]);
+    int32_t previous = one.descriptor_distance;
+    for (int leaves = 2; leaves <= 16; leaves *= 2) {
+      const ModeCandidate more = predictInTree(tree, image.view(), s, descriptors[i], leaves);
+      EXPECT_LE(more.descriptor_distance, previous);
+      previous = more.descriptor_distance;
+    }
+  }
+}
+
+TEST_F(TrainedTree, SameSeedGivesSameModelBytesForAnyThreadCount) {
+  Model a;
+  a.params = params_;
+  a.points = forest_;
+  Model b = a;
+  {
+    tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+    b.points = trainForest(images_, ForestKind::Points, params_);
+  }
+  EXPECT_EQ(serializeModel(a), serializeModel(b));
+  Model c = a;
+  c.params.seed = 43;
+  c.points = trainForest(images_, ForestKind::Points, c.params);
+  c.params = a.params;
+  EXPECT_NE(serializeModel(a), serializeModel(c));
+}
+
+class ModelFile : public TrainedTree {
+ protected:
+  void SetUp() override {
+    TrainedTree::SetUp();
+    model_.params = params_;
+    model_.points = forest_;
+    model_.lines = trainForest(images_, ForestKind::Points, params_);
+    model_.summary.dataset = "random";
+    model_.summary.images = 6;
+    model_.summary.scene_max = Eigen::Vector3f(1, 2, 3);
+    path_ = dir_.str() + "/model.bin";
+    ASSERT_TRUE(saveModel(model_, path_).ok());
+    std::ifstream in(path_, std::ios::binary);
+    bytes_.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  std::string writeVariant(const std::vector<uint8_t>& bytes) {
+    const std::string p = dir_.str() + "/variant.bin";
+    std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    return p;
+  }
+  relocalizer::testing::TempDir dir_;
+  Model model_;
+  std::string path_;
+  std::vector<uint8_t> bytes_;
+};
+
+TEST_F(ModelFile, RoundTripIsByteIdentical) {
+  auto loaded = loadModel(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  EXPECT_EQ(serializeModel(*loaded), bytes_);
+  EXPECT_EQ(loaded->summary.dataset, "random");
+  EXPECT_EQ(loaded->points.trees.size(), 2u);
+  EXPECT_EQ(loaded->params.points.min_samples_leaf, 5);
+}
+
+TEST_F(ModelFile, RejectsWrongMagic) {
+  auto b = bytes_;
+  b[0] = 'X';
+  auto r = loadModel(writeVariant(b));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("wrong magic"), std::string::npos) << r.error();
+  EXPECT_NE(r.error().find("variant.bin"), std::string::npos);
+}
+
+TEST_F(ModelFile, RejectsFutureVersion) {
+  auto b = bytes_;
+  b[8] = static_cast<uint8_t>(kModelFormatVersion + 1);
+  auto r = loadModel(writeVariant(b));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("format version 2 is not supported"), std::string::npos) << r.error();
+}
+
+TEST_F(ModelFile, RejectsTruncation) {
+  for (size_t keep : {size_t{4}, size_t{20}, bytes_.size() / 2, bytes_.size() - 1}) {
+    auto b = bytes_;
+    b.resize(keep);
+    auto r = loadModel(writeVariant(b));
+    ASSERT_FALSE(r.ok());
+    EXPECT_TRUE(r.error().find("truncated") != std::string::npos ||
+                r.error().find("wrong magic") != std::string::npos)
+        << r.error();
+  }
+}
+
+TEST_F(ModelFile, RejectsChecksumMismatch) {
+  auto b = bytes_;
+  b[b.size() - 7] ^= 0x40;
+  auto r = loadModel(writeVariant(b));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("checksum mismatch"), std::string::npos) << r.error();
+}
+
+TEST_F(ModelFile, RejectsOtherFileTypesAndMissingFiles) {
+  const std::string png = dir_.str() + "/image.png";
+  cv::imwrite(png, cv::Mat(4, 4, CV_8UC3, cv::Scalar(1, 2, 3)));
+  auto r = loadModel(png);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("not a relocalizer model"), std::string::npos);
+  auto missing = loadModel(dir_.str() + "/nope.bin");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().find("cannot open"), std::string::npos);
+}
+
+TEST(Config, ForestYamlMatchesCompiledDefaults) {
+  auto params = loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/forest.yaml");
+  ASSERT_TRUE(params.ok()) << params.error();
+  EXPECT_EQ(trainingParamsToJson(*params), trainingParamsToJson(TrainingParams{}));
+}
+
+TEST(Config, OverridesAndRejectsUnknownKeysAndWrongTypes) {
+  auto p = parseTrainingParams("points:\n  trees: 3\nline_sampling:\n  spacing_px: 4\n", "test.yaml");
+  ASSERT_TRUE(p.ok()) << p.error();
+  EXPECT_EQ(p->points.trees, 3);
+  EXPECT_EQ(p->lines.trees, 5);
+  EXPECT_FLOAT_EQ(p->line_sampling.spacing_px, 4.0f);
+  auto typo = parseTrainingParams("points:\n  treees: 3\n", "test.yaml");
+  ASSERT_FALSE(typo.ok());
+  EXPECT_EQ(typo.error(), "test.yaml: unknown parameter 'points.treees'");
+  auto wrong = parseTrainingParams("points:\n  trees: many\n", "test.yaml");
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.error().find("'points.trees' has the wrong type"), std::string::npos) << wrong.error();
+}
