@@ -19,6 +19,8 @@ class ProgressBar {
   ProgressBar& operator=(const ProgressBar&) = delete;
 
   void advance(size_t steps = 1);
+  // For work whose size is learnt on the way (training samples are drawn per forest).
+  void addToTotal(size_t steps) { total_ += steps; }
   // Ends the line; called by the destructor if needed.
   void finish();
 
@@ -30,7 +32,7 @@ class ProgressBar {
   void draw(size_t done, bool final_draw);
 
   std::string label_;
-  size_t total_;
+  std::atomic<size_t> total_;
   bool enabled_;
   std::atomic<size_t> done_{0};
   std::chrono::steady_clock::time_point start_;

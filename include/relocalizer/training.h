@@ -79,6 +79,8 @@ struct TrainingImage {
 };
 
 struct TrainingProgress {
+  // Called once per forest with the number of samples its trees will grow on.
+  std::function<void(size_t)> samples_drawn;
   // Called from worker threads with the number of samples that reached a leaf.
   std::function<void(size_t)> samples_done;
 };
@@ -110,5 +112,17 @@ Forest trainForest(const std::vector<TrainingImage>& images, ForestKind kind,
 
 // Derived per-tree seed: independent streams for every (seed, forest, tree).
 uint64_t treeSeed(uint64_t seed, ForestKind kind, int tree);
+
+}  // namespace relocalizer
+
+namespace relocalizer {
+
+// A posed frame as training keeps it; false (and nothing appended) when the
+// frame has no ground truth.
+bool appendTrainingImage(const RgbdFrame& frame, std::vector<TrainingImage>& images);
+
+// Grows the point and line forests (those enabled in `params`) concurrently.
+void trainForests(const std::vector<TrainingImage>& images, const TrainingParams& params,
+                  Forest& points, Forest& lines, const TrainingProgress& progress = {});
 
 }  // namespace relocalizer

@@ -10,7 +10,7 @@ namespace relocalizer {
 ProgressBar::ProgressBar(std::string label, size_t total, bool enabled)
     : label_(std::move(label)),
       total_(total),
-      enabled_(enabled && total > 0),
+      enabled_(enabled),
       start_(std::chrono::steady_clock::now()),
       last_draw_(start_) {
   if (enabled_) draw(0, false);
@@ -40,7 +40,7 @@ void ProgressBar::advance(size_t steps) {
   // Redraw at most 10 times a second; the terminal is not the bottleneck.
   std::unique_lock<std::mutex> lock(draw_mutex_, std::try_to_lock);
   if (!lock.owns_lock() || finished_) return;
-  if (done < total_ && now - last_draw_ < std::chrono::milliseconds(100)) return;
+  if (done < total_.load() && now - last_draw_ < std::chrono::milliseconds(100)) return;
   last_draw_ = now;
   draw(done, false);
 }
@@ -55,14 +55,15 @@ void ProgressBar::finish() {
 void ProgressBar::draw(size_t done, bool final_draw) {
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  const double fraction = total_ ? std::min(1.0, static_cast<double>(done) / total_) : 1.0;
+  const size_t total = total_.load();
+  const double fraction = total ? std::min(1.0, static_cast<double>(done) / total) : 1.0;
   constexpr int kWidth = 30;
   const int filled = static_cast<int>(fraction * kWidth);
   std::string bar(filled, '#');
   bar.resize(kWidth, '.');
-  const double eta = done > 0 ? elapsed * (total_ - std::min(done, total_)) / done : NAN;
+  const double eta = done > 0 ? elapsed * (total - std::min(done, total)) / done : NAN;
   std::fprintf(stderr, "\r%s [%s] %zu/%zu %3.0f%%  elapsed %s  ETA %s   ", label_.c_str(),
-               bar.c_str(), done, total_, fraction * 100.0, formatDuration(elapsed).c_str(),
+               bar.c_str(), done, total, fraction * 100.0, formatDuration(elapsed).c_str(),
                final_draw ? "0s" : formatDuration(eta).c_str());
   if (final_draw) std::fputc('\n', stderr);
   std::fflush(stderr);

@@ -345,6 +345,11 @@ Forest trainForest(const std::vector<TrainingImage>& images, ForestKind kind,
                    const TrainingParams& params, const TrainingProgress& progress) {
   const ForestParams& forest_params = kind == ForestKind::Points ? params.points : params.lines;
   std::vector<TreeSamples> samples = drawTreeSamples(images, kind, params);
+  if (progress.samples_drawn) {
+    size_t total = 0;
+    for (const auto& s : samples) total += s.items.size();
+    progress.samples_drawn(total);
+  }
   Forest forest;
   forest.trees.resize(samples.size());
   tbb::parallel_for(0, static_cast<int>(samples.size()), [&](int t) {
@@ -354,6 +359,32 @@ Forest trainForest(const std::vector<TrainingImage>& images, ForestKind kind,
     samples[t].items.shrink_to_fit();
   });
   return forest;
+}
+
+}  // namespace relocalizer
+
+namespace relocalizer {
+
+bool appendTrainingImage(const RgbdFrame& frame, std::vector<TrainingImage>& images) {
+  if (!frame.ground_truth) return false;
+  TrainingImage image;
+  image.colour = frame.colour;
+  image.depth = frame.depth;
+  image.camera = frame.camera;
+  image.pose = *frame.ground_truth;
+  images.push_back(std::move(image));
+  return true;
+}
+
+void trainForests(const std::vector<TrainingImage>& images, const TrainingParams& params,
+                  Forest& points, Forest& lines, const TrainingProgress& progress) {
+  tbb::parallel_invoke(
+      [&] {
+        if (params.train_points) points = trainForest(images, ForestKind::Points, params, progress);
+      },
+      [&] {
+        if (params.train_lines) lines = trainForest(images, ForestKind::Lines, params, progress);
+      });
 }
 
 }  // namespace relocalizer

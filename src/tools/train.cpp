@@ -1,0 +1,137 @@
+// train: grows the point and line forests on posed RGB-D frames and writes one
+// model file.
+
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <filesystem>
+#include <mutex>
+
+#include "cli_support.h"
+#include "relocalizer/config.h"
+#include "relocalizer/dataset.h"
+#include "relocalizer/model_io.h"
+#include "relocalizer/progress.h"
+#include "relocalizer/training.h"
+#include "relocalizer/version.h"
+
+using namespace relocalizer;
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Trains a PLForests model (point forest + line forest) on the posed RGB-D frames of one "
+      "scene and writes it to one versioned binary file. Parameters come from config/forest.yaml "
+      "(the defaults) and --config.",
+      "train"};
+  std::string dataset_path, format_name = "auto", frames, split = "all", output, config, forests;
+  int threads = 0;
+  uint64_t seed = 0;
+  app.add_option("-d,--dataset", dataset_path, "Dataset folder (7-Scenes, 12-Scenes, TUM)")
+      ->required();
+  app.add_option("--format", format_name, "auto | 7scenes | 12scenes | tum")->capture_default_str();
+  app.add_option("--frames", frames, "Frame ids to train on, e.g. 0-99,200-299 (default: all)");
+  app.add_option("--split", split, "train | test | all (7-Scenes scenes)")->capture_default_str();
+  app.add_option("-o,--output", output, "Model file to write")->required();
+  app.add_option("-c,--config", config, "YAML file overriding config/forest.yaml defaults");
+  app.add_option("-j,--threads", threads, "Worker threads (0 = every core)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  auto* seed_option = app.add_option("--seed", seed, "Random seed (overrides the config)");
+  app.add_option("--forests", forests, "Forests to grow: points, lines or points,lines")
+      ->check(CLI::IsMember({"points", "lines", "points,lines", "lines,points", "both"}));
+  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+
+  TrainingParams params;
+  if (!config.empty()) {
+    auto loaded = loadTrainingParams(config);
+    if (!loaded) return cli::fail(app, loaded.error());
+    params = *loaded;
+  }
+  if (*seed_option) params.seed = seed;
+  if (!forests.empty()) {
+    params.train_points = forests != "lines";
+    params.train_lines = forests != "points";
+  }
+  auto format = parseDatasetFormat(format_name);
+  if (!format) return cli::fail(app, format.error());
+  DatasetOptions options;
+  options.format = *format;
+  options.frames = frames;
+  options.split = split;
+  auto dataset = openDataset(dataset_path, options);
+  if (!dataset) return cli::fail(app, dataset.error());
+  const Dataset& data = **dataset;
+  std::printf("%s\n", data.summary().c_str());
+
+  const int thread_count = cli::resolveThreads(threads);
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, thread_count);
+  const auto start = std::chrono::steady_clock::now();
+
+  // Frames load in parallel but are kept in dataset order, so the model does
+  // not depend on the thread count.
+  std::vector<std::optional<RgbdFrame>> frames_read(data.size());
+  std::string load_error;
+  std::mutex error_mutex;
+  {
+    ProgressBar bar("loading ", data.size());
+    tbb::parallel_for(size_t{0}, data.size(), [&](size_t i) {
+      auto frame = data.load(i);
+      if (frame) {
+        frames_read[i] = std::move(*frame);
+      } else {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (load_error.empty()) load_error = frame.error();
+      }
+      bar.advance();
+    });
+  }
+  if (!load_error.empty()) return cli::fail(app, load_error);
+  std::vector<TrainingImage> images;
+  int without_pose = 0;
+  for (auto& frame : frames_read)
+    if (!appendTrainingImage(*frame, images)) ++without_pose;
+  frames_read.clear();
+  if (images.empty()) return cli::fail(app, dataset_path + ": no selected frame has a ground-truth pose");
+  if (without_pose > 0) std::printf("skipped %d frames without ground truth\n", without_pose);
+
+  Model model;
+  model.params = params;
+  {
+    ProgressBar bar("training", 0);
+    TrainingProgress progress;
+    progress.samples_drawn = [&](size_t n) { bar.addToTotal(n); };
+    progress.samples_done = [&](size_t n) { bar.advance(n); };
+    trainForests(images, params, model.points, model.lines, progress);
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  TrainingSummary& summary = model.summary;
+  summary.dataset = dataset_path;
+  summary.format = formatName(data.format());
+  summary.frames = frames;
+  summary.images = static_cast<int>(images.size());
+  summary.seconds = seconds;
+  summary.threads = thread_count;
+  summary.software_version = kSoftwareVersion;
+  summary.scene_min = summary.scene_max = images.front().pose.translation().cast<float>();
+  for (const auto& image : images) {
+    summary.scene_min = summary.scene_min.cwiseMin(image.pose.translation().cast<float>());
+    summary.scene_max = summary.scene_max.cwiseMax(image.pose.translation().cast<float>());
+  }
+  if (const Status saved = saveModel(model, output); !saved) return cli::fail(app, saved.error());
+  const auto bytes = std::filesystem::file_size(output);
+
+  std::printf("trained on %d images with %d threads in %.1f s (seed %llu)\n", summary.images,
+              thread_count, seconds, static_cast<unsigned long long>(params.seed));
+  for (const auto* f : {&model.points, &model.lines}) {
+    if (f->empty()) continue;
+    int depth = 0;
+    for (const Tree& t : f->trees) depth = std::max(depth, t.depth());
+    std::printf("  %-6s %zu trees, %zu nodes, %zu leaves, %zu modes, max depth %d\n",
+                f == &model.points ? "points" : "lines", f->trees.size(), f->nodeCount(),
+                f->leafCount(), f->modeCount(), depth);
+  }
+  std::printf("wrote %s (%.1f MB)\n", output.c_str(), bytes / 1e6);
+  return 0;
+}

@@ -1,0 +1,174 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "relocalizer/pose_solver.h"
+
+using namespace relocalizer;
+
+namespace {
+
+Pose makePose(double angle_deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
+  Pose p = Pose::Identity();
+  p.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180.0, axis.normalized()).toRotationMatrix();
+  p.translation() = t;
+  return p;
+}
+
+LeafMode isotropicMode(const Eigen::Vector3f& mean, float sigma) {
+  LeafMode m;
+  m.mean = mean;
+  m.setCovariance(Eigen::Matrix3f::Identity() * sigma * sigma);
+  m.support = 10;
+  return m;
+}
+
+// A synthetic correspondence set: camera points in front of the camera, their
+// true world points, and a share of samples whose every candidate is wrong.
+struct Scenario {
+  std::vector<LeafMode> modes;  // owns what predictions point to
+  std::vector<Prediction> predictions;
+  std::vector<SolverSample> points, lines;
+  std::vector<Line3D> line_models;
+
+  Scenario(const Pose& truth, int count, double outlier_share, int candidates, uint32_t seed,
+           float noise = 0.005f) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.5f, 1.5f), z(1.0f, 4.0f), unit(0, 1);
+    std::normal_distribution<float> n(0.0f, noise);
+    modes.reserve(count * candidates);
+    predictions.resize(count);
+    for (int i = 0; i < count; ++i) {
+      const Eigen::Vector3f camera(u(rng), u(rng), z(rng));
+      const Eigen::Vector3f world = (truth.cast<float>() * camera) + Eigen::Vector3f(n(rng), n(rng), n(rng));
+      const bool outlier = unit(rng) < outlier_share;
+      Prediction& p = predictions[i];
+      for (int c = 0; c < candidates; ++c) {
+        // Inliers: one candidate right, the others elsewhere (as from other trees).
+        const bool right = !outlier && c == 0;
+        const Eigen::Vector3f where =
+            right ? world : Eigen::Vector3f(u(rng) * 3, u(rng) * 3, u(rng) * 3);
+        modes.push_back(isotropicMode(where, 0.02f));
+        p.candidates[p.count++] = {&modes.back(), 0};
+      }
+      points.push_back({camera, &predictions[i], nullptr});
+    }
+  }
+};
+
+}  // namespace
+
+TEST(Kabsch, ExactOnNoiselessData) {
+  const Pose truth = makePose(71, {0.3, -1, 0.4}, {1.5, -0.2, 0.8});
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> u(-2, 2);
+  std::vector<Eigen::Vector3d> camera, world;
+  for (int i = 0; i < 3; ++i) {
+    camera.emplace_back(u(rng), u(rng), u(rng) + 3);
+    world.push_back(truth * camera.back());
+  }
+  Pose found;
+  ASSERT_TRUE(kabsch(camera.data(), world.data(), nullptr, 3, found));
+  EXPECT_LT((found.matrix() - truth.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST(Kabsch, RejectsCollinearPoints) {
+  std::vector<Eigen::Vector3d> camera = {{0, 0, 1}, {0, 0, 2}, {0, 0, 3}};
+  Pose found;
+  EXPECT_FALSE(kabsch(camera.data(), camera.data(), nullptr, 3, found));
+}
+
+TEST(Residuals, PointToPointMatchesHandComputedMahalanobis) {
+  const Pose pose = makePose(90, {0, 0, 1}, {1, 0, 0});  // x -> y, then +1 in x
+  RefinementTerm term;
+  term.camera_point = {1, 0, 0};      // world: (1, 1, 0)
+  term.mode_mean = {1, 1.2, 0.3};     // difference (0, -0.2, -0.3)
+  term.information = Eigen::Vector3d(1.0 / 0.01, 1.0 / 0.04, 1.0 / 0.09).asDiagonal();
+  const Eigen::Vector3d r = pointResidual(pose, term);
+  // (0.2/0.2)^2 + (0.3/0.3)^2 = 2
+  EXPECT_NEAR(r.squaredNorm(), 2.0, 1e-9);
+}
+
+TEST(Residuals, PointOnLineMatchesHandComputedDistance) {
+  const Pose pose = makePose(90, {0, 0, 1}, {0, 0, 0});  // camera x -> world y
+  RefinementTerm term;
+  term.on_line = true;
+  term.line_point = {0, 0, 2};
+  term.line_direction = {0, 1, 0};  // camera y axis through (0, 0, 2)
+  // World (0, 0.1, 2.5) is camera (0.1, 0, 2.5): 0.1 off the line in x, 0.5 in z.
+  term.mode_mean = {0, 0.1, 2.5};
+  // World-frame covariance: sigma 0.05 along world y (= camera x), 0.25 along z.
+  term.information = Eigen::Vector3d(1.0, 1.0 / 0.0025, 1.0 / 0.0625).asDiagonal();
+  const Eigen::Vector3d r = lineResidual(pose, term);
+  // (0.1 / 0.05)^2 + (0.5 / 0.25)^2 = 8: the covariance is rotated into the camera frame.
+  EXPECT_NEAR(r.squaredNorm(), 8.0, 1e-9);
+  // Moving along the line changes nothing.
+  term.mode_mean = {-0.7, 0.1, 2.5};
+  EXPECT_NEAR(lineResidual(pose, term).squaredNorm(), 8.0, 1e-9);
+}
+
+TEST(Refinement, LowersTheErrorFromAPerturbedStart) {
+  const Pose truth = makePose(25, {1, 2, 3}, {0.4, 1.1, -0.3});
+  Scenario s(truth, 400, 0.0, 1, 9);
+  std::vector<RefinementTerm> terms;
+  for (const auto& sample : s.points) {
+    RefinementTerm t;
+    t.camera_point = sample.camera_point.cast<double>();
+    t.mode_mean = sample.prediction->candidates[0].mode->mean.cast<double>();
+    t.information = sample.prediction->candidates[0].mode->informationMatrix().cast<double>();
+    terms.push_back(t);
+  }
+  const Pose start = truth * makePose(3, {0, 1, 0}, {0.04, -0.03, 0.02});
+  const double before = translationError(start, truth);
+  Matrix6d covariance;
+  const Pose refined = refinePose(start, terms, PoseSolverParams{}, &covariance);
+  EXPECT_LT(translationError(refined, truth), 0.1 * before);
+  EXPECT_LT(translationError(refined, truth), 0.003);
+  EXPECT_LT(rotationErrorDegrees(refined, truth), 0.1);
+  // Covariance: symmetric, positive, small for 400 good terms.
+  EXPECT_LT((covariance - covariance.transpose()).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_GT(covariance.diagonal().minCoeff(), 0.0);
+  EXPECT_LT(std::sqrt(covariance(0, 0)), 0.01);
+}
+
+TEST(Ransac, RecoversAKnownPoseWithSixtyPercentOutliers) {
+  const Pose truth = makePose(40, {0.2, 1, -0.3}, {2.0, -1.0, 0.5});
+  Scenario s(truth, 1500, 0.6, 3, 17);
+  std::mt19937 rng(1);
+  const PoseSolution solution = solvePose(s.points, s.lines, PoseSolverParams{}, rng);
+  ASSERT_TRUE(solution.success) << solution.message;
+  EXPECT_LT(translationError(solution.pose, truth), 0.01);
+  EXPECT_LT(rotationErrorDegrees(solution.pose, truth), 0.5);
+  EXPECT_NEAR(solution.point_inliers, 1500 * 0.4, 80);
+}
+
+TEST(Ransac, WeakEvidenceGivesAFailureNotAPose) {
+  // 8% of the samples agree on a pose: it is found, but the evidence is under
+  // the 15% inlier share the solver needs, so the answer is "no pose".
+  const Pose truth = makePose(10, {0, 0, 1}, {0, 0, 0});
+  Scenario s(truth, 1000, 0.92, 3, 23);
+  std::mt19937 rng(1);
+  const PoseSolution solution = solvePose(s.points, s.lines, PoseSolverParams{}, rng);
+  EXPECT_FALSE(solution.success);
+  EXPECT_NE(solution.message.find("weak evidence"), std::string::npos) << solution.message;
+  EXPECT_LT(solution.score, 0.15f);
+}
+
+TEST(Ransac, PureNoiseGivesAFailure) {
+  const Pose truth = makePose(10, {0, 0, 1}, {0, 0, 0});
+  for (uint32_t seed : {23u, 24u, 25u}) {
+    Scenario s(truth, 600, 1.0, 3, seed);
+    std::mt19937 rng(seed);
+    const PoseSolution solution = solvePose(s.points, s.lines, PoseSolverParams{}, rng);
+    EXPECT_FALSE(solution.success) << "seed " << seed;
+    EXPECT_FALSE(solution.message.empty());
+  }
+}
+
+TEST(Ransac, TooFewPredictionsIsAnExplicitFailure) {
+  Scenario s(Pose::Identity(), 2, 0.0, 1, 3);
+  std::mt19937 rng(1);
+  const PoseSolution solution = solvePose(s.points, s.lines, PoseSolverParams{}, rng);
+  EXPECT_FALSE(solution.success);
+  EXPECT_NE(solution.message.find("too few point predictions"), std::string::npos);
+}
