@@ -60,6 +60,10 @@ struct DatasetOptions {
   // Replaces the dataset's intrinsics (fx, fy, cx, cy) for recordings made with
   // a calibrated camera; width and height always come from the images.
   std::optional<CameraIntrinsics> intrinsics;
+  // 7-Scenes colour is not registered to depth; its readers resample colour
+  // onto the depth grid (registration.h) using colour-registration.txt or the
+  // 7-Scenes Kinect calibration. false keeps colour as captured.
+  bool register_colour = true;
 };
 
 namespace detail {

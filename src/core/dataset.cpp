@@ -89,6 +89,8 @@ Expected<RgbdFrame> loadFrame(const DatasetData& data, const DatasetFrame& entry
 
   auto depth = depthToMetres(*raw_depth, data.depth_units_per_metre);
   if (!depth) return makeError(entry.depth_path + ": " + depth.error());
+  if (data.registration.enabled())
+    colour = registerColourToDepth(*colour, *depth, data.camera, data.registration);
 
   RgbdFrame frame;
   frame.colour = std::move(*colour);
@@ -224,6 +226,10 @@ Expected<std::unique_ptr<Dataset>> openDatasetUnchecked(const std::string& path,
   std::stable_sort(data->frames.begin(), data->frames.end(),
                    [](const DatasetFrame& a, const DatasetFrame& b) { return a.id < b.id; });
 
+  if (!options.register_colour) {
+    data->registration = ColourRegistration{};
+    data->registration_source = "none (disabled by the caller)";
+  }
   if (options.intrinsics) {
     data->camera.fx = options.intrinsics->fx;
     data->camera.fy = options.intrinsics->fy;
@@ -433,6 +439,7 @@ std::string Dataset::summary() const {
   out << "intrinsics:   fx " << formatNumber(d.camera.fx) << " fy " << formatNumber(d.camera.fy)
       << " cx " << formatNumber(d.camera.cx) << " cy " << formatNumber(d.camera.cy) << " ("
       << d.camera_source << ")\n";
+  out << "colour:       registered by " << d.registration_source << "\n";
   out << "depth scale:  " << formatNumber(d.depth_units_per_metre) << " units per metre\n";
   out << "ground truth: " << with_truth << " of " << d.frames.size() << " frames\n";
   out << "path length:  " << formatNumber(groundTruthPathLength(d.frames), "%.2f")

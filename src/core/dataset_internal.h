@@ -10,6 +10,7 @@
 
 #include "relocalizer/camera.h"
 #include "relocalizer/dataset.h"
+#include "relocalizer/registration.h"
 #include "relocalizer/expected.h"
 #include "relocalizer/frame_selection.h"
 #include "relocalizer/pose.h"
@@ -41,6 +42,9 @@ struct DatasetData {
   // Whether camera.width/height are known (12-Scenes: from info.txt);
   // otherwise openDataset() reads them from the first frame's depth.
   bool camera_size_known = false;
+  // Applied to every loaded colour image (7-Scenes: colour is not registered).
+  ColourRegistration registration;
+  std::string registration_source = "none (colour already registered to depth)";
 };
 
 // What a reader needs beyond the folder.

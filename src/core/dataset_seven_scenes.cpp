@@ -112,6 +112,52 @@ Status readFrameFolder(const fs::path& dir, const FrameSelection& selection, int
 
 namespace {
 
+// colour-registration.txt when present: the word "registered" (colour already
+// matches depth, as synthesize writes) or one line "fx fy cx cy tx ty tz" (the
+// colour camera's intrinsics and its origin in depth-camera coordinates).
+// Without it, the 7-Scenes Kinect calibration: 7-Scenes colour is not
+// registered to depth.
+Status readColourRegistration(const fs::path& root, DatasetData& data) {
+  const fs::path file = root / "colour-registration.txt";
+  std::error_code ec;
+  if (!fs::exists(file, ec)) {
+    data.registration = ColourRegistration::sevenScenesKinect();
+    data.registration_source = "7-Scenes Kinect calibration (no colour-registration.txt)";
+    return okStatus();
+  }
+  auto lines = readLines(file);
+  if (!lines) return makeError(lines.error());
+  for (size_t i = 0; i < lines->size(); ++i) {
+    std::string line = (*lines)[i];
+    line.erase(0, line.find_first_not_of(" \t"));
+    line.erase(line.find_last_not_of(" \t") + 1);
+    if (line.empty() || line[0] == '#') continue;
+    if (line == "registered") {
+      data.registration = ColourRegistration{};
+      data.registration_source = "none: " + file.string() + " says colour is registered";
+      return okStatus();
+    }
+    auto numbers = parseNumbers(line, file, static_cast<int>(i + 1));
+    if (!numbers) return makeError(numbers.error());
+    if (numbers->size() != 7)
+      return makeError(file.string() + ": line " + std::to_string(i + 1) +
+                       ": expected 'registered' or 7 numbers (fx fy cx cy tx ty tz), got " +
+                       std::to_string(numbers->size()));
+    const auto& n = *numbers;
+    if (!(n[0] > 0 && n[1] > 0))
+      return makeError(file.string() + ": line " + std::to_string(i + 1) +
+                       ": colour focal lengths must be positive");
+    data.registration.fx = n[0];
+    data.registration.fy = n[1];
+    data.registration.cx = n[2];
+    data.registration.cy = n[3];
+    data.registration.depth_to_colour = Eigen::Vector3d(n[4], n[5], n[6]);
+    data.registration_source = file.string();
+    return okStatus();
+  }
+  return makeError(file.string() + ": empty; expected 'registered' or 'fx fy cx cy tx ty tz'");
+}
+
 // camera-intrinsics.txt when present (the redkitchen-dev copy has one), else
 // the Kinect values the 7-Scenes paper gives.
 Status readSevenScenesIntrinsics(const fs::path& root, DatasetData& data) {
@@ -126,7 +172,7 @@ Status readSevenScenesIntrinsics(const fs::path& root, DatasetData& data) {
     data.camera = CameraIntrinsics::kinectDefault();
     data.camera_source = "7-Scenes Kinect default; no camera-intrinsics.txt";
   }
-  return okStatus();
+  return readColourRegistration(root, data);
 }
 
 std::string sequenceFolderName(int number) {

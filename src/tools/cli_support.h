@@ -18,10 +18,11 @@ inline std::string oneLine(std::string text) {
   return text;
 }
 
-// Prints "<tool>: error: <reason>" and returns the exit code for bad input.
-inline int fail(const CLI::App& app, const std::string& reason) {
+// Prints "<tool>: error: <reason>" on one line and returns `code`: 2 for
+// unusable arguments or input (the default), 1 when the work itself failed.
+inline int fail(const CLI::App& app, const std::string& reason, int code = 2) {
   std::cerr << app.get_name() << ": error: " << oneLine(reason) << std::endl;
-  return 2;
+  return code;
 }
 
 // Parses; returns -1 to go on, otherwise the exit code to return.

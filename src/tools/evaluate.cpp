@@ -150,7 +150,7 @@ int main(int argc, char** argv) {
     extra["params"] = nlohmann::json::parse(relocalizerParamsToJson(params));
     out.extra_json = extra.dump();
     if (const Status written = writeEvaluationOutputs(output, records, summary, out); !written)
-      return cli::fail(app, written.error());
+      return cli::fail(app, written.error(), 1);
     std::printf("wrote poses.txt, errors.csv, summary.json, trajectory.png, errors.png to %s\n",
                 output.c_str());
   }

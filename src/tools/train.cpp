@@ -119,7 +119,7 @@ int main(int argc, char** argv) {
     summary.scene_min = summary.scene_min.cwiseMin(image.pose.translation().cast<float>());
     summary.scene_max = summary.scene_max.cwiseMax(image.pose.translation().cast<float>());
   }
-  if (const Status saved = saveModel(model, output); !saved) return cli::fail(app, saved.error());
+  if (const Status saved = saveModel(model, output); !saved) return cli::fail(app, saved.error(), 1);
   const auto bytes = std::filesystem::file_size(output);
 
   std::printf("trained on %d images with %d threads in %.1f s (seed %llu)\n", summary.images,
