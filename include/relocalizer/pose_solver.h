@@ -36,7 +36,9 @@ struct PoseSolverParams {
   float rigidity_ratio = 0.1f;       // as a share of the distance (the larger bound applies)
   float inlier_chi2 = 9.0f;       // Mahalanobis^2 below which a sample is an inlier
   int lm_hypotheses = 8;          // refine with Ceres LM once this few remain
-  int lm_iterations = 10;
+  int lm_loop_iterations = 5;     // LM iterations per hypothesis inside the loop
+  int lm_iterations = 10;         // LM iterations of the final refinement
+  int max_refinement_terms = 800; // terms per LM solve (an even subset of the inliers)
   float robust_scale = 3.0f;      // Cauchy loss scale, in Mahalanobis units
   bool use_lines_in_refinement = true;
   // Evidence needed to answer with a pose (on all samples, after refinement).
@@ -89,9 +91,12 @@ struct RefinementTerm {
 };
 
 // Levenberg-Marquardt (Ceres) on E_p + E_l from `initial`; returns the refined
-// pose and, if asked, its covariance (see PoseSolution::covariance).
+// pose and, if asked, its covariance (see PoseSolution::covariance) from all
+// terms. At most params.max_refinement_terms terms enter the solve;
+// `max_iterations` <= 0 means params.lm_iterations.
 Pose refinePose(const Pose& initial, const std::vector<RefinementTerm>& terms,
-                const PoseSolverParams& params, Matrix6d* covariance = nullptr);
+                const PoseSolverParams& params, Matrix6d* covariance = nullptr,
+                int max_iterations = 0);
 
 // The residual values of the two energies at a pose, whitened so that their
 // squared norm is the Mahalanobis distance (exposed for tests).

@@ -7,6 +7,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
+#include <memory>
 #include <numeric>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -89,10 +90,8 @@ struct PointOnLineCost {
 };
 
 void addTerms(ceres::Problem& problem, double* delta, const std::vector<RefinementTerm>& terms,
-              const Pose& base, const PoseSolverParams& params) {
-  const double scale = params.robust_scale;
+              const Pose& base, ceres::LossFunction* loss) {
   for (const RefinementTerm& term : terms) {
-    ceres::LossFunction* loss = scale > 0 ? new ceres::CauchyLoss(scale) : nullptr;
     if (term.on_line)
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PointOnLineCost, 3, 6>(
                                    new PointOnLineCost(term, base)),
@@ -244,20 +243,37 @@ Eigen::Vector3d lineResidual(const Pose& pose, const RefinementTerm& term) {
 }
 
 Pose refinePose(const Pose& initial, const std::vector<RefinementTerm>& terms,
-                const PoseSolverParams& params, Matrix6d* covariance) {
+                const PoseSolverParams& params, Matrix6d* covariance, int max_iterations) {
   if (terms.size() < 3) {
     if (covariance) covariance->setIdentity();
     return initial;
   }
-  double delta[6] = {0, 0, 0, 0, 0, 0};
+  // One loss object for every term: the problem does not own or copy it.
+  std::unique_ptr<ceres::LossFunction> loss;
+  if (params.robust_scale > 0) loss = std::make_unique<ceres::CauchyLoss>(params.robust_scale);
   ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+
+  // A deterministic, evenly spread subset bounds the solve's cost; the
+  // covariance below still uses every term.
+  const size_t limit = params.max_refinement_terms > 0 ? static_cast<size_t>(params.max_refinement_terms)
+                                                       : terms.size();
+  std::vector<RefinementTerm> subset;
+  const std::vector<RefinementTerm>* solve_terms = &terms;
+  if (terms.size() > limit) {
+    subset.reserve(limit);
+    for (size_t k = 0; k < limit; ++k) subset.push_back(terms[k * terms.size() / limit]);
+    solve_terms = &subset;
+  }
+
+  double delta[6] = {0, 0, 0, 0, 0, 0};
   ceres::Problem problem(problem_options);
-  addTerms(problem, delta, terms, initial, params);
+  addTerms(problem, delta, *solve_terms, initial, loss.get());
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   options.minimizer_type = ceres::TRUST_REGION;
   options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  options.max_num_iterations = params.lm_iterations;
+  options.max_num_iterations = max_iterations > 0 ? max_iterations : params.lm_iterations;
   options.num_threads = 1;
   options.logging_type = ceres::SILENT;
   options.minimizer_progress_to_stdout = false;
@@ -269,7 +285,7 @@ Pose refinePose(const Pose& initial, const std::vector<RefinementTerm>& terms,
     // Gauss-Newton information at the solution, robust weights included.
     double zero[6] = {0, 0, 0, 0, 0, 0};
     ceres::Problem at_solution(problem_options);
-    addTerms(at_solution, zero, terms, refined, params);
+    addTerms(at_solution, zero, terms, refined, loss.get());
     ceres::CRSMatrix jacobian;
     at_solution.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, nullptr, nullptr, &jacobian);
     Matrix6d information = Matrix6d::Zero();
@@ -354,7 +370,6 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
   std::iota(order.begin(), order.end(), 0);
   std::shuffle(order.begin(), order.end(), rng);
   size_t next_sample = 0;
-  size_t consumed = 0;  // distinct samples scored so far (capped at all.size())
   std::vector<BatchEntry> batch;
   std::vector<BatchMode> batch_modes;
   std::vector<RefinementTerm> terms;
@@ -368,7 +383,6 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
         next_sample = 0;  // pool exhausted: score the same samples again
       }
       const int index = order[next_sample++];
-      consumed = std::min(all.size(), consumed + 1);
       const SolverSample& s = *all[index];
       batch.push_back({s.camera_point, s.prediction->count, index});
       for (int c = 0; c < s.prediction->count; ++c) {
@@ -428,14 +442,17 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
         hyp.setPose(p);
       });
     } else {
-      // Few left: Levenberg-Marquardt on the samples scored so far.
+      // Few left: Levenberg-Marquardt on this round's inliers, in parallel.
       const auto lm_start = Clock::now();
       seen.clear();
-      for (size_t k = 0; k < consumed; ++k) seen.push_back(all[order[k]]);
-      for (Hypothesis& hyp : hypotheses) {
-        collectTerms(seen, hyp.pose, params, terms, nullptr, nullptr);
-        if (terms.size() >= 3) hyp.setPose(refinePose(hyp.pose, terms, params));
-      }
+      for (const BatchEntry& e : batch) seen.push_back(all[e.sample]);
+      tbb::parallel_for(size_t{0}, hypotheses.size(), [&](size_t h) {
+        Hypothesis& hyp = hypotheses[h];
+        std::vector<RefinementTerm> hypothesis_terms;
+        collectTerms(seen, hyp.pose, params, hypothesis_terms, nullptr, nullptr);
+        if (hypothesis_terms.size() >= 3)
+          hyp.setPose(refinePose(hyp.pose, hypothesis_terms, params, nullptr, params.lm_loop_iterations));
+      });
       lm_seconds += secondsSince(lm_start);
     }
   }

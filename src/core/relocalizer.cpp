@@ -188,7 +188,9 @@ json toJson(const RelocalizerParams& p) {
             {"rigidity_ratio", s.rigidity_ratio},
             {"inlier_chi2", s.inlier_chi2},
             {"lm_hypotheses", s.lm_hypotheses},
+            {"lm_loop_iterations", s.lm_loop_iterations},
             {"lm_iterations", s.lm_iterations},
+            {"max_refinement_terms", s.max_refinement_terms},
             {"robust_scale", s.robust_scale},
             {"use_lines_in_refinement", s.use_lines_in_refinement},
             {"min_inliers", s.min_inliers},
@@ -218,7 +220,9 @@ Expected<RelocalizerParams> relocalizerParamsFromJson(const std::string& json_te
     p.solver.rigidity_ratio = s.at("rigidity_ratio");
     p.solver.inlier_chi2 = s.at("inlier_chi2");
     p.solver.lm_hypotheses = s.at("lm_hypotheses");
+    p.solver.lm_loop_iterations = s.at("lm_loop_iterations");
     p.solver.lm_iterations = s.at("lm_iterations");
+    p.solver.max_refinement_terms = s.at("max_refinement_terms");
     p.solver.robust_scale = s.at("robust_scale");
     p.solver.use_lines_in_refinement = s.at("use_lines_in_refinement");
     p.solver.min_inliers = s.at("min_inliers");
