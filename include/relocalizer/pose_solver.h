@@ -103,4 +103,13 @@ Pose refinePose(const Pose& initial, const std::vector<RefinementTerm>& terms,
 Eigen::Vector3d pointResidual(const Pose& pose, const RefinementTerm& term);
 Eigen::Vector3d lineResidual(const Pose& pose, const RefinementTerm& term);
 
+// The refinement uses hand-derived Jacobians; this evaluates them beside the
+// autodiff reference at perturbation `delta` (v, w) of `base` (for tests).
+struct ResidualJacobians {
+  Eigen::Vector3d residual;  // autodiff reference
+  double residual_difference = 0.0;
+  Eigen::Matrix<double, 3, 6, Eigen::RowMajor> analytic, autodiff;
+};
+ResidualJacobians residualJacobians(const Pose& base, const RefinementTerm& term, const double* delta);
+
 }  // namespace relocalizer

@@ -24,12 +24,16 @@ struct RelocalizerParams {
   PoseSolverParams solver;
 };
 
-struct StageTimings {
-  double sampling = 0.0;  // seconds
-  double forest = 0.0;
-  double ransac = 0.0;
-  double refinement = 0.0;
-  double total = 0.0;
+struct StageTimings {  // seconds
+  double sampling = 0.0;         // sampling_points + sampling_lines
+  double sampling_points = 0.0;  // random pixels
+  double sampling_lines = 0.0;   // LSD, segment sampling, 3D line fits
+  double forest = 0.0;           // forest_points + forest_lines
+  double forest_points = 0.0;    // descriptors and point-forest prediction
+  double forest_lines = 0.0;     // descriptors and line-forest prediction
+  double ransac = 0.0;           // hypotheses and preemptive scoring
+  double refinement = 0.0;       // Ceres LM, inside the loop and final
+  double total = 0.0;            // the whole call
 };
 
 struct RelocalizationResult {

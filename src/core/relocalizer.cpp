@@ -73,11 +73,14 @@ RelocalizationResult Relocalizer::relocalize(const RgbdFrame& frame) const {
   std::vector<Sample> point_samples;
   LineSamples line_samples;
   if (use_points) samplePoints(frame, params_.point_samples, rng, point_samples);
+  result.timings.sampling_points = secondsSince(stage);
+  stage = Clock::now();
   if (use_lines && params_.line_samples > 0)
     line_samples = sampleLines(frame, model_.params.line_sampling, params_.line_samples, rng);
+  result.timings.sampling_lines = secondsSince(stage);
   result.point_samples = static_cast<int>(point_samples.size());
   result.line_samples = static_cast<int>(line_samples.samples.size());
-  result.timings.sampling = secondsSince(stage);
+  result.timings.sampling = result.timings.sampling_points + result.timings.sampling_lines;
 
   // --- Forests -----------------------------------------------------------------------
   stage = Clock::now();
@@ -91,12 +94,15 @@ RelocalizationResult Relocalizer::relocalize(const RgbdFrame& frame) const {
     predictForest(model_.points, image, point_samples, point_descriptors, prediction,
                   point_predictions);
   }
+  result.timings.forest_points = secondsSince(stage);
+  stage = Clock::now();
   if (use_lines) {
     computeDescriptors(image, line_samples.samples, line_descriptors);
     predictForest(model_.lines, image, line_samples.samples, line_descriptors, prediction,
                   line_predictions);
   }
-  result.timings.forest = secondsSince(stage);
+  result.timings.forest_lines = secondsSince(stage);
+  result.timings.forest = result.timings.forest_points + result.timings.forest_lines;
 
   // --- Pose --------------------------------------------------------------------------
   std::vector<SolverSample> point_inputs, line_inputs;

@@ -107,6 +107,31 @@ TEST(Residuals, PointOnLineMatchesHandComputedDistance) {
   EXPECT_NEAR(lineResidual(pose, term).squaredNorm(), 8.0, 1e-9);
 }
 
+TEST(Residuals, HandDerivedJacobiansMatchAutodiff) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Pose base = makePose(180 * u(rng), {u(rng), u(rng), u(rng) + 2}, {u(rng), u(rng), u(rng)});
+    RefinementTerm term;
+    term.camera_point = {u(rng), u(rng), 2 + u(rng)};
+    term.mode_mean = base * term.camera_point + 0.1 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+    Eigen::Matrix3d a;
+    for (int k = 0; k < 9; ++k) a(k / 3, k % 3) = u(rng);
+    term.information = a * a.transpose() + Eigen::Matrix3d::Identity();
+    term.on_line = trial % 2 == 1;
+    term.line_point = {u(rng), u(rng), 2 + u(rng)};
+    term.line_direction = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
+    // Away from zero too: LM evaluates at accumulated perturbations.
+    const double delta[6] = {0.1 * u(rng), 0.1 * u(rng), 0.1 * u(rng),
+                             0.3 * u(rng), 0.3 * u(rng), 0.3 * u(rng)};
+    const ResidualJacobians j = residualJacobians(base, term, delta);
+    EXPECT_LT(j.residual_difference, 1e-9);
+    EXPECT_LT((j.analytic - j.autodiff).cwiseAbs().maxCoeff(), 1e-8 * (1 + j.autodiff.cwiseAbs().maxCoeff()))
+        << (term.on_line ? "line" : "point") << " term, trial " << trial << "\n"
+        << j.analytic << "\nvs\n" << j.autodiff;
+  }
+}
+
 TEST(Refinement, LowersTheErrorFromAPerturbedStart) {
   const Pose truth = makePose(25, {1, 2, 3}, {0.4, 1.1, -0.3});
   Scenario s(truth, 400, 0.0, 1, 9);
