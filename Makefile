@@ -31,5 +31,8 @@ test: build
 demo: build
 	@./scripts/demo.sh $(BUILD_DIR)
 
+bench: build
+	@./scripts/bench.sh $(BUILD_DIR)
+
 clean:
 	rm -rf $(BUILD_DIR)

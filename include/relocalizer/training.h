@@ -83,6 +83,8 @@ struct TrainingProgress {
   std::function<void(size_t)> samples_drawn;
   // Called from worker threads with the number of samples that reached a leaf.
   std::function<void(size_t)> samples_done;
+  // Called when a tree is complete, with its forest, index and wall time.
+  std::function<void(ForestKind, int, double)> tree_done;
 };
 
 // Samples each tree of `kind` trains on (exposed for tests and the progress total).

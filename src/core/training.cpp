@@ -2,6 +2,7 @@
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <numeric>
 #include <random>
@@ -353,8 +354,11 @@ Forest trainForest(const std::vector<TrainingImage>& images, ForestKind kind,
   Forest forest;
   forest.trees.resize(samples.size());
   tbb::parallel_for(0, static_cast<int>(samples.size()), [&](int t) {
+    const auto start = std::chrono::steady_clock::now();
     forest.trees[t] =
         growTree(images, samples[t], forest_params, treeSeed(params.seed, kind, t), progress);
+    if (progress.tree_done)
+      progress.tree_done(kind, t, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     samples[t].items.clear();
     samples[t].items.shrink_to_fit();
   });

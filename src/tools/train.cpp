@@ -96,11 +96,19 @@ int main(int argc, char** argv) {
 
   Model model;
   model.params = params;
+  std::mutex tree_mutex;
+  std::vector<double> tree_seconds[2];
   {
     ProgressBar bar("training", 0);
     TrainingProgress progress;
     progress.samples_drawn = [&](size_t n) { bar.addToTotal(n); };
     progress.samples_done = [&](size_t n) { bar.advance(n); };
+    progress.tree_done = [&](ForestKind kind, int tree, double seconds) {
+      std::lock_guard<std::mutex> lock(tree_mutex);
+      auto& times = tree_seconds[kind == ForestKind::Lines ? 1 : 0];
+      if (static_cast<int>(times.size()) <= tree) times.resize(tree + 1);
+      times[tree] = seconds;
+    };
     trainForests(images, params, model.points, model.lines, progress);
   }
   const double seconds =
@@ -128,9 +136,12 @@ int main(int argc, char** argv) {
     if (f->empty()) continue;
     int depth = 0;
     for (const Tree& t : f->trees) depth = std::max(depth, t.depth());
-    std::printf("  %-6s %zu trees, %zu nodes, %zu leaves, %zu modes, max depth %d\n",
+    const auto& times = tree_seconds[f == &model.points ? 0 : 1];
+    std::string per_tree;
+    for (double t : times) per_tree += (per_tree.empty() ? "" : ", ") + std::to_string(static_cast<int>(std::lround(t))) + " s";
+    std::printf("  %-6s %zu trees, %zu nodes, %zu leaves, %zu modes, max depth %d; per tree %s\n",
                 f == &model.points ? "points" : "lines", f->trees.size(), f->nodeCount(),
-                f->leafCount(), f->modeCount(), depth);
+                f->leafCount(), f->modeCount(), depth, per_tree.c_str());
   }
   std::printf("wrote %s (%.1f MB)\n", output.c_str(), bytes / 1e6);
   return 0;
