@@ -1,0 +1,185 @@
+#include "message_conversion.h"
+
+#include <sensor_msgs/image_encodings.h>
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <opencv2/core.hpp>
+
+namespace relocalizer_ros {
+
+namespace {
+
+namespace enc = sensor_msgs::image_encodings;
+
+struct PixelLayout {
+  int cv_type = -1;  // -1: unsupported
+  int bytes_per_pixel = 0;
+  int bytes_per_channel = 1;
+};
+
+PixelLayout colourLayout(const std::string& encoding) {
+  if (encoding == enc::BGR8 || encoding == enc::RGB8) return {CV_8UC3, 3};
+  if (encoding == enc::BGRA8 || encoding == enc::RGBA8) return {CV_8UC4, 4};
+  if (encoding == enc::MONO8) return {CV_8UC1, 1};
+  return {};
+}
+
+PixelLayout depthLayout(const std::string& encoding) {
+  if (encoding == enc::TYPE_16UC1 || encoding == enc::MONO16) return {CV_16UC1, 2, 2};
+  if (encoding == enc::TYPE_32FC1) return {CV_32FC1, 4, 4};
+  return {};
+}
+
+std::string size(uint32_t width, uint32_t height) {
+  return std::to_string(width) + "x" + std::to_string(height);
+}
+
+std::string checkBuffer(const sensor_msgs::Image& image, const PixelLayout& layout,
+                        const std::string& what) {
+  if (image.width == 0 || image.height == 0) return what + " image is empty (" + size(image.width, image.height) + ")";
+  if (static_cast<uint64_t>(image.step) < static_cast<uint64_t>(image.width) * layout.bytes_per_pixel)
+    return what + " image step " + std::to_string(image.step) + " is shorter than a row of " +
+           std::to_string(image.width) + " '" + image.encoding + "' pixels";
+  if (static_cast<uint64_t>(image.data.size()) < static_cast<uint64_t>(image.step) * image.height)
+    return what + " image holds " + std::to_string(image.data.size()) + " bytes, step x height needs " +
+           std::to_string(static_cast<uint64_t>(image.step) * image.height);
+  // Multi-byte depth in the other byte order would be read as garbage
+  // distances, which is worse than no frame.
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+  constexpr bool host_big_endian = true;
+#else
+  constexpr bool host_big_endian = false;
+#endif
+  if (layout.bytes_per_channel > 1 && static_cast<bool>(image.is_bigendian) != host_big_endian)
+    return what + " image byte order (is_bigendian=" + std::to_string(image.is_bigendian) +
+           ") differs from this machine's";
+  return {};
+}
+
+// A view of the message's pixels; valid while the message lives. The sizes were
+// checked by checkBuffer, so no conversion library needs to re-derive them.
+cv::Mat wrap(const sensor_msgs::Image& image, int cv_type) {
+  return cv::Mat(static_cast<int>(image.height), static_cast<int>(image.width), cv_type,
+                 const_cast<uint8_t*>(image.data.data()), image.step);
+}
+
+}  // namespace
+
+std::string stripLeadingSlashes(const std::string& frame_id) {
+  const size_t first = frame_id.find_first_not_of('/');
+  return first == std::string::npos ? std::string() : frame_id.substr(first);
+}
+
+std::string checkFrameMessages(const sensor_msgs::Image& colour, const sensor_msgs::Image& depth,
+                               const sensor_msgs::CameraInfo& info) {
+  const PixelLayout colour_layout = colourLayout(colour.encoding);
+  if (colour_layout.cv_type < 0)
+    return "unsupported colour encoding '" + colour.encoding +
+           "' (expected bgr8, rgb8, bgra8, rgba8 or mono8)";
+  const PixelLayout depth_layout = depthLayout(depth.encoding);
+  if (depth_layout.cv_type < 0)
+    return "unsupported depth encoding '" + depth.encoding +
+           "' (expected 16UC1 millimetres or 32FC1 metres, REP 118)";
+  if (std::string why = checkBuffer(colour, colour_layout, "colour"); !why.empty()) return why;
+  if (std::string why = checkBuffer(depth, depth_layout, "depth"); !why.empty()) return why;
+  if (colour.width != depth.width || colour.height != depth.height)
+    return "colour (" + size(colour.width, colour.height) + ") and depth (" +
+           size(depth.width, depth.height) + ") differ in size; depth must be registered to colour";
+  if (info.width != colour.width || info.height != colour.height)
+    return "camera_info is for " + size(info.width, info.height) + " but the images are " +
+           size(colour.width, colour.height);
+  const std::string colour_frame = stripLeadingSlashes(colour.header.frame_id);
+  const std::string depth_frame = stripLeadingSlashes(depth.header.frame_id);
+  if (colour_frame != depth_frame)
+    return "depth frame '" + depth_frame + "' differs from colour frame '" + colour_frame +
+           "'; depth must be registered to colour";
+  relocalizer::CameraIntrinsics camera;
+  camera.fx = info.K[0];
+  camera.fy = info.K[4];
+  camera.cx = info.K[2];
+  camera.cy = info.K[5];
+  camera.width = static_cast<int>(info.width);
+  camera.height = static_cast<int>(info.height);
+  if (std::string why = camera.validationError(); !why.empty())
+    return "camera_info K is unusable: " + why;
+  return {};
+}
+
+Expected<RgbdFrame> frameFromMessages(const sensor_msgs::Image& colour,
+                                      const sensor_msgs::Image& depth,
+                                      const sensor_msgs::CameraInfo& info) {
+  if (std::string why = checkFrameMessages(colour, depth, info); !why.empty())
+    return relocalizer::makeError(why);
+  RgbdFrame frame;
+  auto bgr = relocalizer::colourToBgr8(wrap(colour, colourLayout(colour.encoding).cv_type),
+                                       colour.encoding);
+  if (!bgr) return relocalizer::makeError(bgr.error());
+  // REP 118: 16-bit depth is millimetres.
+  auto metres = relocalizer::depthToMetres(wrap(depth, depthLayout(depth.encoding).cv_type), 1000.0);
+  if (!metres) return relocalizer::makeError(metres.error());
+  frame.colour = std::move(*bgr);
+  frame.depth = std::move(*metres);
+  frame.camera.fx = info.K[0];
+  frame.camera.fy = info.K[4];
+  frame.camera.cx = info.K[2];
+  frame.camera.cy = info.K[5];
+  frame.camera.width = static_cast<int>(info.width);
+  frame.camera.height = static_cast<int>(info.height);
+  frame.stamp = colour.header.stamp.toSec();
+  frame.id = static_cast<int>(colour.header.seq);
+  frame.source = "frame at " + std::to_string(colour.header.stamp.sec) + "." +
+                 std::to_string(colour.header.stamp.nsec);
+  if (std::string why = relocalizer::frameValidationError(frame); !why.empty())
+    return relocalizer::makeError(why);
+  return frame;
+}
+
+geometry_msgs::Pose toPoseMsg(const Pose& pose) {
+  geometry_msgs::Pose msg;
+  const Eigen::Vector3d t = pose.translation();
+  const Eigen::Quaterniond q(relocalizer::nearestRotation(pose.linear()));
+  msg.position.x = t.x();
+  msg.position.y = t.y();
+  msg.position.z = t.z();
+  msg.orientation.x = q.x();
+  msg.orientation.y = q.y();
+  msg.orientation.z = q.z();
+  msg.orientation.w = q.w();
+  return msg;
+}
+
+geometry_msgs::Transform toTransformMsg(const Pose& pose) {
+  const geometry_msgs::Pose p = toPoseMsg(pose);
+  geometry_msgs::Transform msg;
+  msg.translation.x = p.position.x;
+  msg.translation.y = p.position.y;
+  msg.translation.z = p.position.z;
+  msg.rotation = p.orientation;
+  return msg;
+}
+
+Pose fromTransformMsg(const geometry_msgs::Transform& transform) {
+  return relocalizer::poseFromTranslationQuaternion(
+      {transform.translation.x, transform.translation.y, transform.translation.z},
+      Eigen::Quaterniond(transform.rotation.w, transform.rotation.x, transform.rotation.y,
+                         transform.rotation.z));
+}
+
+Pose fromPoseMsg(const geometry_msgs::Pose& pose) {
+  return relocalizer::poseFromTranslationQuaternion(
+      {pose.position.x, pose.position.y, pose.position.z},
+      Eigen::Quaterniond(pose.orientation.w, pose.orientation.x, pose.orientation.y,
+                         pose.orientation.z));
+}
+
+geometry_msgs::PoseWithCovariance toPoseWithCovarianceMsg(const Pose& pose,
+                                                          const Matrix6d& covariance) {
+  geometry_msgs::PoseWithCovariance msg;
+  msg.pose = toPoseMsg(pose);
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) msg.covariance[r * 6 + c] = covariance(r, c);
+  return msg;
+}
+
+}  // namespace relocalizer_ros

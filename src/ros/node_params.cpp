@@ -1,0 +1,144 @@
+#include "node_params.h"
+
+#include <xmlrpcpp/XmlRpcValue.h>
+
+#include <nlohmann/json.hpp>
+
+#include "message_conversion.h"
+#include "relocalizer/config.h"
+
+namespace relocalizer_ros {
+
+namespace {
+
+using nlohmann::json;
+using relocalizer::makeError;
+
+// roscpp's param() falls back to the default when the stored value has another
+// type; a robot must not run on a default because of a quoting slip.
+template <typename T>
+std::string read(const ros::NodeHandle& nh, const std::string& key, T& value) {
+  if (!nh.hasParam(key)) return {};
+  if (!nh.getParam(key, value))
+    return "parameter '" + nh.resolveName(key) + "' has the wrong type";
+  return {};
+}
+
+Expected<json> toJson(XmlRpc::XmlRpcValue value, const std::string& name) {
+  switch (value.getType()) {
+    case XmlRpc::XmlRpcValue::TypeBoolean: return json(static_cast<bool>(value));
+    case XmlRpc::XmlRpcValue::TypeInt: return json(static_cast<int>(value));
+    case XmlRpc::XmlRpcValue::TypeDouble: return json(static_cast<double>(value));
+    case XmlRpc::XmlRpcValue::TypeString: return json(static_cast<std::string>(value));
+    case XmlRpc::XmlRpcValue::TypeStruct: {
+      json object = json::object();
+      for (auto& entry : value) {
+        auto child = toJson(entry.second, name + "/" + entry.first);
+        if (!child) return child;
+        object[entry.first] = std::move(*child);
+      }
+      return object;
+    }
+    default: return makeError("parameter '" + name + "' has an unsupported type");
+  }
+}
+
+// The `relocalizer` sub-tree goes through the core's own config merge, so the
+// node accepts exactly the keys and types that config files accept.
+Expected<relocalizer::RelocalizerParams> readRelocalizerParams(const ros::NodeHandle& nh) {
+  const relocalizer::RelocalizerParams defaults;
+  if (!nh.hasParam("relocalizer")) return defaults;
+  XmlRpc::XmlRpcValue tree;
+  nh.getParam("relocalizer", tree);
+  const std::string name = nh.resolveName("relocalizer");
+  auto as_json = toJson(tree, name);
+  if (!as_json) return makeError(as_json.error());
+  // YAML is a superset of JSON, so the JSON text is a valid YAML document.
+  auto merged =
+      relocalizer::mergeYamlOntoJson(as_json->dump(), relocalizer::relocalizerParamsToJson(defaults), name);
+  if (!merged) return makeError(merged.error());
+  return relocalizer::relocalizerParamsFromJson(*merged);
+}
+
+}  // namespace
+
+const char* modeName(Mode mode) { return mode == Mode::OnDemand ? "on_demand" : "continuous"; }
+
+Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
+  NodeParams p;
+  std::string mode = modeName(p.mode);
+  std::string why;
+  auto check = [&why](std::string error) {
+    if (why.empty()) why = std::move(error);
+  };
+  check(read(nh, "model", p.model));
+  check(read(nh, "mode", mode));
+  check(read(nh, "map_frame", p.map_frame));
+  check(read(nh, "odom_frame", p.odom_frame));
+  check(read(nh, "publish_tf", p.publish_tf));
+  check(read(nh, "transform_tolerance", p.transform_tolerance));
+  check(read(nh, "tf_rate", p.tf_rate));
+  check(read(nh, "tf_timeout", p.tf_timeout));
+  check(read(nh, "approx_sync", p.approx_sync));
+  check(read(nh, "sync_queue_size", p.sync_queue_size));
+  check(read(nh, "max_interval", p.max_interval));
+  check(read(nh, "max_rate", p.max_rate));
+  check(read(nh, "process_all", p.process_all));
+  check(read(nh, "service_timeout", p.service_timeout));
+  check(read(nh, "input_timeout", p.input_timeout));
+  check(read(nh, "threads", p.threads));
+  if (!why.empty()) return makeError(why);
+
+  auto ns = [&nh](const std::string& key) { return "'" + nh.resolveName(key) + "'"; };
+  if (mode == "on_demand") {
+    p.mode = Mode::OnDemand;
+  } else if (mode == "continuous") {
+    p.mode = Mode::Continuous;
+  } else {
+    return makeError(ns("mode") + " is '" + mode + "'; expected on_demand or continuous");
+  }
+  p.map_frame = stripLeadingSlashes(p.map_frame);
+  p.odom_frame = stripLeadingSlashes(p.odom_frame);
+  if (p.model.empty()) return makeError(ns("model") + " is not set (path to a model file from `train`)");
+  if (p.map_frame.empty()) return makeError(ns("map_frame") + " is empty");
+  if (p.odom_frame == p.map_frame) return makeError(ns("odom_frame") + " equals map_frame");
+  if (p.sync_queue_size < 1) return makeError(ns("sync_queue_size") + " must be at least 1");
+  for (const auto& [key, value] : {std::pair{"transform_tolerance", p.transform_tolerance},
+                                   {"tf_rate", p.tf_rate},
+                                   {"tf_timeout", p.tf_timeout},
+                                   {"max_interval", p.max_interval},
+                                   {"max_rate", p.max_rate},
+                                   {"service_timeout", p.service_timeout},
+                                   {"input_timeout", p.input_timeout}})
+    if (!(value >= 0.0) || !std::isfinite(value))
+      return makeError(ns(key) + " must be finite and not negative (got " + std::to_string(value) + ")");
+  if (p.threads < 0) return makeError(ns("threads") + " must not be negative");
+
+  auto relocalizer_params = readRelocalizerParams(nh);
+  if (!relocalizer_params) return makeError(relocalizer_params.error());
+  p.relocalizer = *relocalizer_params;
+  return p;
+}
+
+std::string nodeParamsToJson(const NodeParams& p) {
+  json j = {{"model", p.model},
+            {"mode", modeName(p.mode)},
+            {"map_frame", p.map_frame},
+            {"odom_frame", p.odom_frame},
+            {"publish_tf", p.publish_tf},
+            {"transform_tolerance", p.transform_tolerance},
+            {"tf_rate", p.tf_rate},
+            {"tf_timeout", p.tf_timeout},
+            {"approx_sync", p.approx_sync},
+            {"sync_queue_size", p.sync_queue_size},
+            {"max_interval", p.max_interval},
+            {"max_rate", p.max_rate},
+            {"process_all", p.process_all},
+            {"service_timeout", p.service_timeout},
+            {"input_timeout", p.input_timeout},
+            {"threads", p.threads},
+            {"relocalizer", json::parse(relocalizer::relocalizerParamsToJson(p.relocalizer))}};
+  return j.dump(2);
+}
+
+}  // namespace relocalizer_ros

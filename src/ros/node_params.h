@@ -1,0 +1,51 @@
+#pragma once
+// The node's parameters: one struct, one reader. The defaults here are the
+// ones in config/default.yaml; a rostest checks that the two agree, so a
+// rosrun without the launch file behaves like the documented configuration.
+
+#include <ros/node_handle.h>
+
+#include <string>
+
+#include "relocalizer/expected.h"
+#include "relocalizer/relocalizer.h"
+
+namespace relocalizer_ros {
+
+enum class Mode {
+  OnDemand,   // keep the latest synchronised frame; relocalize on a service call
+  Continuous  // relocalize incoming frames in a worker thread, up to max_rate
+};
+
+struct NodeParams {
+  std::string model;
+  Mode mode = Mode::OnDemand;
+  std::string map_frame = "map";
+  std::string odom_frame;  // empty: publish map_frame -> camera frame
+  bool publish_tf = true;
+  double transform_tolerance = 0.1;  // seconds map -> odom is post-dated by
+  double tf_rate = 10.0;             // Hz, map -> odom re-broadcast (0: only on updates)
+  double tf_timeout = 0.2;           // seconds to wait for odom -> camera at the frame stamp
+  bool approx_sync = true;
+  int sync_queue_size = 5;
+  double max_interval = 0.05;  // seconds between colour, depth and info stamps (0: no limit)
+  double max_rate = 2.0;       // Hz, continuous mode (0: as fast as frames come)
+  bool process_all = false;    // continuous mode: queue every frame instead of dropping
+  double service_timeout = 2.0;   // seconds a call waits for a frame when it asks for <= 0
+  double input_timeout = 3.0;     // seconds of images without a synchronised frame before it is reported
+  int threads = 0;                // TBB threads inside a relocalization (0: every core)
+  relocalizer::RelocalizerParams relocalizer;
+};
+
+// Reads every parameter from the private node handle. A parameter of the wrong
+// type, an unknown `relocalizer/` key or a value out of range is an error that
+// names it: a typo must not silently keep a default on a robot.
+relocalizer::Expected<NodeParams> loadNodeParams(const ros::NodeHandle& private_nh);
+
+// The parameters as JSON, keyed as in config/default.yaml, for the start-up
+// log and for the test that compares the compiled defaults with that file.
+std::string nodeParamsToJson(const NodeParams& params);
+
+const char* modeName(Mode mode);
+
+}  // namespace relocalizer_ros

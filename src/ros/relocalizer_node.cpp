@@ -1,0 +1,391 @@
+#include "relocalizer_node.h"
+
+#include <boost/bind/bind.hpp>
+#include <cmath>
+#include <cstdio>
+
+#include "message_conversion.h"
+
+namespace relocalizer_ros {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+int64_t steadyNanoseconds() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
+}
+
+std::string seconds(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.2f", value);
+  return text;
+}
+
+uint32_t saturate(uint64_t value) {
+  return value > UINT32_MAX ? UINT32_MAX : static_cast<uint32_t>(value);
+}
+
+// Services run on their own queue; this many calls can wait or compute at once
+// before roscpp queues further ones.
+constexpr int kServiceThreads = 4;
+// A process_all backlog this long means the source outruns the node: the
+// replay player paces itself, rosbag play does not.
+constexpr size_t kBacklogWarning = 30;
+
+}  // namespace
+
+relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
+    ros::NodeHandle nh, ros::NodeHandle private_nh) {
+  auto params = loadNodeParams(private_nh);
+  if (!params) return relocalizer::makeError(params.error());
+  auto relocalizer = relocalizer::Relocalizer::fromFile(params->model, params->relocalizer);
+  if (!relocalizer) return relocalizer::makeError(relocalizer.error());
+  if (std::string why = (*relocalizer)->validationError(); !why.empty())
+    return relocalizer::makeError(params->model + ": " + why);
+  return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(
+      std::move(nh), std::move(private_nh), std::move(*params), std::move(*relocalizer)));
+}
+
+RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
+                                 std::unique_ptr<relocalizer::Relocalizer> relocalizer)
+    : nh_(std::move(nh)),
+      private_nh_(std::move(private_nh)),
+      params_(std::move(params)),
+      thread_limit_(params_.threads > 0 ? std::make_unique<tbb::global_control>(
+                                              tbb::global_control::max_allowed_parallelism,
+                                              static_cast<size_t>(params_.threads))
+                                        : nullptr),
+      relocalizer_(std::move(relocalizer)),
+      frames_(params_.mode == Mode::Continuous && params_.process_all
+                  ? FrameBuffer<InputPtr>::Policy::Fifo
+                  : FrameBuffer<InputPtr>::Policy::Latest),
+      start_ns_(steadyNanoseconds()) {
+  pose_pub_ = private_nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 1, true);
+  result_pub_ = private_nh_.advertise<ResultMsg>("result", 10);
+  if (params_.publish_tf) {
+    TransformPublisher::Options options;
+    options.map_frame = params_.map_frame;
+    options.odom_frame = params_.odom_frame;
+    options.transform_tolerance = params_.transform_tolerance;
+    options.tf_rate = params_.tf_rate;
+    options.tf_timeout = params_.tf_timeout;
+    transforms_ = std::make_unique<TransformPublisher>(nh_, options);
+  }
+
+  auto service_options = ros::AdvertiseServiceOptions::create<relocalizer::Relocalize>(
+      "relocalize",
+      boost::bind(&RelocalizerNode::onRelocalize, this, boost::placeholders::_1,
+                  boost::placeholders::_2),
+      ros::VoidConstPtr(), &service_queue_);
+  service_ = private_nh_.advertiseService(service_options);
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(kServiceThreads, &service_queue_);
+  service_spinner_->start();
+
+  if (params_.mode == Mode::Continuous) worker_ = std::thread(&RelocalizerNode::workerLoop, this);
+  if (params_.input_timeout > 0.0)
+    watchdog_ = nh_.createWallTimer(ros::WallDuration(1.0), &RelocalizerNode::onWatchdog, this);
+  subscribe();
+
+  const relocalizer::Model& model = relocalizer_->model();
+  const std::string tf_text =
+      !params_.publish_tf ? "no TF"
+      : params_.odom_frame.empty()
+          ? params_.map_frame + " -> camera TF"
+          : params_.map_frame + " -> " + params_.odom_frame + " TF";
+  const std::string mode_text =
+      params_.mode == Mode::OnDemand
+          ? "on demand (call " + service_.getService() + ")"
+          : std::string("continuous") +
+                (params_.max_rate > 0 ? " at up to " + seconds(params_.max_rate) + " Hz" : "") +
+                (params_.process_all ? ", every frame" : "");
+  ROS_INFO("relocalizer: model %s (%zu point trees, %zu line trees), %s, %s; frames from %s, %s, %s",
+           params_.model.c_str(), model.points.trees.size(), model.lines.trees.size(),
+           mode_text.c_str(), tf_text.c_str(), colour_sub_.getTopic().c_str(),
+           depth_sub_.getTopic().c_str(), info_sub_.getTopic().c_str());
+}
+
+RelocalizerNode::~RelocalizerNode() {
+  // Wake every waiter first, so neither the worker nor a service call blocks
+  // the joins below.
+  frames_.close();
+  watchdog_.stop();
+  service_.shutdown();
+  service_spinner_->stop();
+  if (worker_.joinable()) worker_.join();
+}
+
+void RelocalizerNode::subscribe() {
+  image_transport_ = std::make_unique<image_transport::ImageTransport>(nh_);
+  // Lets users pick compressed transports with ~image_transport, as image_proc does.
+  const image_transport::TransportHints hints("raw", ros::TransportHints(), private_nh_);
+  const uint32_t queue = static_cast<uint32_t>(params_.sync_queue_size);
+  colour_sub_.subscribe(*image_transport_, "rgb/image", queue, hints);
+  depth_sub_.subscribe(*image_transport_, "depth/image", queue, hints);
+  info_sub_.subscribe(nh_, "rgb/camera_info", queue);
+
+  // Per-topic counts, so "no frame" can say which input is missing.
+  colour_sub_.registerCallback([this](const sensor_msgs::ImageConstPtr& image) {
+    ++colour_count_;
+    last_image_ns_ = steadyNanoseconds();
+    std::lock_guard<std::mutex> lock(stamp_mutex_);
+    last_image_stamp_ = image->header.stamp;
+  });
+  depth_sub_.registerCallback([this](const sensor_msgs::ImageConstPtr&) {
+    ++depth_count_;
+    last_image_ns_ = steadyNanoseconds();
+  });
+  info_sub_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr&) { ++info_count_; });
+
+  const auto callback = boost::bind(&RelocalizerNode::onSynchronised, this, boost::placeholders::_1,
+                                    boost::placeholders::_2, boost::placeholders::_3);
+  if (params_.approx_sync) {
+    approximate_sync_ = std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(
+        ApproximatePolicy(queue), colour_sub_, depth_sub_, info_sub_);
+    if (params_.max_interval > 0.0)
+      approximate_sync_->setMaxIntervalDuration(ros::Duration(params_.max_interval));
+    approximate_sync_->registerCallback(callback);
+  } else {
+    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
+        ExactPolicy(queue), colour_sub_, depth_sub_, info_sub_);
+    exact_sync_->registerCallback(callback);
+  }
+}
+
+void RelocalizerNode::onSynchronised(const sensor_msgs::ImageConstPtr& colour,
+                                     const sensor_msgs::ImageConstPtr& depth,
+                                     const sensor_msgs::CameraInfoConstPtr& info) {
+  auto input = std::make_shared<Input>();
+  input->colour = colour;
+  input->depth = depth;
+  input->info = info;
+  input->error = checkFrameMessages(*colour, *depth, *info);
+  ++frames_received_;
+  last_frame_ns_ = steadyNanoseconds();
+  colour_at_sync_ = colour_count_.load();
+  depth_at_sync_ = depth_count_.load();
+  info_at_sync_ = info_count_.load();
+  if (!input->error.empty() && log_.allow(input->error))
+    ROS_WARN("relocalizer: unusable frame on %s: %s", colour_sub_.getTopic().c_str(),
+             input->error.c_str());
+  frames_.push(std::move(input));
+  if (params_.process_all && params_.mode == Mode::Continuous &&
+      frames_.pendingCount() > kBacklogWarning && log_.allow("backlog"))
+    ROS_WARN("relocalizer: %zu frames wait to be relocalized (process_all): the source is faster "
+             "than the node, and latency grows; pace it (replay.launch does) or slow it down",
+             frames_.pendingCount());
+}
+
+void RelocalizerNode::onWatchdog(const ros::WallTimerEvent&) {
+  const int64_t now = steadyNanoseconds();
+  const double timeout = params_.input_timeout;
+  const double since_start = 1e-9 * static_cast<double>(now - start_ns_);
+  const int64_t last_image = last_image_ns_.load();
+  const int64_t last_frame = last_frame_ns_.load();
+  const double since_image = last_image ? 1e-9 * static_cast<double>(now - last_image) : since_start;
+  const double since_frame = last_frame ? 1e-9 * static_cast<double>(now - last_frame) : since_start;
+  if (since_image < timeout && since_frame >= timeout) {
+    // Images flow but never form a set: a missing camera_info, or stamps that
+    // never match. Nothing else would ever report it, so the watchdog does.
+    const std::string why = "images arrive but no synchronised frame for " + seconds(since_frame) +
+                            " s; " + inputStatus();
+    if (log_.allow("unsynchronised")) ROS_WARN("relocalizer: %s", why.c_str());
+    if (params_.mode == Mode::Continuous) {
+      ros::Time stamp;
+      {
+        std::lock_guard<std::mutex> lock(stamp_mutex_);
+        stamp = last_image_stamp_;
+      }
+      ResultMsg result = failure(stamp, why);
+      publishOutcome(result, nullptr, nullptr, std::nullopt);
+    }
+  } else if (since_image >= timeout && since_frame >= timeout && log_.allow("no input")) {
+    ROS_WARN("relocalizer: no image for %s s on %s or %s", seconds(since_image).c_str(),
+             colour_sub_.getTopic().c_str(), depth_sub_.getTopic().c_str());
+  }
+}
+
+std::string RelocalizerNode::inputStatus() const {
+  const uint64_t colour = colour_count_ - colour_at_sync_;
+  const uint64_t depth = depth_count_ - depth_at_sync_;
+  const uint64_t info = info_count_ - info_at_sync_;
+  const uint64_t sets = frames_received_;
+  std::string status = "received " + std::to_string(colour) + " on " + colour_sub_.getTopic() + ", " +
+                       std::to_string(depth) + " on " + depth_sub_.getTopic() + ", " +
+                       std::to_string(info) + " on " + info_sub_.getTopic() +
+                       (sets ? " since the last synchronised frame" : " and no synchronised frame yet");
+  if (colour == 0 || depth == 0 || info == 0) {
+    status += "; is every topic published?";
+  } else {
+    status += params_.approx_sync
+                  ? "; do the stamps differ by more than max_interval (" +
+                        seconds(params_.max_interval) + " s)?"
+                  : "; approx_sync is false but the stamps differ";
+  }
+  return status;
+}
+
+void RelocalizerNode::workerLoop() {
+  const auto period = params_.max_rate > 0.0
+                          ? std::chrono::duration_cast<Clock::duration>(
+                                std::chrono::duration<double>(1.0 / params_.max_rate))
+                          : Clock::duration::zero();
+  Clock::time_point next_start = Clock::now();
+  // Waiting for the rate slot before taking a frame means the frame processed
+  // is the newest one, not one that aged while the worker slept.
+  while (frames_.sleepUntil(next_start)) {
+    auto entry = frames_.take();
+    if (!entry) break;
+    next_start = Clock::now() + period;
+    process(*entry->value);
+  }
+}
+
+RelocalizerNode::ResultMsg RelocalizerNode::failure(const ros::Time& stamp,
+                                                    const std::string& message) const {
+  ResultMsg result;
+  result.header.stamp = stamp;
+  result.header.frame_id = params_.map_frame;
+  result.success = false;
+  result.message = message;
+  return result;
+}
+
+RelocalizerNode::ResultMsg RelocalizerNode::process(const Input& input) {
+  const auto start = Clock::now();
+  const ros::Time stamp = input.colour->header.stamp;
+  ++frames_processed_;
+  ResultMsg result = failure(stamp, input.error);
+  if (!input.error.empty()) {
+    // Already logged when it arrived.
+    publishOutcome(result, nullptr, nullptr, std::nullopt);
+    return result;
+  }
+  try {
+    return processChecked(input, start);
+  } catch (const std::exception& e) {
+    // A frame the core chokes on must cost one failure result, not the node
+    // (or, through an unset promise, every waiting service call).
+    result.message = std::string("internal error: ") + e.what();
+    ROS_ERROR("relocalizer: frame at %.3f: %s", stamp.toSec(), result.message.c_str());
+    result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
+    publishOutcome(result, nullptr, nullptr, std::nullopt);
+    return result;
+  }
+}
+
+RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const Input& input,
+                                                           Clock::time_point start) {
+  const ros::Time stamp = input.colour->header.stamp;
+  ResultMsg result = failure(stamp, "");
+  auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
+  if (!frame) {
+    result.message = frame.error();
+    if (log_.allow(result.message)) ROS_WARN("relocalizer: unusable frame: %s", result.message.c_str());
+    result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
+    publishOutcome(result, nullptr, nullptr, std::nullopt);
+    return result;
+  }
+  const relocalizer::RelocalizationResult solved = relocalizer_->relocalize(*frame);
+  result.success = solved.success;
+  result.message = solved.message;
+  result.point_inliers = static_cast<uint32_t>(solved.point_inliers);
+  result.line_inliers = static_cast<uint32_t>(solved.line_inliers);
+  result.score = solved.score;
+  result.time_sampling = static_cast<float>(solved.timings.sampling);
+  result.time_forest = static_cast<float>(solved.timings.forest);
+  result.time_ransac = static_cast<float>(solved.timings.ransac);
+  result.time_refinement = static_cast<float>(solved.timings.refinement);
+
+  std::optional<geometry_msgs::TransformStamped> transform;
+  if (solved.success && transforms_) {
+    const std::string camera_frame = stripLeadingSlashes(input.colour->header.frame_id);
+    auto prepared = transforms_->prepare(solved.pose, stamp, camera_frame);
+    if (prepared) {
+      transform = std::move(*prepared);
+    } else {
+      // The pose alone would leave TF consumers without the correction they
+      // act on; report the attempt as failed rather than half-done.
+      result.success = false;
+      result.message = "relocalized, but " + prepared.error();
+    }
+  }
+  if (!result.success && log_.allow(result.message)) {
+    if (solved.success)  // TF trouble is a configuration fault, not a hard frame
+      ROS_WARN("relocalizer: frame at %.3f: %s", stamp.toSec(), result.message.c_str());
+    else
+      ROS_INFO("relocalizer: no pose for the frame at %.3f: %s", stamp.toSec(), result.message.c_str());
+  }
+  result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
+  publishOutcome(result, result.success ? &solved.pose : nullptr,
+                 result.success ? &solved.covariance : nullptr, transform);
+  return result;
+}
+
+void RelocalizerNode::publishOutcome(ResultMsg& result, const relocalizer::Pose* pose,
+                                     const relocalizer::Matrix6d* covariance,
+                                     const std::optional<geometry_msgs::TransformStamped>& transform) {
+  result.frames_received = saturate(frames_received_);
+  result.frames_processed = saturate(frames_processed_);
+  result.frames_dropped = params_.mode == Mode::Continuous ? saturate(frames_.dropped()) : 0;
+  if (pose) {
+    result.pose.header = result.header;
+    result.pose.pose = toPoseWithCovarianceMsg(*pose, *covariance);
+  }
+  result_pub_.publish(result);
+  if (!pose) return;
+  pose_pub_.publish(result.pose);
+  if (transform) transforms_->send(*transform, result.header.stamp);
+}
+
+RelocalizerNode::ResultMsg RelocalizerNode::processShared(uint64_t seq, const InputPtr& input) {
+  std::promise<ResultMsg> promise;
+  std::shared_future<ResultMsg> future;
+  {
+    std::lock_guard<std::mutex> lock(shared_mutex_);
+    auto it = in_flight_.find(seq);
+    if (it != in_flight_.end()) {
+      future = it->second;
+    } else {
+      in_flight_.emplace(seq, promise.get_future().share());
+    }
+  }
+  if (future.valid()) return future.get();
+  ResultMsg result = process(*input);
+  promise.set_value(result);
+  std::lock_guard<std::mutex> lock(shared_mutex_);
+  in_flight_.erase(seq);
+  return result;
+}
+
+bool RelocalizerNode::onRelocalize(relocalizer::Relocalize::Request& request,
+                                   relocalizer::Relocalize::Response& response) {
+  const double timeout = request.timeout > 0.0 ? request.timeout : params_.service_timeout;
+  const auto deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout));
+  const uint64_t after = request.wait_for_next ? frames_.lastSeq() : 0;
+  auto entry = frames_.newest(after, deadline);
+  ResultMsg result;
+  if (entry) {
+    result = processShared(entry->seq, entry->value);
+  } else {
+    result = failure(ros::Time::now(), std::string(request.wait_for_next ? "no new" : "no") +
+                                           " synchronised frame within " + seconds(timeout) +
+                                           " s; " + inputStatus());
+    if (log_.allow("service without frame"))
+      ROS_WARN("relocalizer: %s: %s", service_.getService().c_str(), result.message.c_str());
+    publishOutcome(result, nullptr, nullptr, std::nullopt);
+  }
+  response.success = result.success;
+  response.message = result.message;
+  response.pose = result.pose;
+  response.point_inliers = result.point_inliers;
+  response.line_inliers = result.line_inliers;
+  response.score = result.score;
+  response.processing_time = result.processing_time;
+  // A failed relocalization is an answer, not a transport error: returning
+  // false would hide the message from the caller.
+  return true;
+}
+
+}  // namespace relocalizer_ros

@@ -1,0 +1,141 @@
+#pragma once
+// The ROS face of the relocalizer: synchronised RGB-D in; ~pose, ~result, TF and
+// the ~relocalize service out. It translates between ROS and the core facade
+// and owns the threading; every decision about poses stays in the core.
+//
+// Threads:
+//  - subscription callbacks (the node handle's queue): O(1) header checks and a
+//    hand-over to the FrameBuffer; they never wait for a relocalization;
+//  - the continuous worker (continuous mode): takes the pending frame, at most
+//    max_rate times a second, and relocalizes it;
+//  - the service queue's own spinner: calls wait for a frame and relocalize it
+//    there, so a waiting call never stalls the image callbacks. Calls that pick
+//    the same frame share one relocalization (the core is deterministic per
+//    frame), so concurrent calls get the same, well-defined answer cheaply.
+//  - the watchdog and TF re-broadcast wall timers (the node handle's queue).
+
+#include <image_transport/image_transport.h>
+#include <image_transport/subscriber_filter.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/sync_policies/exact_time.h>
+#include <message_filters/synchronizer.h>
+#include <relocalizer/Relocalize.h>
+#include <ros/callback_queue.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <tbb/global_control.h>
+
+#include <atomic>
+#include <future>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "frame_buffer.h"
+#include "node_params.h"
+#include "relocalizer/relocalizer.h"
+#include "result_msg.h"
+#include "throttled_log.h"
+#include "transform_publisher.h"
+
+namespace relocalizer_ros {
+
+class RelocalizerNode {
+ public:
+  // Reads the parameters and loads the model; fails with one line naming the
+  // parameter or file at fault. Subscribes only once the model is ready, so a
+  // publisher that waits for a subscriber (the replay player) waits for it.
+  static relocalizer::Expected<std::unique_ptr<RelocalizerNode>> create(ros::NodeHandle nh,
+                                                                       ros::NodeHandle private_nh);
+  ~RelocalizerNode();
+  RelocalizerNode(const RelocalizerNode&) = delete;
+  RelocalizerNode& operator=(const RelocalizerNode&) = delete;
+
+ private:
+  // One synchronised set as received. Holding the messages (not pixels) keeps
+  // the callbacks O(1) and converts only frames that are actually used.
+  struct Input {
+    sensor_msgs::ImageConstPtr colour;
+    sensor_msgs::ImageConstPtr depth;
+    sensor_msgs::CameraInfoConstPtr info;
+    std::string error;  // why the set cannot be a frame (checked on arrival)
+  };
+  using InputPtr = std::shared_ptr<const Input>;
+  using ResultMsg = relocalizer::RelocalizationResultMsg;
+
+  RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
+                  std::unique_ptr<relocalizer::Relocalizer> relocalizer);
+
+  void subscribe();
+  void onSynchronised(const sensor_msgs::ImageConstPtr& colour,
+                      const sensor_msgs::ImageConstPtr& depth,
+                      const sensor_msgs::CameraInfoConstPtr& info);
+  void onWatchdog(const ros::WallTimerEvent&);
+  bool onRelocalize(relocalizer::Relocalize::Request& request,
+                    relocalizer::Relocalize::Response& response);
+  void workerLoop();
+
+  // Relocalizes one input and publishes ~result, and on success ~pose and TF.
+  ResultMsg process(const Input& input);
+  ResultMsg processChecked(const Input& input, std::chrono::steady_clock::time_point start);
+  // A service call's relocalization of buffer entry `seq`, shared with any
+  // concurrent call that picked the same entry.
+  ResultMsg processShared(uint64_t seq, const InputPtr& input);
+  ResultMsg failure(const ros::Time& stamp, const std::string& message) const;
+  void publishOutcome(ResultMsg& result, const relocalizer::Pose* pose,
+                      const relocalizer::Matrix6d* covariance,
+                      const std::optional<geometry_msgs::TransformStamped>& transform);
+  // Per-topic message counts and what they suggest, for "no frame" messages.
+  std::string inputStatus() const;
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle private_nh_;
+  const NodeParams params_;
+  std::unique_ptr<tbb::global_control> thread_limit_;
+  const std::unique_ptr<relocalizer::Relocalizer> relocalizer_;
+
+  ros::Publisher pose_pub_;
+  ros::Publisher result_pub_;
+  std::unique_ptr<TransformPublisher> transforms_;
+  FrameBuffer<InputPtr> frames_;
+  ThrottledLog log_;
+
+  std::atomic<uint64_t> frames_received_{0};
+  std::atomic<uint64_t> frames_processed_{0};
+  std::atomic<uint64_t> colour_count_{0}, depth_count_{0}, info_count_{0};
+  // The counts at the last synchronised set: what arrived since says which
+  // input is missing now, whatever worked before.
+  std::atomic<uint64_t> colour_at_sync_{0}, depth_at_sync_{0}, info_at_sync_{0};
+  std::atomic<int64_t> last_image_ns_{0};  // steady clock of the last colour or depth image
+  std::atomic<int64_t> last_frame_ns_{0};  // steady clock of the last synchronised set
+  const int64_t start_ns_;
+  ros::Time last_image_stamp_;  // for watchdog failure results; guarded by stamp_mutex_
+  mutable std::mutex stamp_mutex_;
+
+  std::mutex shared_mutex_;
+  std::map<uint64_t, std::shared_future<ResultMsg>> in_flight_;
+
+  std::thread worker_;
+
+  ros::CallbackQueue service_queue_;
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  ros::ServiceServer service_;
+  ros::WallTimer watchdog_;
+
+  // Last members: destroyed first, so no callback outlives what it uses.
+  using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
+      sensor_msgs::Image, sensor_msgs::Image, sensor_msgs::CameraInfo>;
+  using ExactPolicy = message_filters::sync_policies::ExactTime<
+      sensor_msgs::Image, sensor_msgs::Image, sensor_msgs::CameraInfo>;
+  std::unique_ptr<image_transport::ImageTransport> image_transport_;
+  image_transport::SubscriberFilter colour_sub_;
+  image_transport::SubscriberFilter depth_sub_;
+  message_filters::Subscriber<sensor_msgs::CameraInfo> info_sub_;
+  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+};
+
+}  // namespace relocalizer_ros

@@ -1,0 +1,80 @@
+#pragma once
+// Rosbag replay evaluation: plays a bag through a running relocalizer node and
+// scores the node's ~result against the bag's ground truth with the same
+// summary, table and files as the offline `evaluate` tool.
+//
+// In play mode the evaluator is the player: it publishes one frame (colour,
+// depth, camera_info and ground truth with one stamp, as make_bag writes them),
+// waits for the node's result for that stamp, then publishes the next. The
+// replay is therefore exact (no frame is dropped, whatever the machine's speed)
+// and as fast as the node, which with the node's process_all makes its
+// accuracy that of `evaluate` on the same frames. In collect mode it only
+// listens, for use with `rosbag play` or a live camera, and finishes after
+// idle_timeout seconds without messages.
+
+#include <geometry_msgs/PoseStamped.h>
+#include <ros/ros.h>
+
+#include <condition_variable>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "relocalizer/evaluation.h"
+#include "result_msg.h"
+
+namespace relocalizer_ros {
+
+class ReplayEvaluator {
+ public:
+  struct Options {
+    std::string bag;     // play mode: the bag to play
+    bool play = true;    // false: collect only
+    std::string output;  // folder for poses.txt, errors.csv, summary.json, plots ("" = none)
+    std::string model;   // recorded in summary.json
+    std::string colour_topic = "/camera/rgb/image_raw";
+    std::string depth_topic = "/camera/depth/image_raw";
+    std::string info_topic = "/camera/rgb/camera_info";
+    std::string truth_topic = "/ground_truth/pose";
+    std::string dataset_topic = "/dataset/info";
+    double node_timeout = 60.0;    // seconds to wait for the node to subscribe
+    double result_timeout = 60.0;  // seconds to wait for the answer to one frame
+    double idle_timeout = 10.0;    // collect mode: seconds without messages that end it
+  };
+
+  ReplayEvaluator(ros::NodeHandle nh, Options options);
+  // Runs to the end and returns the process exit code: 0 when the table was
+  // printed (and the files written), 1 when the replay or the writing failed,
+  // 2 for unusable input.
+  int run();
+
+ private:
+  using ResultMsg = relocalizer::RelocalizationResultMsg;
+
+  struct Truth {
+    int id = -1;
+    ros::Time stamp;
+    relocalizer::Pose pose;
+  };
+
+  int play();
+  int collect();
+  int report(const std::vector<Truth>& truths);
+  void onResult(const ResultMsg::ConstPtr& result);
+  void onTruth(const geometry_msgs::PoseStamped::ConstPtr& truth);
+
+  ros::NodeHandle nh_;
+  const Options options_;
+  ros::Subscriber result_sub_;
+
+  std::mutex mutex_;
+  std::condition_variable result_arrived_;
+  std::map<ros::Time, ResultMsg> results_;  // first answer per frame stamp
+  std::vector<Truth> collected_truths_;     // collect mode
+  nlohmann::json dataset_info_;             // from make_bag, when present
+  ros::WallTime last_message_;
+};
+
+}  // namespace relocalizer_ros

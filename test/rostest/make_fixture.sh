@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Builds the rostests' data from nothing: a small synthetic room, a small model
+# trained on it, a bag of its test frames (make_bag) and the offline
+# `evaluate` output the replay test compares against.
+#   make_fixture.sh TOOL_DIR FIXTURE_DIR
+set -euo pipefail
+tools=$1
+out=$2
+here=$(cd "$(dirname "$0")" && pwd)
+rm -rf "$out"
+mkdir -p "$out"
+"$tools/synthesize" --output "$out/scene" --train-frames 60 --test-frames 20 --width 320 --height 240 >/dev/null
+"$tools/train" --dataset "$out/scene/train" --config "$here/fixture_forest.yaml" --output "$out/model.bin" >/dev/null
+"$tools/make_bag" --dataset "$out/scene/test" --output "$out/test.bag" >/dev/null
+"$tools/evaluate" --model "$out/model.bin" --dataset "$out/scene/test" --output "$out/evaluate" >/dev/null
+touch "$out/fixture.stamp"
+echo "rostest fixture in $out"

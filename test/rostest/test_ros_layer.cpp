@@ -1,0 +1,176 @@
+// The node's building blocks without a ROS master: message checks and
+// conversion, frame hand-over, pose conversion.
+
+#include <gtest/gtest.h>
+#include <sensor_msgs/image_encodings.h>
+
+#include <cmath>
+#include <cstring>
+#include <thread>
+
+#include "../../src/ros/frame_buffer.h"
+#include "../../src/ros/message_conversion.h"
+
+using namespace relocalizer_ros;
+namespace enc = sensor_msgs::image_encodings;
+
+namespace {
+
+sensor_msgs::Image image(uint32_t width, uint32_t height, const std::string& encoding, int bytes_per_pixel) {
+  sensor_msgs::Image msg;
+  msg.width = width;
+  msg.height = height;
+  msg.encoding = encoding;
+  msg.step = width * bytes_per_pixel;
+  msg.data.assign(static_cast<size_t>(msg.step) * height, 0);
+  msg.header.frame_id = "camera";
+  return msg;
+}
+
+sensor_msgs::CameraInfo info(uint32_t width, uint32_t height) {
+  sensor_msgs::CameraInfo msg;
+  msg.width = width;
+  msg.height = height;
+  msg.K = {100, 0, width / 2.0, 0, 100, height / 2.0, 0, 0, 1};
+  return msg;
+}
+
+}  // namespace
+
+TEST(MessageConversion, AcceptsTheRep118DepthEncodingsAndTheColourOnes) {
+  for (const auto& [colour, bpp] : {std::pair{enc::BGR8, 3}, {enc::RGB8, 3}, {enc::MONO8, 1}, {enc::BGRA8, 4}})
+    for (const auto& [depth, dbpp] : {std::pair{enc::TYPE_16UC1, 2}, {enc::TYPE_32FC1, 4}, {enc::MONO16, 2}})
+      EXPECT_EQ(checkFrameMessages(image(8, 6, colour, bpp), image(8, 6, depth, dbpp), info(8, 6)), "")
+          << colour << " " << depth;
+}
+
+TEST(MessageConversion, ConvertsUnitsChannelsAndInvalidDepth) {
+  auto colour = image(2, 1, enc::RGB8, 3);
+  colour.data = {10, 20, 30, 40, 50, 60};
+  auto depth = image(2, 1, enc::TYPE_16UC1, 2);
+  const uint16_t mm[2] = {1500, 0};
+  std::memcpy(depth.data.data(), mm, sizeof(mm));
+  auto frame = frameFromMessages(colour, depth, info(2, 1));
+  ASSERT_TRUE(frame.ok()) << frame.error();
+  EXPECT_EQ(frame->colour.at<cv::Vec3b>(0, 0), cv::Vec3b(30, 20, 10));  // BGR
+  EXPECT_FLOAT_EQ(frame->depth.at<float>(0, 0), 1.5f);
+  EXPECT_TRUE(std::isnan(frame->depth.at<float>(0, 1)));
+  EXPECT_EQ(frame->camera.fx, 100.0);
+
+  auto metres = image(2, 1, enc::TYPE_32FC1, 4);
+  const float m[2] = {2.25f, std::nanf("")};
+  std::memcpy(metres.data.data(), m, sizeof(m));
+  auto mono = image(2, 1, enc::MONO8, 1);
+  mono.data = {7, 9};
+  frame = frameFromMessages(mono, metres, info(2, 1));
+  ASSERT_TRUE(frame.ok()) << frame.error();
+  EXPECT_EQ(frame->colour.at<cv::Vec3b>(0, 1), cv::Vec3b(9, 9, 9));
+  EXPECT_FLOAT_EQ(frame->depth.at<float>(0, 0), 2.25f);
+  EXPECT_TRUE(std::isnan(frame->depth.at<float>(0, 1)));
+}
+
+TEST(MessageConversion, RowPaddingIsHonoured) {
+  auto colour = image(2, 2, enc::MONO8, 1);
+  colour.step = 4;  // two bytes of padding per row
+  colour.data = {1, 2, 99, 99, 3, 4, 99, 99};
+  auto depth = image(2, 2, enc::TYPE_16UC1, 2);
+  auto frame = frameFromMessages(colour, depth, info(2, 2));
+  ASSERT_TRUE(frame.ok()) << frame.error();
+  EXPECT_EQ(frame->colour.at<cv::Vec3b>(1, 0)[0], 3);
+}
+
+TEST(MessageConversion, RejectsWhatWouldReadOutOfBoundsOrMisregister) {
+  const auto colour = image(8, 6, enc::BGR8, 3);
+  const auto depth = image(8, 6, enc::TYPE_16UC1, 2);
+  auto short_step = colour;
+  short_step.step = 10;
+  EXPECT_NE(checkFrameMessages(short_step, depth, info(8, 6)).find("step 10"), std::string::npos);
+  auto short_data = depth;
+  short_data.data.resize(5);
+  EXPECT_NE(checkFrameMessages(colour, short_data, info(8, 6)).find("holds 5 bytes"), std::string::npos);
+  auto big_endian = depth;
+  big_endian.is_bigendian = 1;
+  EXPECT_NE(checkFrameMessages(colour, big_endian, info(8, 6)).find("byte order"), std::string::npos);
+  EXPECT_NE(checkFrameMessages(colour, depth, info(4, 3)).find("camera_info is for 4x3"), std::string::npos);
+  auto other_frame = depth;
+  other_frame.header.frame_id = "/camera";  // a leading slash is the same frame
+  EXPECT_EQ(checkFrameMessages(colour, other_frame, info(8, 6)), "");
+  other_frame.header.frame_id = "depth";
+  EXPECT_NE(checkFrameMessages(colour, other_frame, info(8, 6)).find("registered"), std::string::npos);
+  auto nan_k = info(8, 6);
+  nan_k.K[4] = std::nan("");
+  EXPECT_NE(checkFrameMessages(colour, depth, nan_k).find("K is unusable"), std::string::npos);
+  EXPECT_NE(checkFrameMessages(image(0, 0, enc::BGR8, 3), depth, info(8, 6)).find("empty"), std::string::npos);
+}
+
+TEST(MessageConversion, StripsLeadingSlashes) {
+  EXPECT_EQ(stripLeadingSlashes("/map"), "map");
+  EXPECT_EQ(stripLeadingSlashes("//a/b"), "a/b");
+  EXPECT_EQ(stripLeadingSlashes("odom"), "odom");
+  EXPECT_EQ(stripLeadingSlashes("/"), "");
+}
+
+TEST(MessageConversion, PosesRoundTripAndCovarianceIsRowMajor) {
+  Pose pose = Pose::Identity();
+  pose.linear() = Eigen::AngleAxisd(1.0, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(1, -2, 3);
+  EXPECT_TRUE(fromPoseMsg(toPoseMsg(pose)).isApprox(pose, 1e-12));
+  EXPECT_TRUE(fromTransformMsg(toTransformMsg(pose)).isApprox(pose, 1e-12));
+  relocalizer::Matrix6d covariance = relocalizer::Matrix6d::Zero();
+  covariance(0, 5) = 7.0;
+  EXPECT_EQ(toPoseWithCovarianceMsg(pose, covariance).covariance[5], 7.0);
+}
+
+TEST(FrameBuffer, LatestKeepsOnePendingFrameAndCountsWhatItReplaces) {
+  FrameBuffer<int> buffer(FrameBuffer<int>::Policy::Latest);
+  buffer.push(1);
+  buffer.push(2);
+  buffer.push(3);
+  EXPECT_EQ(buffer.dropped(), 2u);
+  auto taken = buffer.take();
+  ASSERT_TRUE(taken);
+  EXPECT_EQ(taken->value, 3);
+  EXPECT_EQ(taken->seq, 3u);
+  EXPECT_EQ(buffer.pendingCount(), 0u);
+}
+
+TEST(FrameBuffer, FifoKeepsEveryFrameInOrder) {
+  FrameBuffer<int> buffer(FrameBuffer<int>::Policy::Fifo);
+  for (int i = 1; i <= 5; ++i) buffer.push(i);
+  EXPECT_EQ(buffer.dropped(), 0u);
+  for (int i = 1; i <= 5; ++i) EXPECT_EQ(buffer.take()->value, i);
+}
+
+TEST(FrameBuffer, NewestWaitsForALaterFrameAndReadsWithoutTaking) {
+  using Clock = FrameBuffer<int>::Clock;
+  FrameBuffer<int> buffer(FrameBuffer<int>::Policy::Latest);
+  EXPECT_FALSE(buffer.newest(0, Clock::now() + std::chrono::milliseconds(20)));
+  buffer.push(10);
+  EXPECT_EQ(buffer.newest(0, Clock::now())->value, 10);
+  EXPECT_EQ(buffer.pendingCount(), 1u);  // still there for the worker
+  const uint64_t after = buffer.lastSeq();
+  EXPECT_FALSE(buffer.newest(after, Clock::now() + std::chrono::milliseconds(20)));
+  std::thread later([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    buffer.push(11);
+  });
+  auto next = buffer.newest(after, Clock::now() + std::chrono::seconds(5));
+  later.join();
+  ASSERT_TRUE(next);
+  EXPECT_EQ(next->value, 11);
+}
+
+TEST(FrameBuffer, CloseWakesEveryWaiter) {
+  using Clock = FrameBuffer<int>::Clock;
+  FrameBuffer<int> buffer(FrameBuffer<int>::Policy::Fifo);
+  std::thread closer([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    buffer.close();
+  });
+  const auto start = Clock::now();
+  EXPECT_FALSE(buffer.take());
+  EXPECT_FALSE(buffer.newest(0, Clock::now() + std::chrono::seconds(10)));
+  EXPECT_FALSE(buffer.sleepUntil(Clock::now() + std::chrono::seconds(10)));
+  EXPECT_LT(Clock::now() - start, std::chrono::seconds(5));
+  closer.join();
+}
