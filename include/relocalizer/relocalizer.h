@@ -36,7 +36,7 @@ struct StageTimings {  // seconds
   double total = 0.0;            // the whole call
 };
 
-struct RelocalizationResult {
+struct Relocalization {
   bool success = false;
   std::string message;           // the reason, when !success
   Pose pose = Pose::Identity();  // camera-to-world (valid when success)
@@ -65,7 +65,7 @@ class Relocalizer {
                                                         const RelocalizerParams& params = {});
 
   // Thread-safe; concurrent calls do not share scratch memory.
-  RelocalizationResult relocalize(const RgbdFrame& frame) const;
+  Relocalization relocalize(const RgbdFrame& frame) const;
 
   // Samples the frame as relocalize() does and compares each sample's
   // predictions with its true world coordinate. Needs frame.ground_truth.

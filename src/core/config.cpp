@@ -2,7 +2,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -21,7 +23,11 @@ std::string overlay(const YAML::Node& node, json& target, const std::string& pat
     if (node.IsNull()) return {};
     if (!node.IsMap()) return "'" + path + "' must be a mapping";
     for (const auto& entry : node) {
-      const std::string key = entry.first.as<std::string>();
+      // A null, list or mapping key ("? [a, b]: 1") has no parameter name.
+      if (!entry.first.IsScalar())
+        return "'" + (path.empty() ? std::string("(top level)") : path) +
+               "' has a key that is not a plain name";
+      const std::string key = entry.first.Scalar();
       const std::string child = path.empty() ? key : path + "." + key;
       if (!target.contains(key)) return "unknown parameter '" + child + "'";
       const std::string why = overlay(entry.second, target[key], child);
@@ -40,7 +46,12 @@ std::string overlay(const YAML::Node& node, json& target, const std::string& pat
     } else if (target.is_number_integer()) {
       target = node.as<long long>();
     } else if (target.is_number_float()) {
-      target = node.as<double>();
+      // .nan and .inf, or a value beyond float range, cannot be a parameter and
+      // would not survive the JSON a model header stores them in.
+      const double v = node.as<double>();
+      if (!std::isfinite(v) || std::abs(v) > std::numeric_limits<float>::max())
+        return "'" + path + "' must be a finite number (got '" + node.Scalar() + "')";
+      target = v;
     } else if (target.is_string()) {
       target = node.as<std::string>();
     } else {

@@ -2,10 +2,14 @@
 
 #include <zlib.h>
 
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <type_traits>
 
 namespace relocalizer {
 
@@ -57,49 +61,91 @@ json paramsJson(const TrainingParams& p) {
             {"min_inlier_ratio", l.min_inlier_ratio}}}};
 }
 
-void readMeanShift(const json& j, MeanShiftParams& p) {
-  p.bandwidth = j.at("bandwidth");
-  p.max_seeds = j.at("max_seeds");
-  p.max_iterations = j.at("max_iterations");
-  p.max_modes = j.at("max_modes");
-  p.min_mode_share = j.at("min_mode_share");
-  p.min_std = j.at("min_std");
+// JSON values come from files (model headers, merged config), so a number is
+// converted only when it fits its field: nlohmann's implicit conversion would
+// silently truncate an integer and, for a float read into an integer field,
+// is undefined behaviour. Throws std::out_of_range naming the key otherwise.
+template <typename T>
+T checkedNumber(const json& v, const std::string& name) {
+  if constexpr (std::is_same_v<T, bool>) {
+    if (!v.is_boolean()) throw std::out_of_range("'" + name + "' must be true or false, got " + v.dump());
+    return v.get<bool>();
+  } else if constexpr (std::is_integral_v<T>) {
+    using Limits = std::numeric_limits<T>;
+    bool fits = false;
+    if (v.is_number_unsigned())
+      fits = v.get<uint64_t>() <= static_cast<uint64_t>(Limits::max());
+    else if (v.is_number_integer())
+      fits = v.get<int64_t>() >= static_cast<int64_t>(Limits::min()) &&
+             (v.get<int64_t>() < 0 ||
+              static_cast<uint64_t>(v.get<int64_t>()) <= static_cast<uint64_t>(Limits::max()));
+    if (!fits)
+      throw std::out_of_range("'" + name + "' must be an integer from " +
+                              std::to_string(Limits::min()) + " to " + std::to_string(Limits::max()) +
+                              ", got " + v.dump());
+    return v.is_number_unsigned() ? static_cast<T>(v.get<uint64_t>()) : static_cast<T>(v.get<int64_t>());
+  } else {
+    static_assert(std::is_floating_point_v<T>);
+    const double d = v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
+    if (!std::isfinite(d) || std::abs(d) > static_cast<double>(std::numeric_limits<T>::max()))
+      throw std::out_of_range("'" + name + "' must be a finite number, got " + v.dump());
+    return static_cast<T>(d);
+  }
 }
 
-void readForest(const json& j, ForestParams& p) {
-  p.trees = j.at("trees");
-  p.max_depth = j.at("max_depth");
-  p.min_samples_leaf = j.at("min_samples_leaf");
-  p.images_per_tree = j.at("images_per_tree");
-  p.samples_per_image = j.at("samples_per_image");
-  p.feature_candidates = j.at("feature_candidates");
-  p.threshold_candidates = j.at("threshold_candidates");
-  p.split_sample_cap = j.at("split_sample_cap");
-  p.max_offset = j.at("max_offset");
-  p.depth_feature_share = j.at("depth_feature_share");
-  readMeanShift(j.at("mean_shift"), p.mean_shift);
+template <typename T>
+void readField(const json& j, const std::string& prefix, const char* key, T& out) {
+  out = checkedNumber<T>(j.at(key), prefix + key);
+}
+
+void readMeanShift(const json& j, const std::string& prefix, MeanShiftParams& p) {
+  readField(j, prefix, "bandwidth", p.bandwidth);
+  readField(j, prefix, "max_seeds", p.max_seeds);
+  readField(j, prefix, "max_iterations", p.max_iterations);
+  readField(j, prefix, "max_modes", p.max_modes);
+  readField(j, prefix, "min_mode_share", p.min_mode_share);
+  readField(j, prefix, "min_std", p.min_std);
+}
+
+void readForest(const json& j, const std::string& prefix, ForestParams& p) {
+  readField(j, prefix, "trees", p.trees);
+  readField(j, prefix, "max_depth", p.max_depth);
+  readField(j, prefix, "min_samples_leaf", p.min_samples_leaf);
+  readField(j, prefix, "images_per_tree", p.images_per_tree);
+  readField(j, prefix, "samples_per_image", p.samples_per_image);
+  readField(j, prefix, "feature_candidates", p.feature_candidates);
+  readField(j, prefix, "threshold_candidates", p.threshold_candidates);
+  readField(j, prefix, "split_sample_cap", p.split_sample_cap);
+  readField(j, prefix, "max_offset", p.max_offset);
+  readField(j, prefix, "depth_feature_share", p.depth_feature_share);
+  readMeanShift(j.at("mean_shift"), prefix + "mean_shift.", p.mean_shift);
 }
 
 void readParams(const json& j, TrainingParams& p) {
-  p.seed = j.at("seed");
-  p.train_points = j.at("train_points");
-  p.train_lines = j.at("train_lines");
-  readForest(j.at("points"), p.points);
-  readForest(j.at("lines"), p.lines);
+  readField(j, "", "seed", p.seed);
+  readField(j, "", "train_points", p.train_points);
+  readField(j, "", "train_lines", p.train_lines);
+  readForest(j.at("points"), "points.", p.points);
+  readForest(j.at("lines"), "lines.", p.lines);
   const json& l = j.at("line_sampling");
-  p.line_sampling.min_segment_length_px = l.at("min_segment_length_px");
-  p.line_sampling.spacing_px = l.at("spacing_px");
-  p.line_sampling.lsd_scale = l.at("lsd_scale");
-  p.line_sampling.edge_offset_px = l.at("edge_offset_px");
-  p.line_sampling.ransac_inlier_m = l.at("ransac_inlier_m");
-  p.line_sampling.ransac_iterations = l.at("ransac_iterations");
-  p.line_sampling.min_inliers = l.at("min_inliers");
-  p.line_sampling.min_inlier_ratio = l.at("min_inlier_ratio");
+  auto& s = p.line_sampling;
+  const std::string prefix = "line_sampling.";
+  readField(l, prefix, "min_segment_length_px", s.min_segment_length_px);
+  readField(l, prefix, "spacing_px", s.spacing_px);
+  readField(l, prefix, "lsd_scale", s.lsd_scale);
+  readField(l, prefix, "edge_offset_px", s.edge_offset_px);
+  readField(l, prefix, "ransac_inlier_m", s.ransac_inlier_m);
+  readField(l, prefix, "ransac_iterations", s.ransac_iterations);
+  readField(l, prefix, "min_inliers", s.min_inliers);
+  readField(l, prefix, "min_inlier_ratio", s.min_inlier_ratio);
 }
 
 json vec3Json(const Eigen::Vector3f& v) { return {v.x(), v.y(), v.z()}; }
-Eigen::Vector3f vec3From(const json& j) {
-  return Eigen::Vector3f(j.at(0).get<float>(), j.at(1).get<float>(), j.at(2).get<float>());
+Eigen::Vector3f vec3From(const json& j, const std::string& name) {
+  if (!j.is_array() || j.size() != 3)
+    throw std::out_of_range("'" + name + "' must be 3 numbers, got " + j.dump());
+  return Eigen::Vector3f(checkedNumber<float>(j[0], name), checkedNumber<float>(j[1], name),
+                         checkedNumber<float>(j[2], name));
 }
 
 json headerJson(const Model& m) {
@@ -149,6 +195,7 @@ class Reader {
   Reader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
   bool bytes(void* out, size_t n) {
     if (n > size_ - offset_) return false;
+    if (n == 0) return true;  // `out` may be null (an empty vector's data())
     std::memcpy(out, data_ + offset_, n);
     offset_ += n;
     return true;
@@ -188,10 +235,18 @@ std::string validateTree(const Tree& t) {
   for (size_t i = 0; i < t.nodes.size(); ++i) {
     const SplitNode& n = t.nodes[i];
     if (n.isLeaf()) {
-      if (static_cast<size_t>(n.leafIndex()) >= t.leaves.size()) return "leaf index out of range";
-    } else if (static_cast<size_t>(n.left) <= i || static_cast<size_t>(n.left) + 1 >= t.nodes.size()) {
-      return "child index out of range";
+      // Not n.leafIndex(): -left overflows for left = INT32_MIN.
+      const int64_t leaf = -(static_cast<int64_t>(n.left) + 1);
+      if (leaf >= static_cast<int64_t>(t.leaves.size())) return "leaf index out of range";
+      continue;
     }
+    if (static_cast<size_t>(n.left) <= i || static_cast<size_t>(n.left) + 1 >= t.nodes.size())
+      return "child index out of range";
+    // evaluateFeature indexes BGR pixels with the channels unchecked.
+    const PixelFeature& f = n.feature;
+    if (f.type != FeatureType::Colour && f.type != FeatureType::Depth)
+      return "unknown feature type " + std::to_string(static_cast<int>(f.type));
+    if (f.channel_p > 2 || f.channel_q > 2) return "colour channel out of range";
   }
   for (const LeafRange& l : t.leaves)
     if (static_cast<uint64_t>(l.first_mode) + l.mode_count > t.modes.size())
@@ -296,11 +351,11 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
     model.summary.dataset = s.at("dataset");
     model.summary.format = s.at("format");
     model.summary.frames = s.at("frames");
-    model.summary.images = s.at("images");
-    model.summary.seconds = s.at("seconds");
-    model.summary.threads = s.at("threads");
-    model.summary.scene_min = vec3From(s.at("scene_min"));
-    model.summary.scene_max = vec3From(s.at("scene_max"));
+    readField(s, "training_set.", "images", model.summary.images);
+    readField(s, "training_set.", "seconds", model.summary.seconds);
+    readField(s, "training_set.", "threads", model.summary.threads);
+    model.summary.scene_min = vec3From(s.at("scene_min"), "training_set.scene_min");
+    model.summary.scene_max = vec3From(s.at("scene_max"), "training_set.scene_max");
     model.summary.software_version = s.at("software_version");
   } catch (const std::exception& e) {
     return makeError(where + "model header is not valid: " + e.what());

@@ -46,9 +46,9 @@ std::string Relocalizer::validationError() const {
   return {};
 }
 
-RelocalizationResult Relocalizer::relocalize(const RgbdFrame& frame) const {
+Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
   const auto start = Clock::now();
-  RelocalizationResult result;
+  Relocalization result;
   auto fail = [&](std::string message) {
     result.success = false;
     result.message = std::move(message);

@@ -286,7 +286,7 @@ RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const Input& input,
     publishOutcome(result, nullptr, nullptr, std::nullopt);
     return result;
   }
-  const relocalizer::RelocalizationResult solved = relocalizer_->relocalize(*frame);
+  const relocalizer::Relocalization solved = relocalizer_->relocalize(*frame);
   result.success = solved.success;
   result.message = solved.message;
   result.point_inliers = static_cast<uint32_t>(solved.point_inliers);

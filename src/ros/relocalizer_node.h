@@ -37,7 +37,7 @@
 #include "frame_buffer.h"
 #include "node_params.h"
 #include "relocalizer/relocalizer.h"
-#include "result_msg.h"
+#include <relocalizer/RelocalizationResult.h>
 #include "throttled_log.h"
 #include "transform_publisher.h"
 
@@ -64,7 +64,7 @@ class RelocalizerNode {
     std::string error;  // why the set cannot be a frame (checked on arrival)
   };
   using InputPtr = std::shared_ptr<const Input>;
-  using ResultMsg = relocalizer::RelocalizationResultMsg;
+  using ResultMsg = relocalizer::RelocalizationResult;
 
   RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
                   std::unique_ptr<relocalizer::Relocalizer> relocalizer);

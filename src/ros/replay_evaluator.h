@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "relocalizer/evaluation.h"
-#include "result_msg.h"
+#include <relocalizer/RelocalizationResult.h>
 
 namespace relocalizer_ros {
 
@@ -51,7 +51,7 @@ class ReplayEvaluator {
   int run();
 
  private:
-  using ResultMsg = relocalizer::RelocalizationResultMsg;
+  using ResultMsg = relocalizer::RelocalizationResult;
 
   struct Truth {
     int id = -1;

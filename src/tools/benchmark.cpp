@@ -36,7 +36,7 @@ Run runFrames(const Relocalizer& relocalizer, const std::vector<RgbdFrame>& fram
   ProgressBar bar(label, frames.size() * repeat);
   for (int r = 0; r < repeat; ++r)
     for (const RgbdFrame& frame : frames) {
-      const RelocalizationResult result = relocalizer.relocalize(frame);
+      const Relocalization result = relocalizer.relocalize(frame);
       run.timings.push_back(result.timings);
       if (r == 0 && frame.ground_truth) {
         std::optional<Pose> estimate;

@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
       }
       auto frame = data.load(i);
       if (!frame) return cli::fail(app, frame.error());
-      const RelocalizationResult result = (*relocalizer)->relocalize(*frame);
+      const Relocalization result = (*relocalizer)->relocalize(*frame);
       for (int lines = 0; prediction_quality && lines < 2; ++lines) {
         if ((lines ? model.lines : model.points).empty()) continue;
         auto q = (*relocalizer)->measurePredictions(*frame, lines == 1);
@@ -142,7 +142,7 @@ int main(int argc, char** argv) {
     nlohmann::json extra;
     extra["model"] = model_path;
     extra["dataset"] = dataset_path;
-    extra["frames"] = frames;
+    extra["frame_selection"] = frames;
     extra["forests"] = forests;
     extra["threads"] = thread_count;
     extra["software_version"] = kSoftwareVersion;

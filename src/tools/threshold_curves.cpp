@@ -42,7 +42,7 @@ Expected<std::vector<Answer>> relocalizeAll(const Relocalizer& relocalizer, cons
     bar.advance();
     auto frame = (*dataset)->load(i);
     if (!frame) return makeError(frame.error());
-    const RelocalizationResult r = relocalizer.relocalize(*frame);
+    const Relocalization r = relocalizer.relocalize(*frame);
     Answer a;
     a.in_scene = in_scene;
     a.has_pose = r.success;

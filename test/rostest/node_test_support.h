@@ -19,14 +19,14 @@
 #include <vector>
 
 #include "../../src/ros/message_conversion.h"
-#include "../../src/ros/result_msg.h"
+#include <relocalizer/RelocalizationResult.h>
 #include "relocalizer/dataset.h"
 #include "relocalizer/pose.h"
 
 namespace relocalizer_test {
 
 using relocalizer::Pose;
-using ResultMsg = relocalizer::RelocalizationResultMsg;
+using ResultMsg = relocalizer::RelocalizationResult;
 
 constexpr const char* kCameraFrame = "camera_rgb_optical_frame";
 

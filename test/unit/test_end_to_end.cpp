@@ -86,7 +86,7 @@ TEST_F(SyntheticRoomRelocalization, NinetyPercentOfTestFramesWithinFiveCentimetr
   std::vector<std::optional<Pose>> estimates;
   std::vector<Pose> truths;
   for (const RgbdFrame& frame : test_frames_) {
-    const RelocalizationResult r = relocalizer_->relocalize(frame);
+    const Relocalization r = relocalizer_->relocalize(frame);
     std::optional<Pose> estimate;
     if (r.success) estimate = r.pose;
     errors.push_back(frameError(frame.id, estimate, *frame.ground_truth));
@@ -106,8 +106,8 @@ TEST_F(SyntheticRoomRelocalization, NinetyPercentOfTestFramesWithinFiveCentimetr
 }
 
 TEST_F(SyntheticRoomRelocalization, SameFrameSameAnswer) {
-  const RelocalizationResult a = relocalizer_->relocalize(test_frames_[3]);
-  const RelocalizationResult b = relocalizer_->relocalize(test_frames_[3]);
+  const Relocalization a = relocalizer_->relocalize(test_frames_[3]);
+  const Relocalization b = relocalizer_->relocalize(test_frames_[3]);
   ASSERT_EQ(a.success, b.success);
   EXPECT_TRUE(a.pose.isApprox(b.pose, 1e-12));
   EXPECT_EQ(a.point_inliers, b.point_inliers);
@@ -116,7 +116,7 @@ TEST_F(SyntheticRoomRelocalization, SameFrameSameAnswer) {
 TEST_F(SyntheticRoomRelocalization, BadFramesAreExplicitFailures) {
   RgbdFrame frame = test_frames_[0];
   frame.depth.setTo(std::numeric_limits<float>::quiet_NaN());
-  RelocalizationResult r = relocalizer_->relocalize(frame);
+  Relocalization r = relocalizer_->relocalize(frame);
   EXPECT_FALSE(r.success);
   EXPECT_NE(r.message.find("too little valid depth"), std::string::npos) << r.message;
 

@@ -60,7 +60,7 @@ TEST(RealData, ReducedRedkitchenDevProtocolStaysAboveItsFloor) {
   for (size_t i = 0; i < (*test_set)->size(); ++i) {
     auto frame = (*test_set)->load(i);
     ASSERT_TRUE(frame.ok()) << frame.error();
-    const RelocalizationResult r = relocalizer.relocalize(*frame);
+    const Relocalization r = relocalizer.relocalize(*frame);
     std::optional<Pose> estimate;
     if (r.success) estimate = r.pose;
     errors.push_back(frameError(frame->id, estimate, *frame->ground_truth));
