@@ -1,0 +1,124 @@
+// check_ground_truth: compares the ground-truth motion between consecutive
+// frames with the motion their depth images show (depth_alignment.h), and
+// lists the pairs where the reference poses jump, so benchmark numbers can be
+// read knowing which test frames are scored against a displaced reference.
+
+#include <fstream>
+#include <tbb/parallel_for.h>
+#include <vector>
+
+#include "cli_support.h"
+#include "relocalizer/dataset.h"
+#include "relocalizer/depth_alignment.h"
+
+using namespace relocalizer;
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Aligns the depth of each pair of consecutive selected frames (projective point-to-plane "
+      "ICP from the ground-truth motion) and reports the pairs whose ground-truth motion "
+      "disagrees with the depth images. Exit code 0 either way; flagged pairs are listed.",
+      "check_ground_truth"};
+  std::string dataset_path, format_name = "auto", frames, split = "all", output;
+  int threads = 0;
+  MotionCheckThresholds thresholds;
+  app.add_option("-d,--dataset", dataset_path, "Dataset folder")->required();
+  app.add_option("--format", format_name, "auto | 7scenes | 12scenes | tum")->capture_default_str();
+  app.add_option("--frames", frames, "Frame ids, e.g. 100-199 (default: all)");
+  app.add_option("--split", split, "train | test | all (7-Scenes scenes)")->capture_default_str();
+  app.add_option("-o,--output", output, "CSV file with every pair");
+  app.add_option("--max-translation", thresholds.translation,
+                 "Flag pairs whose motions differ by more (metres)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-rotation", thresholds.rotation_deg,
+                 "Flag pairs whose motions differ by more (degrees)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("-j,--threads", threads, "Worker threads (0 = every core)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1024));
+  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+
+  auto format = parseDatasetFormat(format_name);
+  if (!format) return cli::fail(app, format.error());
+  DatasetOptions options;
+  options.format = *format;
+  options.frames = frames;
+  options.split = split;
+  options.register_colour = false;  // depth only
+  auto dataset = openDataset(dataset_path, options);
+  if (!dataset) return cli::fail(app, dataset.error());
+  const Dataset& data = **dataset;
+
+  // Pairs of selected frames adjacent in id (a gap in the selection is no pair).
+  std::vector<size_t> pairs;
+  for (size_t i = 0; i + 1 < data.size(); ++i)
+    if (data.id(i + 1) == data.id(i) + 1 && data.groundTruth(i) && data.groundTruth(i + 1))
+      pairs.push_back(i);
+  if (pairs.empty()) return cli::fail(app, "no consecutive frames with ground truth selected");
+
+  tbb::global_control control(tbb::global_control::max_allowed_parallelism,
+                              static_cast<size_t>(cli::resolveThreads(threads)));
+  std::vector<MotionCheck> checks(pairs.size());
+  std::vector<std::string> errors(pairs.size());
+  tbb::parallel_for(size_t{0}, pairs.size(), [&](size_t k) {
+    const size_t i = pairs[k];
+    auto from = data.load(i);
+    auto to = data.load(i + 1);
+    if (!from || !to) {
+      errors[k] = from ? to.error() : from.error();
+      return;
+    }
+    checks[k] = checkMotion(from->depth, *from->ground_truth, to->depth, *to->ground_truth,
+                            data.camera());
+    checks[k].from_id = from->id;
+    checks[k].to_id = to->id;
+  });
+  for (const std::string& e : errors)
+    if (!e.empty()) return cli::fail(app, e, 1);
+
+  if (!output.empty()) {
+    std::ofstream csv(output);
+    if (!csv) return cli::fail(app, "cannot write " + output, 1);
+    csv << "from,to,gt_translation_m,gt_rotation_deg,depth_translation_m,depth_rotation_deg,"
+           "disagreement_m,disagreement_deg,rms_at_gt_m,rms_aligned_m,aligned,flagged\n";
+    for (const MotionCheck& c : checks)
+      csv << c.from_id << ',' << c.to_id << ',' << c.ground_truth_motion.translation << ','
+          << c.ground_truth_motion.rotation_deg << ',' << c.depth_motion.translation << ','
+          << c.depth_motion.rotation_deg << ',' << c.disagreement.translation << ','
+          << c.disagreement.rotation_deg << ',' << c.rms_at_ground_truth << ',' << c.rms_aligned
+          << ',' << c.aligned << ',' << thresholds.flags(c) << '\n';
+  }
+
+  int flagged = 0, unaligned = 0;
+  std::vector<double> translation, rotation;
+  for (const MotionCheck& c : checks) {
+    if (!c.aligned) {
+      ++unaligned;
+      continue;
+    }
+    translation.push_back(c.disagreement.translation);
+    rotation.push_back(c.disagreement.rotation_deg);
+    if (!thresholds.flags(c)) continue;
+    if (flagged++ == 0)
+      std::printf("pairs whose ground-truth motion disagrees with the depth images:\n");
+    std::printf(
+        "  %d -> %d: ground truth %.1f mm / %.2f deg, depth %.1f mm / %.2f deg, disagreement "
+        "%.1f mm / %.2f deg (depth RMS %.1f mm at the ground truth, %.1f mm aligned)\n",
+        c.from_id, c.to_id, 1000 * c.ground_truth_motion.translation,
+        c.ground_truth_motion.rotation_deg, 1000 * c.depth_motion.translation,
+        c.depth_motion.rotation_deg, 1000 * c.disagreement.translation,
+        c.disagreement.rotation_deg, 1000 * c.rms_at_ground_truth, 1000 * c.rms_aligned);
+  }
+  auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  std::printf("%zu pairs checked, %d flagged (> %.1f mm or > %.2f deg), %d not aligned; median "
+              "disagreement %.1f mm / %.2f deg\n",
+              checks.size(), flagged, 1000 * thresholds.translation, thresholds.rotation_deg,
+              unaligned, 1000 * median(translation), median(rotation));
+  return 0;
+}
