@@ -53,10 +53,10 @@ Accumulated linearise(const cv::Mat& fixed, const cv::Mat& moving, const CameraI
       if (!(validDepth(zc) && validDepth(zl) && validDepth(zr) && validDepth(zu) && validDepth(zd)))
         continue;
       const Eigen::Vector3d q = backProject(camera, uf, vf, zc);
-      Eigen::Vector3d normal = (backProject(camera, uf + step, vf, zr) -
-                                backProject(camera, uf - step, vf, zl))
-                                   .cross(backProject(camera, uf, vf + step, zd) -
-                                          backProject(camera, uf, vf - step, zu));
+      Eigen::Vector3d normal =
+          (backProject(camera, uf + step, vf, zr) - backProject(camera, uf - step, vf, zl))
+              .cross(backProject(camera, uf, vf + step, zd) -
+                     backProject(camera, uf, vf - step, zu));
       const double length = normal.norm();
       if (!(length > 0.0)) continue;
       normal /= length;

@@ -3,8 +3,9 @@
 // lists the pairs where the reference poses jump, so benchmark numbers can be
 // read knowing which test frames are scored against a displaced reference.
 
-#include <fstream>
 #include <tbb/parallel_for.h>
+
+#include <fstream>
 #include <vector>
 
 #include "cli_support.h"
@@ -70,8 +71,8 @@ int main(int argc, char** argv) {
       errors[k] = from ? to.error() : from.error();
       return;
     }
-    checks[k] = checkMotion(from->depth, *from->ground_truth, to->depth, *to->ground_truth,
-                            data.camera());
+    checks[k] =
+        checkMotion(from->depth, *from->ground_truth, to->depth, *to->ground_truth, data.camera());
     checks[k].from_id = from->id;
     checks[k].to_id = to->id;
   });
@@ -108,17 +109,18 @@ int main(int argc, char** argv) {
         "%.1f mm / %.2f deg (depth RMS %.1f mm at the ground truth, %.1f mm aligned)\n",
         c.from_id, c.to_id, 1000 * c.ground_truth_motion.translation,
         c.ground_truth_motion.rotation_deg, 1000 * c.depth_motion.translation,
-        c.depth_motion.rotation_deg, 1000 * c.disagreement.translation,
-        c.disagreement.rotation_deg, 1000 * c.rms_at_ground_truth, 1000 * c.rms_aligned);
+        c.depth_motion.rotation_deg, 1000 * c.disagreement.translation, c.disagreement.rotation_deg,
+        1000 * c.rms_at_ground_truth, 1000 * c.rms_aligned);
   }
   auto median = [](std::vector<double> v) {
     if (v.empty()) return 0.0;
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
     return v[v.size() / 2];
   };
-  std::printf("%zu pairs checked, %d flagged (> %.1f mm or > %.2f deg), %d not aligned; median "
-              "disagreement %.1f mm / %.2f deg\n",
-              checks.size(), flagged, 1000 * thresholds.translation, thresholds.rotation_deg,
-              unaligned, 1000 * median(translation), median(rotation));
+  std::printf(
+      "%zu pairs checked, %d flagged (> %.1f mm or > %.2f deg), %d not aligned; median "
+      "disagreement %.1f mm / %.2f deg\n",
+      checks.size(), flagged, 1000 * thresholds.translation, thresholds.rotation_deg, unaligned,
+      1000 * median(translation), median(rotation));
   return 0;
 }

@@ -35,8 +35,8 @@ TEST(DepthAlignment, RecoversTheMotionBetweenConsecutiveFrames) {
   const FramePair pair;
   const Pose truth = pair.from.ground_truth->inverse() * *pair.to.ground_truth;
   // From the identity: the images alone give the motion.
-  const DepthAlignment result = alignDepth(pair.from.depth, pair.to.depth, pair.camera,
-                                           Pose::Identity(), halfResolution());
+  const DepthAlignment result =
+      alignDepth(pair.from.depth, pair.to.depth, pair.camera, Pose::Identity(), halfResolution());
   ASSERT_TRUE(result.valid);
   const PoseDifference error = poseDifference(truth, result.motion);
   EXPECT_LT(error.translation, 0.003);
@@ -58,8 +58,9 @@ TEST(DepthAlignment, FlagsAGroundTruthJump) {
   const FramePair pair;
   Pose jumped = *pair.to.ground_truth;
   jumped.translation() += jumped.linear() * Eigen::Vector3d(0.03, 0.0, 0.0);
-  jumped.linear() = jumped.linear() * Eigen::AngleAxisd(1.5 * M_PI / 180.0,
-                                                        Eigen::Vector3d::UnitY()).toRotationMatrix();
+  jumped.linear() =
+      jumped.linear() *
+      Eigen::AngleAxisd(1.5 * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
   const MotionCheck check = checkMotion(pair.from.depth, *pair.from.ground_truth, pair.to.depth,
                                         jumped, pair.camera, halfResolution());
   ASSERT_TRUE(check.aligned);

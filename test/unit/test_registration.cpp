@@ -5,6 +5,7 @@
 
 #include "relocalizer/dataset.h"
 #include "relocalizer/registration.h"
+#include "relocalizer/synthetic_scene.h"
 #include "support.h"
 
 using namespace relocalizer;
@@ -67,27 +68,70 @@ TEST(Registration, SevenScenesFolderReadsColourRegistrationFile) {
       << bad.error();
 }
 
-TEST(Registration, EstimatedFromRealFramesItBeatsTheIdentity) {
+TEST(Registration, PhotometricConsistencyPrefersTheTrueRegistration) {
+  // A synthetic room seen by one camera: colour is registered, so the identity
+  // registration is the truth and a shifted one must cost more.
+  const SyntheticRoom room(4);
+  const CameraIntrinsics camera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
+  const std::vector<Pose> path = room.trajectories(60, 0).train;
+  std::vector<PosedRgbd> frames;
+  for (int i = 0; i < 60; i += 6) {
+    const RgbdFrame f = room.render(path[i], camera, i);
+    frames.push_back({f.colour, f.depth, *f.ground_truth});
+  }
+  const PhotometricConsistency consistency(frames, camera);
+  ASSERT_GT(consistency.correspondences(), 1000u);
+  ColourRegistration truth;
+  truth.fx = camera.fx;
+  truth.fy = camera.fy;
+  truth.cx = camera.cx;
+  truth.cy = camera.cy;
+  ColourRegistration shifted = truth;
+  shifted.cx += 5;
+  ColourRegistration offset = truth;
+  offset.depth_to_colour.x() = 0.03;
+  EXPECT_LT(consistency.cost(truth), consistency.cost(shifted));
+  EXPECT_LT(consistency.cost(truth), consistency.cost(offset));
+  // And the search walks back to it from a wrong start.
+  double cost = 0, initial_cost = 0;
+  const ColourRegistration estimated =
+      estimateColourRegistration(frames, camera, shifted, false, &cost, &initial_cost);
+  EXPECT_LT(cost, initial_cost);
+  EXPECT_NEAR(estimated.cx - camera.fx * estimated.depth_to_colour.x() / 2.0, camera.cx, 1.5)
+      << "principal point and offset together should undo the shift at ~2 m";
+}
+
+TEST(Registration, EstimatedFromRealTrainingFramesMatchesTheShippedCalibration) {
   RELOCALIZER_REQUIRE_REDKITCHEN(dir);
   DatasetOptions options;
-  options.frames = "0,100,200,300,400";
+  options.frames = "0-99,200-299,400-499";
   options.register_colour = false;
   auto dataset = openDataset(dir, options);
   ASSERT_TRUE(dataset.ok()) << dataset.error();
-  std::vector<cv::Mat> colours, depths;
-  for (size_t i = 0; i < (*dataset)->size(); ++i) {
+  std::vector<PosedRgbd> frames;
+  for (size_t i = 0; i < (*dataset)->size(); i += 3) {  // as the shipped calibration was made
     auto frame = (*dataset)->load(i);
     ASSERT_TRUE(frame.ok());
-    colours.push_back(frame->colour);
-    depths.push_back(frame->depth);
+    frames.push_back({frame->colour, frame->depth, *frame->ground_truth});
   }
-  double score = 0, identity = 0;
-  const ColourRegistration r =
-      estimateColourRegistration(colours, depths, (*dataset)->camera(), &score, &identity);
-  // A Kinect v1 colour camera: ~525 px focal length, a few cm beside the depth camera.
-  EXPECT_NEAR(r.fx, 527, 8);
-  EXPECT_LT(std::abs(r.depth_to_colour.x()), 0.06);
-  EXPECT_GT(score, 1.5 * identity);
+  ColourRegistration identity;
+  identity.fx = identity.fy = 585;
+  identity.cx = 320;
+  identity.cy = 240;
   const ColourRegistration shipped = ColourRegistration::sevenScenesKinect();
-  EXPECT_NEAR(r.fx, shipped.fx, 8);
+  const PhotometricConsistency consistency(frames, (*dataset)->camera());
+  EXPECT_LT(consistency.cost(shipped), 0.8 * consistency.cost(identity));
+  double cost = 0, initial_cost = 0;
+  const ColourRegistration r = estimateColourRegistration(frames, (*dataset)->camera(), shipped,
+                                                          false, &cost, &initial_cost);
+  EXPECT_LE(cost, initial_cost);
+  // Near the shipped calibration: a Kinect v1 colour camera (~520 px focal
+  // length), mapping a point at 1.5 m to within ~2 px of where it does.
+  EXPECT_NEAR(r.fx, shipped.fx, 6);
+  const auto columnAt = [](const ColourRegistration& c, double z) {
+    return c.cx - c.fx * c.depth_to_colour.x() / z;
+  };
+  EXPECT_NEAR(columnAt(r, 1.5), columnAt(shipped, 1.5), 2.0);
+  EXPECT_NEAR(r.cy - r.fy * r.depth_to_colour.y() / 1.5,
+              shipped.cy - shipped.fy * shipped.depth_to_colour.y() / 1.5, 2.0);
 }
