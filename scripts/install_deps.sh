@@ -15,6 +15,9 @@ packages=(
   libopencv-dev libopencv-contrib-dev libceres-dev libeigen3-dev libtbb-dev
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
+  # make fuzz: clang with libFuzzer and the sanitizer runtimes; llvm-symbolizer
+  # (llvm) turns sanitizer reports into file:line stacks for make test-asan too.
+  clang libclang-rt-14-dev llvm
 )
 
 missing=()

@@ -1,0 +1,93 @@
+// Writes small valid models for the fuzz_model seed corpus, so no binary model
+// is committed: `make_seed_model <folder>`. The forests are built by hand (a
+// split node with two leaves; a leaf-only tree) rather than trained, which
+// keeps each file near 2 KB and the build quick.
+
+#include <cstdio>
+#include <string>
+
+#include "relocalizer/model_io.h"
+
+using namespace relocalizer;
+
+namespace {
+
+LeafMode mode(float x, float y, float z, int8_t d0) {
+  LeafMode m;
+  m.mean = Eigen::Vector3f(x, y, z);
+  m.support = 10.0f;
+  m.setCovariance(Eigen::Matrix3f::Identity() * 0.01f);
+  m.descriptor[0] = d0;
+  return m;
+}
+
+Tree splitTree(FeatureType type) {
+  Tree t;
+  SplitNode root;
+  root.feature.offset_u = 40;
+  root.feature.offset_v = -25;
+  root.feature.type = type;
+  root.feature.channel_p = 1;
+  root.feature.channel_q = 2;
+  root.threshold = type == FeatureType::Colour ? 3.0f : 0.05f;
+  root.left = 1;
+  SplitNode left, right;
+  left.left = SplitNode::encodeLeaf(0);
+  right.left = SplitNode::encodeLeaf(1);
+  t.nodes = {root, left, right};
+  t.leaves = {LeafRange{0, 2}, LeafRange{2, 1}};
+  t.modes = {mode(0.1f, 0.2f, 1.5f, 100), mode(-0.3f, 0.0f, 2.0f, -50), mode(1.0f, 1.0f, 1.0f, 7)};
+  return t;
+}
+
+Tree leafTree() {
+  Tree t;
+  SplitNode leaf;
+  leaf.left = SplitNode::encodeLeaf(0);
+  t.nodes = {leaf};
+  t.leaves = {LeafRange{0, 1}};
+  t.modes = {mode(0.5f, 0.5f, 0.5f, 1)};
+  return t;
+}
+
+Model baseModel() {
+  Model m;
+  m.summary.dataset = "seed";
+  m.summary.format = "synthetic";
+  m.summary.frames = "0-9";
+  m.summary.images = 10;
+  m.summary.seconds = 1.5;
+  m.summary.threads = 1;
+  m.summary.scene_min = Eigen::Vector3f(-1, -1, 0);
+  m.summary.scene_max = Eigen::Vector3f(1, 1, 2);
+  m.summary.software_version = "fuzz-seed";
+  return m;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: %s <output folder>\n", argv[0]);
+    return 2;
+  }
+  const std::string dir = argv[1];
+  Model both = baseModel();
+  both.points.trees = {splitTree(FeatureType::Colour), leafTree()};
+  both.lines.trees = {splitTree(FeatureType::Depth)};
+  Model points_only = baseModel();
+  points_only.params.train_lines = false;
+  points_only.points.trees = {leafTree()};
+  for (const auto& [name, model] : {std::pair<const char*, const Model&>{"two_forests.model", both},
+                                    {"points_only.model", points_only}}) {
+    if (auto status = saveModel(model, dir + "/" + name); !status) {
+      std::fprintf(stderr, "%s\n", status.error().c_str());
+      return 1;
+    }
+    if (auto loaded = loadModel(dir + "/" + name); !loaded) {
+      std::fprintf(stderr, "seed model does not load: %s\n", loaded.error().c_str());
+      return 1;
+    }
+  }
+  return 0;
+}
