@@ -47,7 +47,7 @@ struct SplitNode {
   int32_t left = -1;
 
   bool isLeaf() const { return left < 0; }
-  int32_t leafIndex() const { return -left - 1; }
+  int32_t leafIndex() const { return -(left + 1); }  // no overflow at INT32_MIN
   static int32_t encodeLeaf(int32_t leaf) { return -leaf - 1; }
 };
 static_assert(sizeof(SplitNode) == 16, "SplitNode layout is part of the model format");

@@ -1,6 +1,7 @@
 // 7-Scenes folders and scenes; the frame-folder reader is shared with 12-Scenes,
 // whose data/ folder uses the same file names.
 
+#include <cmath>
 #include <cctype>
 #include <charconv>
 #include <cstdio>
@@ -144,6 +145,10 @@ Status readColourRegistration(const fs::path& root, DatasetData& data) {
                        ": expected 'registered' or 7 numbers (fx fy cx cy tx ty tz), got " +
                        std::to_string(numbers->size()));
     const auto& n = *numbers;
+    for (double value : n)
+      if (!std::isfinite(value))
+        return makeError(file.string() + ": line " + std::to_string(i + 1) +
+                         ": every number must be finite");
     if (!(n[0] > 0 && n[1] > 0))
       return makeError(file.string() + ": line " + std::to_string(i + 1) +
                        ": colour focal lengths must be positive");

@@ -1,5 +1,7 @@
 #include "relocalizer/model_io.h"
 
+#include "json_fields.h"
+
 #include <zlib.h>
 
 #include <cmath>
@@ -14,6 +16,9 @@
 namespace relocalizer {
 
 namespace {
+
+using detail::checkedNumber;
+using detail::readField;
 
 using nlohmann::json;
 
@@ -65,39 +70,6 @@ json paramsJson(const TrainingParams& p) {
 // converted only when it fits its field: nlohmann's implicit conversion would
 // silently truncate an integer and, for a float read into an integer field,
 // is undefined behaviour. Throws std::out_of_range naming the key otherwise.
-template <typename T>
-T checkedNumber(const json& v, const std::string& name) {
-  if constexpr (std::is_same_v<T, bool>) {
-    if (!v.is_boolean()) throw std::out_of_range("'" + name + "' must be true or false, got " + v.dump());
-    return v.get<bool>();
-  } else if constexpr (std::is_integral_v<T>) {
-    using Limits = std::numeric_limits<T>;
-    bool fits = false;
-    if (v.is_number_unsigned())
-      fits = v.get<uint64_t>() <= static_cast<uint64_t>(Limits::max());
-    else if (v.is_number_integer())
-      fits = v.get<int64_t>() >= static_cast<int64_t>(Limits::min()) &&
-             (v.get<int64_t>() < 0 ||
-              static_cast<uint64_t>(v.get<int64_t>()) <= static_cast<uint64_t>(Limits::max()));
-    if (!fits)
-      throw std::out_of_range("'" + name + "' must be an integer from " +
-                              std::to_string(Limits::min()) + " to " + std::to_string(Limits::max()) +
-                              ", got " + v.dump());
-    return v.is_number_unsigned() ? static_cast<T>(v.get<uint64_t>()) : static_cast<T>(v.get<int64_t>());
-  } else {
-    static_assert(std::is_floating_point_v<T>);
-    const double d = v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
-    if (!std::isfinite(d) || std::abs(d) > static_cast<double>(std::numeric_limits<T>::max()))
-      throw std::out_of_range("'" + name + "' must be a finite number, got " + v.dump());
-    return static_cast<T>(d);
-  }
-}
-
-template <typename T>
-void readField(const json& j, const std::string& prefix, const char* key, T& out) {
-  out = checkedNumber<T>(j.at(key), prefix + key);
-}
-
 void readMeanShift(const json& j, const std::string& prefix, MeanShiftParams& p) {
   readField(j, prefix, "bandwidth", p.bandwidth);
   readField(j, prefix, "max_seeds", p.max_seeds);

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "json_fields.h"
 #include "relocalizer/config.h"
 
 namespace relocalizer {
@@ -207,32 +208,35 @@ json toJson(const RelocalizerParams& p) {
 std::string relocalizerParamsToJson(const RelocalizerParams& params) { return toJson(params).dump(2); }
 
 Expected<RelocalizerParams> relocalizerParamsFromJson(const std::string& json_text) {
+  using detail::readField;
   RelocalizerParams p;
   try {
     const json j = json::parse(json_text);
-    p.point_samples = j.at("point_samples");
-    p.line_samples = j.at("line_samples");
-    p.max_leaves = j.at("max_leaves");
-    p.use_points = j.at("use_points");
-    p.use_lines = j.at("use_lines");
-    p.min_valid_depth = j.at("min_valid_depth");
-    p.seed = j.at("seed");
+    readField(j, "", "point_samples", p.point_samples);
+    readField(j, "", "line_samples", p.line_samples);
+    readField(j, "", "max_leaves", p.max_leaves);
+    readField(j, "", "use_points", p.use_points);
+    readField(j, "", "use_lines", p.use_lines);
+    readField(j, "", "min_valid_depth", p.min_valid_depth);
+    readField(j, "", "seed", p.seed);
     const json& s = j.at("solver");
-    p.solver.hypotheses = s.at("hypotheses");
-    p.solver.batch_size = s.at("batch_size");
-    p.solver.max_sampling_attempts = s.at("max_sampling_attempts");
-    p.solver.min_point_distance = s.at("min_point_distance");
-    p.solver.rigidity_tolerance = s.at("rigidity_tolerance");
-    p.solver.rigidity_ratio = s.at("rigidity_ratio");
-    p.solver.inlier_chi2 = s.at("inlier_chi2");
-    p.solver.lm_hypotheses = s.at("lm_hypotheses");
-    p.solver.lm_loop_iterations = s.at("lm_loop_iterations");
-    p.solver.lm_iterations = s.at("lm_iterations");
-    p.solver.max_refinement_terms = s.at("max_refinement_terms");
-    p.solver.robust_scale = s.at("robust_scale");
-    p.solver.use_lines_in_refinement = s.at("use_lines_in_refinement");
-    p.solver.min_inliers = s.at("min_inliers");
-    p.solver.min_inlier_ratio = s.at("min_inlier_ratio");
+    const std::string at = "solver.";
+    PoseSolverParams& q = p.solver;
+    readField(s, at, "hypotheses", q.hypotheses);
+    readField(s, at, "batch_size", q.batch_size);
+    readField(s, at, "max_sampling_attempts", q.max_sampling_attempts);
+    readField(s, at, "min_point_distance", q.min_point_distance);
+    readField(s, at, "rigidity_tolerance", q.rigidity_tolerance);
+    readField(s, at, "rigidity_ratio", q.rigidity_ratio);
+    readField(s, at, "inlier_chi2", q.inlier_chi2);
+    readField(s, at, "lm_hypotheses", q.lm_hypotheses);
+    readField(s, at, "lm_loop_iterations", q.lm_loop_iterations);
+    readField(s, at, "lm_iterations", q.lm_iterations);
+    readField(s, at, "max_refinement_terms", q.max_refinement_terms);
+    readField(s, at, "robust_scale", q.robust_scale);
+    readField(s, at, "use_lines_in_refinement", q.use_lines_in_refinement);
+    readField(s, at, "min_inliers", q.min_inliers);
+    readField(s, at, "min_inlier_ratio", q.min_inlier_ratio);
   } catch (const std::exception& e) {
     return makeError(std::string("relocalizer parameters: ") + e.what());
   }

@@ -213,3 +213,16 @@ TEST(FuzzRegressionConfig, NonFiniteAndOutOfRangeNumbersAreErrors) {
 
 }  // namespace
 }  // namespace relocalizer
+
+TEST(FuzzRegressions, RelocalizerParametersOutOfRangeAreErrorsNotTruncations) {
+  nlohmann::json j = nlohmann::json::parse(relocalizer::relocalizerParamsToJson({}));
+  j["point_samples"] = 99999999999LL;
+  auto huge = relocalizer::relocalizerParamsFromJson(j.dump());
+  ASSERT_FALSE(huge.ok());
+  EXPECT_NE(huge.error().find("'point_samples' must be an integer"), std::string::npos) << huge.error();
+  j = nlohmann::json::parse(relocalizer::relocalizerParamsToJson({}));
+  j["solver"]["inlier_chi2"] = 1e300;
+  auto far = relocalizer::relocalizerParamsFromJson(j.dump());
+  ASSERT_FALSE(far.ok());
+  EXPECT_NE(far.error().find("'solver.inlier_chi2' must be a finite number"), std::string::npos) << far.error();
+}

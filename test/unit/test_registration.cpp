@@ -60,6 +60,12 @@ TEST(Registration, SevenScenesFolderReadsColourRegistrationFile) {
     ASSERT_TRUE(d.ok()) << d.error();
     EXPECT_NE((*d)->summary().find("says colour is registered"), std::string::npos);
   }
+  std::ofstream(dir.str() + "/colour-registration.txt") << "527 527 nan 239 0 0 0\n";
+  auto nan = openDataset(dir.str());
+  ASSERT_FALSE(nan.ok());
+  EXPECT_NE(nan.error().find("colour-registration.txt: line 1: every number must be finite"),
+            std::string::npos)
+      << nan.error();
   std::ofstream(dir.str() + "/colour-registration.txt") << "527 527 322\n";
   auto bad = openDataset(dir.str());
   ASSERT_FALSE(bad.ok());
