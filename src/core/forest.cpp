@@ -66,34 +66,31 @@ size_t Forest::modeCount() const {
 
 namespace {
 
-// Fixed-capacity min-heap of untaken branches: no allocation per sample.
+// The untaken branches still worth visiting, smallest |f - tau| first. Only
+// the `remaining` smallest can ever be popped (each pop takes the smallest, and
+// later pushes only add entries), so at most max_leaves - 1 are kept, in a
+// small sorted array: most pushes are rejected with one comparison, and
+// nothing is allocated per sample.
 class BranchQueue {
  public:
+  explicit BranchQueue(int capacity) : capacity_(std::min(capacity, kMaxCapacity)) {}
   bool empty() const { return size_ == 0; }
   void push(float priority, int32_t node) {
-    if (size_ == kCapacity) return;  // deeper alternatives than we could ever visit
-    int i = size_++;
-    while (i > 0) {
-      const int parent = (i - 1) / 2;
-      if (entries_[parent].priority <= priority) break;
-      entries_[i] = entries_[parent];
-      i = parent;
+    if (capacity_ == 0 || (size_ == capacity_ && priority >= entries_[size_ - 1].priority)) return;
+    int i = size_ < capacity_ ? size_++ : size_ - 1;
+    while (i > 0 && entries_[i - 1].priority > priority) {
+      entries_[i] = entries_[i - 1];
+      --i;
     }
     entries_[i] = {priority, node};
   }
+  // Removes and returns the smallest; the capacity shrinks with the pops left.
   int32_t pop() {
     const int32_t top = entries_[0].node;
-    const Entry last = entries_[--size_];
-    int i = 0;
-    while (true) {
-      int child = 2 * i + 1;
-      if (child >= size_) break;
-      if (child + 1 < size_ && entries_[child + 1].priority < entries_[child].priority) ++child;
-      if (entries_[child].priority >= last.priority) break;
-      entries_[i] = entries_[child];
-      i = child;
-    }
-    entries_[i] = last;
+    for (int i = 1; i < size_; ++i) entries_[i - 1] = entries_[i];
+    --size_;
+    capacity_ = std::max(capacity_ - 1, 0);
+    size_ = std::min(size_, capacity_);
     return top;
   }
 
@@ -102,8 +99,9 @@ class BranchQueue {
     float priority;
     int32_t node;
   };
-  static constexpr int kCapacity = 512;
-  std::array<Entry, kCapacity> entries_;
+  static constexpr int kMaxCapacity = 64;
+  std::array<Entry, kMaxCapacity> entries_;
+  int capacity_;
   int size_ = 0;
 };
 
@@ -114,7 +112,7 @@ ModeCandidate predictInTree(const Tree& tree, const FeatureImage& image, const S
   ModeCandidate best;
   best.descriptor_distance = std::numeric_limits<int32_t>::max();
   if (tree.nodes.empty()) return best;
-  BranchQueue queue;
+  BranchQueue queue(max_leaves - 1);
   int32_t start = 0;
   for (int visited = 0; visited < std::max(1, max_leaves); ++visited) {
     int32_t index = start;

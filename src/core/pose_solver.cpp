@@ -221,7 +221,20 @@ struct BatchEntry {
 struct BatchMode {
   Eigen::Vector3f mean;
   std::array<float, 6> information;
+  // trace(Sigma) >= the largest eigenvalue of Sigma, so
+  // (x - mean)^T Sigma^-1 (x - mean) >= |x - mean|^2 / trace(Sigma): a cheap
+  // Euclidean test rules out most candidates of most hypotheses.
+  float trace_covariance;
 };
+
+// trace(S^-1) from the upper triangle of S: the sum of S's principal 2x2
+// minors over its determinant.
+float traceOfInverse(const std::array<float, 6>& s) {
+  const float xx = s[0], xy = s[1], xz = s[2], yy = s[3], yz = s[4], zz = s[5];
+  const float minors = (yy * zz - yz * yz) + (xx * zz - xz * xz) + (xx * yy - xy * xy);
+  const float det = xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * xz) + xz * (xy * yz - yy * xz);
+  return det > 0.0f ? minors / det : std::numeric_limits<float>::infinity();
+}
 
 struct Hypothesis {
   Pose pose;
@@ -503,7 +516,7 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
       batch.push_back({s.camera_point, s.prediction->count, index});
       for (int c = 0; c < s.prediction->count; ++c) {
         const LeafMode& m = *s.prediction->candidates[c].mode;
-        batch_modes.push_back({m.mean, m.information});
+        batch_modes.push_back({m.mean, m.information, traceOfInverse(m.information)});
       }
     }
     tbb::parallel_for(tbb::blocked_range<size_t>(0, hypotheses.size(), 4),
@@ -516,7 +529,9 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
                             float best = params.inlier_chi2;
                             const BatchMode* chosen = nullptr;
                             for (int c = 0; c < e.count; ++c) {
-                              const float d = mahalanobis(w - modes[c].mean, modes[c].information);
+                              const Eigen::Vector3f offset = w - modes[c].mean;
+                              if (offset.squaredNorm() >= best * modes[c].trace_covariance) continue;
+                              const float d = mahalanobis(offset, modes[c].information);
                               if (d < best) {
                                 best = d;
                                 chosen = &modes[c];
