@@ -221,20 +221,7 @@ struct BatchEntry {
 struct BatchMode {
   Eigen::Vector3f mean;
   std::array<float, 6> information;
-  // trace(Sigma) >= the largest eigenvalue of Sigma, so
-  // (x - mean)^T Sigma^-1 (x - mean) >= |x - mean|^2 / trace(Sigma): a cheap
-  // Euclidean test rules out most candidates of most hypotheses.
-  float trace_covariance;
 };
-
-// trace(S^-1) from the upper triangle of S: the sum of S's principal 2x2
-// minors over its determinant.
-float traceOfInverse(const std::array<float, 6>& s) {
-  const float xx = s[0], xy = s[1], xz = s[2], yy = s[3], yz = s[4], zz = s[5];
-  const float minors = (yy * zz - yz * yz) + (xx * zz - xz * xz) + (xx * yy - xy * xy);
-  const float det = xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * xz) + xz * (xy * yz - yy * xz);
-  return det > 0.0f ? minors / det : std::numeric_limits<float>::infinity();
-}
 
 struct Hypothesis {
   Pose pose;
@@ -253,6 +240,60 @@ struct Hypothesis {
     translation = p.translation().cast<float>();
   }
 };
+
+// Scores up to kLanes hypotheses at once on a batch: each sample's transformed
+// camera point and candidate distances are computed for all lanes with packet
+// arithmetic (Eigen arrays), which is where preemptive RANSAC spends its time.
+// Per lane, the best candidate under `chi2` makes the sample an inlier: the
+// score and the Kabsch statistics of the hypothesis are updated.
+constexpr size_t kLanes = 8;
+using Lanes = Eigen::Array<float, kLanes, 1>;
+using LaneIndices = Eigen::Array<int, kLanes, 1>;
+
+void scoreBlock(Hypothesis* block, int count, const std::vector<BatchEntry>& batch,
+                const std::vector<BatchMode>& batch_modes, float chi2) {
+  Lanes r[9], t[3];
+  for (int l = 0; l < static_cast<int>(kLanes); ++l) {
+    // Unused lanes repeat the first hypothesis; their results are dropped.
+    const Hypothesis& h = block[l < count ? l : 0];
+    for (int k = 0; k < 9; ++k) r[k](l) = h.rotation(k / 3, k % 3);
+    for (int k = 0; k < 3; ++k) t[k](l) = h.translation(k);
+  }
+  const BatchMode* modes = batch_modes.data();
+  for (const BatchEntry& e : batch) {
+    const float cx = e.camera.x(), cy = e.camera.y(), cz = e.camera.z();
+    const Lanes wx = r[0] * cx + r[1] * cy + r[2] * cz + t[0];
+    const Lanes wy = r[3] * cx + r[4] * cy + r[5] * cz + t[1];
+    const Lanes wz = r[6] * cx + r[7] * cy + r[8] * cz + t[2];
+    Lanes best = Lanes::Constant(chi2);
+    LaneIndices chosen = LaneIndices::Constant(-1);
+    for (int c = 0; c < e.count; ++c) {
+      const BatchMode& m = modes[c];
+      const auto& s = m.information;
+      const Lanes dx = wx - m.mean.x(), dy = wy - m.mean.y(), dz = wz - m.mean.z();
+      const Lanes d = s[0] * dx * dx + s[3] * dy * dy + s[5] * dz * dz +
+                      2.0f * (s[1] * dx * dy + s[2] * dx * dz + s[4] * dy * dz);
+      // Materialised: a lazy (d < best) would be re-read after best changes.
+      const Eigen::Array<bool, kLanes, 1> better = d < best;
+      best = better.select(d, best);
+      chosen = better.select(LaneIndices::Constant(c), chosen);
+    }
+    if ((chosen >= 0).any()) {
+      const Eigen::Vector3d camera = e.camera.cast<double>();
+      for (int l = 0; l < count; ++l) {
+        if (chosen(l) < 0) continue;
+        Hypothesis& hyp = block[l];
+        const Eigen::Vector3d mean = modes[chosen(l)].mean.cast<double>();
+        ++hyp.score;
+        hyp.n += 1.0;
+        hyp.sum_camera += camera;
+        hyp.sum_world += mean;
+        hyp.cross += mean * camera.transpose();
+      }
+    }
+    modes += e.count;
+  }
+}
 
 inline float mahalanobis(const Eigen::Vector3f& d, const std::array<float, 6>& s) {
   return s[0] * d.x() * d.x() + s[3] * d.y() * d.y() + s[5] * d.z() * d.z() +
@@ -516,39 +557,15 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
       batch.push_back({s.camera_point, s.prediction->count, index});
       for (int c = 0; c < s.prediction->count; ++c) {
         const LeafMode& m = *s.prediction->candidates[c].mode;
-        batch_modes.push_back({m.mean, m.information, traceOfInverse(m.information)});
+        batch_modes.push_back({m.mean, m.information});
       }
     }
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, hypotheses.size(), 4),
-                      [&](const tbb::blocked_range<size_t>& range) {
-                        for (size_t h = range.begin(); h < range.end(); ++h) {
-                          Hypothesis& hyp = hypotheses[h];
-                          const BatchMode* modes = batch_modes.data();
-                          for (const BatchEntry& e : batch) {
-                            const Eigen::Vector3f w = hyp.rotation * e.camera + hyp.translation;
-                            float best = params.inlier_chi2;
-                            const BatchMode* chosen = nullptr;
-                            for (int c = 0; c < e.count; ++c) {
-                              const Eigen::Vector3f offset = w - modes[c].mean;
-                              if (offset.squaredNorm() >= best * modes[c].trace_covariance) continue;
-                              const float d = mahalanobis(offset, modes[c].information);
-                              if (d < best) {
-                                best = d;
-                                chosen = &modes[c];
-                              }
-                            }
-                            modes += e.count;
-                            if (!chosen) continue;
-                            ++hyp.score;
-                            const Eigen::Vector3d c = e.camera.cast<double>();
-                            const Eigen::Vector3d m = chosen->mean.cast<double>();
-                            hyp.n += 1.0;
-                            hyp.sum_camera += c;
-                            hyp.sum_world += m;
-                            hyp.cross += m * c.transpose();
-                          }
-                        }
-                      });
+    const size_t blocks = (hypotheses.size() + kLanes - 1) / kLanes;
+    tbb::parallel_for(size_t{0}, blocks, [&](size_t b) {
+      scoreBlock(hypotheses.data() + b * kLanes,
+                 static_cast<int>(std::min(kLanes, hypotheses.size() - b * kLanes)), batch,
+                 batch_modes, params.inlier_chi2);
+    });
     // Deterministic order: score, then creation index.
     std::sort(hypotheses.begin(), hypotheses.end(), [](const Hypothesis& a, const Hypothesis& b) {
       return a.score != b.score ? a.score > b.score : a.index < b.index;
