@@ -175,15 +175,18 @@ int main(int argc, char** argv) {
     const std::vector<int> pixel_counts = {250, 500, 1000, 2000, 4000};
     const std::vector<int> hypothesis_counts = {64, 256, 1024};
     std::ofstream csv(sweep_dir + "/sweep.csv");
-    csv << "point_samples,line_samples,hypotheses,median_ms,p95_ms,within_5cm_5deg\n";
+    csv << "point_samples,line_samples,hypotheses,median_ms,p95_ms,within_5cm_5deg,within_2cm_2deg,"
+           "median_translation_cm,median_rotation_deg\n";
     Plot plot;
     plot.title = "speed vs accuracy (1 thread; points + half as many line samples)";
     plot.x_label = "median ms per frame";
-    plot.y_label = "share within 5 cm / 5 deg (%)";
+    plot.y_label = "share of frames (%): 5 cm / 5 deg (lines), 2 cm / 2 deg (crosses)";
     int colour = 0;
     for (int hypotheses : hypothesis_counts) {
-      PlotSeries series = PlotSeries::styled(std::to_string(hypotheses) + " hypotheses",
-                                             plotColour(colour++), true, 1);
+      PlotSeries series = PlotSeries::styled(std::to_string(hypotheses) + " hypotheses, 5 cm / 5 deg",
+                                             plotColour(colour), true, 1);
+      PlotSeries tight = PlotSeries::styled(std::to_string(hypotheses) + " hypotheses, 2 cm / 2 deg",
+                                            plotColour(colour++), false, 2);
       for (int pixels : pixel_counts) {
         RelocalizerParams p = params;
         p.point_samples = pixels;
@@ -194,7 +197,11 @@ int main(int argc, char** argv) {
                                   "sweep " + std::to_string(pixels) + "/" + std::to_string(hypotheses));
         const nlohmann::json s = stageStats(run.timings, &StageTimings::total);
         csv << pixels << "," << pixels / 2 << "," << hypotheses << "," << s["median_ms"].get<double>()
-            << "," << s["p95_ms"].get<double>() << "," << run.accuracy.within_5cm_5deg << "\n";
+            << "," << s["p95_ms"].get<double>() << "," << run.accuracy.within_5cm_5deg << ","
+            << run.accuracy.within_2cm_2deg << "," << 100 * run.accuracy.median_translation_m << ","
+            << run.accuracy.median_rotation_deg << "\n";
+        tight.x.push_back(s["median_ms"].get<double>());
+        tight.y.push_back(100 * run.accuracy.within_2cm_2deg);
         series.x.push_back(s["median_ms"].get<double>());
         series.y.push_back(100 * run.accuracy.within_5cm_5deg);
         const bool is_default = pixels == params.point_samples && hypotheses == params.solver.hypotheses;
@@ -202,9 +209,11 @@ int main(int argc, char** argv) {
         out["sweep"].push_back({{"point_samples", pixels},
                                 {"hypotheses", hypotheses},
                                 {"median_ms", s["median_ms"]},
-                                {"within_5cm_5deg", run.accuracy.within_5cm_5deg}});
+                                {"within_5cm_5deg", run.accuracy.within_5cm_5deg},
+                                {"within_2cm_2deg", run.accuracy.within_2cm_2deg}});
       }
       plot.series.push_back(series);
+      plot.series.push_back(tight);
     }
     plot.save(sweep_dir + "/sweep.png", 1000, 650);
     std::printf("wrote %s/sweep.csv and %s/sweep.png\n", sweep_dir.c_str(), sweep_dir.c_str());
