@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -349,6 +350,14 @@ Status saveModel(const Model& model, const std::string& path) {
 }
 
 Expected<Model> loadModel(const std::string& path) {
+  // A directory "opens" as a stream and reports a size near 2^63 (the buffer
+  // below would throw std::bad_alloc); a FIFO would block for good.
+  std::error_code status_error;
+  const auto status = std::filesystem::status(path, status_error);
+  if (!status_error && std::filesystem::is_directory(status))
+    return makeError(path + ": is a directory, not a model file");
+  if (!status_error && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+    return makeError(path + ": is not a regular file (a device or a pipe?), not a model file");
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return makeError(path + ": cannot open model file");
   const std::streamoff size = in.tellg();

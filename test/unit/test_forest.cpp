@@ -328,6 +328,10 @@ TEST_F(ModelFile, RejectsOtherFileTypesAndMissingFiles) {
   auto missing = loadModel(dir_.str() + "/nope.bin");
   ASSERT_FALSE(missing.ok());
   EXPECT_NE(missing.error().find("cannot open"), std::string::npos);
+  // A directory opens as a stream and claims an absurd size: an error, not std::bad_alloc.
+  auto folder = loadModel(dir_.str());
+  ASSERT_FALSE(folder.ok());
+  EXPECT_NE(folder.error().find("is a directory, not a model file"), std::string::npos) << folder.error();
 }
 
 TEST(Config, ForestYamlMatchesCompiledDefaults) {
