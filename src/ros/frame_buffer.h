@@ -60,9 +60,24 @@ class FrameBuffer {
   // may share one frame and none steals it from the continuous worker.
   std::optional<Entry> newest(uint64_t after, Clock::time_point deadline) {
     std::unique_lock<std::mutex> lock(mutex_);
-    changed_.wait_until(lock, deadline, [&] { return closed_ || last_seq_ > after; });
-    if (closed_ || last_seq_ <= after) return std::nullopt;
+    const auto ready = [&] { return latest_ && latest_->seq > after; };
+    changed_.wait_until(lock, deadline, [&] { return closed_ || ready(); });
+    if (closed_ || !ready()) return std::nullopt;
     return latest_;
+  }
+
+  // Forgets every frame not taken yet (counted as dropped) and the latest
+  // one, so that neither the worker nor a service call uses a frame from
+  // before a time jump. Sequence numbers go on, so a call waiting for a
+  // frame after `lastSeq()` still waits for a new one. Returns how many
+  // pending frames were dropped.
+  size_t clear() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const size_t count = pending_.size();
+    pending_.clear();
+    dropped_ += count;
+    latest_.reset();
+    return count;
   }
 
   uint64_t lastSeq() const {

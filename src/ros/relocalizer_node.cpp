@@ -3,6 +3,7 @@
 #include <boost/bind/bind.hpp>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "message_conversion.h"
 
@@ -32,6 +33,17 @@ constexpr int kServiceThreads = 4;
 // A process_all backlog this long means the source outruns the node: the
 // replay player paces itself, rosbag play does not.
 constexpr size_t kBacklogWarning = 30;
+// After one input's stamps went back, how long the others may take to follow
+// before their messages are no longer dropped as old-timeline stragglers.
+constexpr std::chrono::seconds kJumpWindow{5};
+// Time jumps are logged one line each, at most this often (a source whose
+// stamps jitter backwards on every frame must not flood the log).
+constexpr std::chrono::seconds kJumpLogPeriod{1};
+// Longest wait a service call can ask for (longer ones, and infinity, wait this
+// long): keeps the deadline arithmetic finite.
+constexpr double kMaxServiceTimeout = 1e6;
+
+const char* const kInputNames[3] = {"colour", "depth", "camera_info"};
 
 }  // namespace
 
@@ -39,7 +51,15 @@ relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
     ros::NodeHandle nh, ros::NodeHandle private_nh) {
   auto params = loadNodeParams(private_nh);
   if (!params) return relocalizer::makeError(params.error());
-  auto relocalizer = relocalizer::Relocalizer::fromFile(params->model, params->relocalizer);
+  relocalizer::Expected<std::unique_ptr<relocalizer::Relocalizer>> relocalizer =
+      relocalizer::makeError("not loaded");
+  try {
+    relocalizer = relocalizer::Relocalizer::fromFile(params->model, params->relocalizer);
+  } catch (const std::exception& e) {
+    // Whatever the loader throws (e.g. std::bad_alloc on a corrupt size) is
+    // one line and exit code 1 too, never an abort.
+    return relocalizer::makeError(params->model + ": cannot be loaded: " + e.what());
+  }
   if (!relocalizer) return relocalizer::makeError(relocalizer.error());
   if (std::string why = (*relocalizer)->validationError(); !why.empty())
     return relocalizer::makeError(params->model + ": " + why);
@@ -106,6 +126,11 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
 }
 
 RelocalizerNode::~RelocalizerNode() {
+  // No input callback may run past this point (roscpp waits for one in
+  // progress): they use the synchronizer and the frame buffer.
+  colour_sub_.unsubscribe();
+  depth_sub_.unsubscribe();
+  info_sub_.unsubscribe();
   // Wake every waiter first, so neither the worker nor a service call blocks
   // the joins below.
   frames_.close();
@@ -124,31 +149,123 @@ void RelocalizerNode::subscribe() {
   depth_sub_.subscribe(*image_transport_, "depth/image", queue, hints);
   info_sub_.subscribe(nh_, "rgb/camera_info", queue);
 
-  // Per-topic counts, so "no frame" can say which input is missing.
+  makeSynchronizer();
+  // Per-topic counts, so "no frame" can say which input is missing; then the
+  // time check and the synchronizer.
   colour_sub_.registerCallback([this](const sensor_msgs::ImageConstPtr& image) {
     ++colour_count_;
     last_image_ns_ = steadyNanoseconds();
-    std::lock_guard<std::mutex> lock(stamp_mutex_);
-    last_image_stamp_ = image->header.stamp;
+    {
+      std::lock_guard<std::mutex> lock(stamp_mutex_);
+      last_image_stamp_ = image->header.stamp;
+    }
+    onInput<0>(image);
   });
-  depth_sub_.registerCallback([this](const sensor_msgs::ImageConstPtr&) {
+  depth_sub_.registerCallback([this](const sensor_msgs::ImageConstPtr& image) {
     ++depth_count_;
     last_image_ns_ = steadyNanoseconds();
+    onInput<1>(image);
   });
-  info_sub_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr&) { ++info_count_; });
+  info_sub_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr& info) {
+    ++info_count_;
+    onInput<2>(info);
+  });
+}
 
+void RelocalizerNode::makeSynchronizer() {
+  // Not connected to the subscribers: onInput() adds each message, so a
+  // synchronizer can be replaced without touching the subscriber signals
+  // (which hold their own lock while they call us).
+  const uint32_t queue = static_cast<uint32_t>(params_.sync_queue_size);
   const auto callback = boost::bind(&RelocalizerNode::onSynchronised, this, boost::placeholders::_1,
                                     boost::placeholders::_2, boost::placeholders::_3);
   if (params_.approx_sync) {
-    approximate_sync_ = std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(
-        ApproximatePolicy(queue), colour_sub_, depth_sub_, info_sub_);
+    approximate_sync_ =
+        std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(ApproximatePolicy(queue));
     if (params_.max_interval > 0.0)
       approximate_sync_->setMaxIntervalDuration(ros::Duration(params_.max_interval));
     approximate_sync_->registerCallback(callback);
   } else {
-    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
-        ExactPolicy(queue), colour_sub_, depth_sub_, info_sub_);
+    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(ExactPolicy(queue));
     exact_sync_->registerCallback(callback);
+  }
+}
+
+template <int I, typename M>
+void RelocalizerNode::onInput(const boost::shared_ptr<M const>& message) {
+  std::lock_guard<std::mutex> lock(input_mutex_);
+  if (!acceptStamp(I, message->header.stamp)) return;
+  if (approximate_sync_)
+    approximate_sync_->template add<I>(message);
+  else
+    exact_sync_->template add<I>(message);
+}
+
+bool RelocalizerNode::acceptStamp(int index, const ros::Time& stamp) {
+  InputStamps& input = stamps_[index];
+  const bool went_back = input.seen && stamp < input.last;
+  const ros::Time before = input.last;
+  input.seen = true;
+  input.last = stamp;
+  if (jump_open_ && Clock::now() - jump_started_ > kJumpWindow) jump_open_ = false;
+  if (jump_open_ && !input.crossed) {
+    // Another input has already gone back. This one is still on the old
+    // timeline (a message sent before the jump, arriving on its own
+    // connection after it): it would only block the new sets, so drop it.
+    if (!went_back) {
+      ++stale_messages_;
+      return false;
+    }
+    // Now it has followed: the same jump, not a new one.
+    input.crossed = true;
+    jump_open_ = !(stamps_[0].crossed && stamps_[1].crossed && stamps_[2].crossed);
+    return true;
+  }
+  if (went_back) resetForTimeJump(index, before, stamp);
+  return true;
+}
+
+void RelocalizerNode::resetForTimeJump(int index, const ros::Time& before, const ros::Time& after) {
+  // The ApproximateTime policy compares stamps across its queues and keeps
+  // what it has published as history, so a set of older stamps could be
+  // dropped, paired with old-timeline messages or never completed; a fresh
+  // synchronizer has no past. Likewise the frames waiting to be relocalized
+  // are from the old timeline, and tf2 would refuse the new timeline's
+  // odom -> camera as older than what it holds.
+  const uint64_t jumps = ++time_jumps_;
+  makeSynchronizer();
+  const size_t dropped = frames_.clear();
+  if (transforms_) transforms_->reset();
+  jump_open_ = true;
+  jump_started_ = Clock::now();
+  for (int i = 0; i < 3; ++i) stamps_[i].crossed = (i == index) || !stamps_[i].seen;
+
+  const std::string topic = index == 0   ? colour_sub_.getTopic()
+                            : index == 1 ? depth_sub_.getTopic()
+                                         : info_sub_.getTopic();
+  char text[256];
+  std::snprintf(text, sizeof(text), "stamps went back in time by %.3f s on %s (%s, %.3f after %.3f)",
+                (before - after).toSec(), topic.c_str(), kInputNames[index], after.toSec(),
+                before.toSec());
+  const std::string what = text;
+  const std::string done = std::string("; a looping bag or a restarted source? synchronizer reset, ") +
+                           std::to_string(dropped) + " pending frame" + (dropped == 1 ? "" : "s") +
+                           " dropped" + (transforms_ && !params_.odom_frame.empty() ? ", TF buffer cleared" : "");
+  const auto now = Clock::now();
+  if (jumps == 1 || now - last_jump_log_ >= kJumpLogPeriod) {
+    const std::string more =
+        unlogged_jumps_ ? " (" + std::to_string(unlogged_jumps_) + " more jumps since the last report)" : "";
+    ROS_WARN("relocalizer: %s%s; jump %llu%s", what.c_str(), done.c_str(),
+             static_cast<unsigned long long>(jumps), more.c_str());
+    last_jump_log_ = now;
+    unlogged_jumps_ = 0;
+  } else {
+    ++unlogged_jumps_;
+  }
+  if (params_.mode == Mode::Continuous) {
+    // Continuous consumers follow ~result only; tell them as the watchdog does.
+    ResultMsg result = failure(after, what + "; synchronizer and frame buffer reset");
+    publishOutcome(result, nullptr, nullptr, std::nullopt, false);
   }
 }
 
@@ -160,6 +277,7 @@ void RelocalizerNode::onSynchronised(const sensor_msgs::ImageConstPtr& colour,
   input->depth = depth;
   input->info = info;
   input->error = checkFrameMessages(*colour, *depth, *info);
+  input->epoch = time_jumps_.load();
   ++frames_received_;
   last_frame_ns_ = steadyNanoseconds();
   colour_at_sync_ = colour_count_.load();
@@ -197,7 +315,7 @@ void RelocalizerNode::onWatchdog(const ros::WallTimerEvent&) {
         stamp = last_image_stamp_;
       }
       ResultMsg result = failure(stamp, why);
-      publishOutcome(result, nullptr, nullptr, std::nullopt);
+      publishOutcome(result, nullptr, nullptr, std::nullopt, false);
     }
   } else if (since_image >= timeout && since_frame >= timeout && log_.allow("no input")) {
     ROS_WARN("relocalizer: no image for %s s on %s or %s", seconds(since_image).c_str(),
@@ -258,7 +376,7 @@ RelocalizerNode::ResultMsg RelocalizerNode::process(const Input& input) {
   ResultMsg result = failure(stamp, input.error);
   if (!input.error.empty()) {
     // Already logged when it arrived.
-    publishOutcome(result, nullptr, nullptr, std::nullopt);
+    publishOutcome(result, nullptr, nullptr, std::nullopt, true);
     return result;
   }
   try {
@@ -269,7 +387,7 @@ RelocalizerNode::ResultMsg RelocalizerNode::process(const Input& input) {
     result.message = std::string("internal error: ") + e.what();
     ROS_ERROR("relocalizer: frame at %.3f: %s", stamp.toSec(), result.message.c_str());
     result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
-    publishOutcome(result, nullptr, nullptr, std::nullopt);
+    publishOutcome(result, nullptr, nullptr, std::nullopt, true);
     return result;
   }
 }
@@ -283,7 +401,7 @@ RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const Input& input,
     result.message = frame.error();
     if (log_.allow(result.message)) ROS_WARN("relocalizer: unusable frame: %s", result.message.c_str());
     result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
-    publishOutcome(result, nullptr, nullptr, std::nullopt);
+    publishOutcome(result, nullptr, nullptr, std::nullopt, true);
     return result;
   }
   const relocalizer::Relocalization solved = relocalizer_->relocalize(*frame);
@@ -318,16 +436,20 @@ RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const Input& input,
   }
   result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
   publishOutcome(result, result.success ? &solved.pose : nullptr,
-                 result.success ? &solved.covariance : nullptr, transform);
+                 result.success ? &solved.covariance : nullptr, transform, true, input.epoch);
   return result;
 }
 
 void RelocalizerNode::publishOutcome(ResultMsg& result, const relocalizer::Pose* pose,
                                      const relocalizer::Matrix6d* covariance,
-                                     const std::optional<geometry_msgs::TransformStamped>& transform) {
+                                     const std::optional<geometry_msgs::TransformStamped>& transform,
+                                     bool frame_attempt, uint64_t epoch) {
+  if (frame_attempt && !result.success) ++frames_failed_;
   result.frames_received = saturate(frames_received_);
   result.frames_processed = saturate(frames_processed_);
   result.frames_dropped = params_.mode == Mode::Continuous ? saturate(frames_.dropped()) : 0;
+  result.frames_failed = saturate(frames_failed_);
+  result.time_jumps = saturate(time_jumps_);
   if (pose) {
     result.pose.header = result.header;
     result.pose.pose = toPoseWithCovarianceMsg(*pose, *covariance);
@@ -335,7 +457,7 @@ void RelocalizerNode::publishOutcome(ResultMsg& result, const relocalizer::Pose*
   result_pub_.publish(result);
   if (!pose) return;
   pose_pub_.publish(result.pose);
-  if (transform) transforms_->send(*transform, result.header.stamp);
+  if (transform) transforms_->send(*transform, result.header.stamp, epoch);
 }
 
 RelocalizerNode::ResultMsg RelocalizerNode::processShared(uint64_t seq, const InputPtr& input) {
@@ -360,21 +482,34 @@ RelocalizerNode::ResultMsg RelocalizerNode::processShared(uint64_t seq, const In
 
 bool RelocalizerNode::onRelocalize(relocalizer::Relocalize::Request& request,
                                    relocalizer::Relocalize::Response& response) {
-  const double timeout = request.timeout > 0.0 ? request.timeout : params_.service_timeout;
-  const auto deadline =
-      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout));
-  const uint64_t after = request.wait_for_next ? frames_.lastSeq() : 0;
-  auto entry = frames_.newest(after, deadline);
   ResultMsg result;
-  if (entry) {
-    result = processShared(entry->seq, entry->value);
-  } else {
-    result = failure(ros::Time::now(), std::string(request.wait_for_next ? "no new" : "no") +
-                                           " synchronised frame within " + seconds(timeout) +
-                                           " s; " + inputStatus());
-    if (log_.allow("service without frame"))
+  if (std::isnan(request.timeout) || request.timeout == std::numeric_limits<double>::infinity()) {
+    // NaN is no duration, and an endless wait would hold one of the few
+    // service threads for good: both are refused at once.
+    result = failure(ros::Time::now(), std::string("timeout must be a finite number of seconds (got ") +
+                                           (std::isnan(request.timeout) ? "NaN" : "infinity") +
+                                           "); 0 or less means ~service_timeout (" +
+                                           seconds(params_.service_timeout) + " s)");
+    if (log_.allow("service timeout"))
       ROS_WARN("relocalizer: %s: %s", service_.getService().c_str(), result.message.c_str());
-    publishOutcome(result, nullptr, nullptr, std::nullopt);
+    publishOutcome(result, nullptr, nullptr, std::nullopt, false);
+  } else {
+    const double timeout = std::min(request.timeout > 0.0 ? request.timeout : params_.service_timeout,
+                                    kMaxServiceTimeout);
+    const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                             std::chrono::duration<double>(timeout));
+    const uint64_t after = request.wait_for_next ? frames_.lastSeq() : 0;
+    auto entry = frames_.newest(after, deadline);
+    if (entry) {
+      result = processShared(entry->seq, entry->value);
+    } else {
+      result = failure(ros::Time::now(), std::string(request.wait_for_next ? "no new" : "no") +
+                                             " synchronised frame within " + seconds(timeout) +
+                                             " s; " + inputStatus());
+      if (log_.allow("service without frame"))
+        ROS_WARN("relocalizer: %s: %s", service_.getService().c_str(), result.message.c_str());
+      publishOutcome(result, nullptr, nullptr, std::nullopt, false);
+    }
   }
   response.success = result.success;
   response.message = result.message;

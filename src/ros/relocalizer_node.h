@@ -5,7 +5,9 @@
 //
 // Threads:
 //  - subscription callbacks (the node handle's queue): O(1) header checks and a
-//    hand-over to the FrameBuffer; they never wait for a relocalization;
+//    hand-over to the FrameBuffer; they never wait for a relocalization. They
+//    feed the synchronizer by hand (not connected to the subscribers), under
+//    one mutex, so that it can be replaced when the stamps go backwards;
 //  - the continuous worker (continuous mode): takes the pending frame, at most
 //    max_rate times a second, and relocalizes it;
 //  - the service queue's own spinner: calls wait for a frame and relocalize it
@@ -62,6 +64,7 @@ class RelocalizerNode {
     sensor_msgs::ImageConstPtr depth;
     sensor_msgs::CameraInfoConstPtr info;
     std::string error;  // why the set cannot be a frame (checked on arrival)
+    uint64_t epoch = 0;  // time jumps seen before it was synchronised
   };
   using InputPtr = std::shared_ptr<const Input>;
   using ResultMsg = relocalizer::RelocalizationResult;
@@ -70,6 +73,15 @@ class RelocalizerNode {
                   std::unique_ptr<relocalizer::Relocalizer> relocalizer);
 
   void subscribe();
+  void makeSynchronizer();
+  // Every input message passes here: time-jump check, then the synchronizer.
+  template <int I, typename M>
+  void onInput(const boost::shared_ptr<M const>& message);
+  // Whether the message of input `index` (0 colour, 1 depth, 2 camera_info)
+  // goes on to the synchronizer; detects and handles a jump back in time.
+  // Called with input_mutex_ held.
+  bool acceptStamp(int index, const ros::Time& stamp);
+  void resetForTimeJump(int index, const ros::Time& before, const ros::Time& after);
   void onSynchronised(const sensor_msgs::ImageConstPtr& colour,
                       const sensor_msgs::ImageConstPtr& depth,
                       const sensor_msgs::CameraInfoConstPtr& info);
@@ -85,9 +97,12 @@ class RelocalizerNode {
   // concurrent call that picked the same entry.
   ResultMsg processShared(uint64_t seq, const InputPtr& input);
   ResultMsg failure(const ros::Time& stamp, const std::string& message) const;
+  // `frame_attempt`: the result is a processed frame's (counted in
+  // frames_failed when it failed), not a report such as "no frame".
   void publishOutcome(ResultMsg& result, const relocalizer::Pose* pose,
                       const relocalizer::Matrix6d* covariance,
-                      const std::optional<geometry_msgs::TransformStamped>& transform);
+                      const std::optional<geometry_msgs::TransformStamped>& transform,
+                      bool frame_attempt, uint64_t epoch = 0);
   // Per-topic message counts and what they suggest, for "no frame" messages.
   std::string inputStatus() const;
 
@@ -105,6 +120,8 @@ class RelocalizerNode {
 
   std::atomic<uint64_t> frames_received_{0};
   std::atomic<uint64_t> frames_processed_{0};
+  std::atomic<uint64_t> frames_failed_{0};
+  std::atomic<uint64_t> time_jumps_{0};  // also the epoch of new inputs
   std::atomic<uint64_t> colour_count_{0}, depth_count_{0}, info_count_{0};
   // The counts at the last synchronised set: what arrived since says which
   // input is missing now, whatever worked before.
@@ -120,22 +137,42 @@ class RelocalizerNode {
 
   std::thread worker_;
 
+  // Input stamps, per input (colour, depth, camera_info); guarded by input_mutex_.
+  // A jump back in time is seen on each input in turn (they are separate
+  // connections): the first one that goes back resets the synchronizer, the
+  // frame buffer and TF; until every input has gone back too (or
+  // kJumpWindow passes), messages still on the old timeline are dropped, so
+  // one jump is one reset and one report.
+  std::mutex input_mutex_;
+  struct InputStamps {
+    bool seen = false;
+    ros::Time last;
+    bool crossed = true;  // has gone back in the current jump (or none is open)
+  };
+  InputStamps stamps_[3];
+  bool jump_open_ = false;
+  std::chrono::steady_clock::time_point jump_started_;
+  uint64_t stale_messages_ = 0;  // old-timeline messages dropped during jumps
+  std::chrono::steady_clock::time_point last_jump_log_;
+  uint64_t unlogged_jumps_ = 0;
+
   ros::CallbackQueue service_queue_;
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   ros::ServiceServer service_;
   ros::WallTimer watchdog_;
 
-  // Last members: destroyed first, so no callback outlives what it uses.
+  // Last members: destroyed first, so no callback outlives what it uses (the
+  // subscribers' callbacks feed the synchronizer).
   using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
       sensor_msgs::Image, sensor_msgs::Image, sensor_msgs::CameraInfo>;
   using ExactPolicy = message_filters::sync_policies::ExactTime<
       sensor_msgs::Image, sensor_msgs::Image, sensor_msgs::CameraInfo>;
   std::unique_ptr<image_transport::ImageTransport> image_transport_;
+  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
   image_transport::SubscriberFilter colour_sub_;
   image_transport::SubscriberFilter depth_sub_;
   message_filters::Subscriber<sensor_msgs::CameraInfo> info_sub_;
-  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
-  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
 };
 
 }  // namespace relocalizer_ros

@@ -44,7 +44,8 @@ relocalizer::Expected<geometry_msgs::TransformStamped> TransformPublisher::prepa
     char timeout[32];
     std::snprintf(timeout, sizeof(timeout), "%.2f", options_.tf_timeout);
     return relocalizer::makeError("no " + options_.odom_frame + " -> " + camera_frame +
-                                  " transform at the frame stamp within " + timeout + " s: " + e.what());
+                                  " transform at the frame stamp within " + timeout + " s: " + e.what() +
+                                  clearIfOnlyFuture(stamp, camera_frame));
   }
   const relocalizer::Pose odom_T_camera = fromTransformMsg(odom_to_camera.transform);
   out.header.stamp = stamp + ros::Duration(options_.transform_tolerance);
@@ -53,16 +54,41 @@ relocalizer::Expected<geometry_msgs::TransformStamped> TransformPublisher::prepa
   return out;
 }
 
+std::string TransformPublisher::clearIfOnlyFuture(const ros::Time& stamp,
+                                                  const std::string& camera_frame) const {
+  ros::Time latest;
+  try {
+    latest = buffer_->lookupTransform(options_.odom_frame, camera_frame, ros::Time(0)).header.stamp;
+  } catch (const tf2::TransformException&) {
+    return {};  // nothing at all: the transform is simply missing
+  }
+  const ros::Duration ahead = latest - stamp;
+  if (ahead <= buffer_->getCacheLength()) return {};
+  buffer_->clear();
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                " (TF held %s -> camera only from %.2f s after the frame: time went back; "
+                "TF buffer cleared)",
+                options_.odom_frame.c_str(), ahead.toSec());
+  return text;
+}
+
 void TransformPublisher::send(const geometry_msgs::TransformStamped& transform,
-                              const ros::Time& frame_stamp) {
+                              const ros::Time& frame_stamp, uint64_t epoch) {
   if (!options_.odom_frame.empty()) {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!map_to_odom_ || frame_stamp >= map_to_odom_source_stamp_) {
+    if (!map_to_odom_ || epoch > map_to_odom_epoch_ ||
+        (epoch == map_to_odom_epoch_ && frame_stamp >= map_to_odom_source_stamp_)) {
       map_to_odom_ = transform;
       map_to_odom_source_stamp_ = frame_stamp;
+      map_to_odom_epoch_ = epoch;
     }
   }
   broadcaster_.sendTransform(transform);
+}
+
+void TransformPublisher::reset() {
+  if (buffer_) buffer_->clear();
 }
 
 void TransformPublisher::rebroadcast(const ros::WallTimerEvent&) {

@@ -5,7 +5,9 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <algorithm>
 #include <atomic>
+#include <limits>
 
 #include "node_test_support.h"
 
@@ -39,6 +41,22 @@ std::function<void()> sending(FrameMessages frame, bool with_info = true) {
     frame.stamp(ros::Time::now());
     g_camera->publish(frame, with_info);
   };
+}
+
+// `frame` with 32FC1 depth in metres where every pixel is `value`.
+FrameMessages withFloatDepth(FrameMessages frame, float value) {
+  frame.depth.encoding = sensor_msgs::image_encodings::TYPE_32FC1;
+  frame.depth.step = frame.depth.width * 4;
+  frame.depth.data.resize(static_cast<size_t>(frame.depth.step) * frame.depth.height);
+  for (size_t i = 0; i < frame.depth.data.size(); i += 4) std::memcpy(&frame.depth.data[i], &value, 4);
+  return frame;
+}
+
+size_t countWarnings(const std::string& part) {
+  size_t count = 0;
+  for (const auto& log : g_rosout->messages())
+    count += log.name == "/relocalizer" && log.level >= rosgraph_msgs::Log::WARN && contains(log.msg, part);
+  return count;
 }
 
 void expectAccurate(const relocalizer::Relocalize::Response& response, const Pose& truth) {
@@ -78,6 +96,22 @@ TEST(OnDemand, CallBeforeAnyFrameFailsWithinItsTimeout) {
   EXPECT_LT(elapsed, 2.0);
   EXPECT_TRUE(failureResult("no synchronised frame"));
   EXPECT_TRUE(warned("no synchronised frame"));
+
+  // Concurrent calls before any frame: each waits its own timeout and fails
+  // the same way; none blocks another.
+  std::vector<relocalizer::Relocalize> calls(3);
+  std::vector<std::thread> threads;
+  const ros::WallTime together = ros::WallTime::now();
+  for (auto& call : calls) {
+    call.request.timeout = 0.5;
+    threads.emplace_back([&call] { ros::service::call("/relocalizer/relocalize", call); });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_LT((ros::WallTime::now() - together).toSec(), 2.5);
+  for (const auto& call : calls) {
+    EXPECT_FALSE(call.response.success);
+    EXPECT_TRUE(contains(call.response.message, "no synchronised frame within 0.50 s")) << call.response.message;
+  }
 }
 
 TEST(OnDemand, BadInputsFailWithTheirReasonAndTheNodeAnswersTheNextGoodFrame) {
@@ -104,7 +138,41 @@ TEST(OnDemand, BadInputsFailWithTheirReasonAndTheNodeAnswersTheNextGoodFrame) {
       {"truncated colour", [](FrameMessages& f) { f.colour.data.resize(100); }, "holds 100 bytes"},
       {"unregistered depth", [](FrameMessages& f) { f.depth.header.frame_id = "camera_depth_optical_frame"; },
        "depth must be registered to colour"},
-      {"zero focal length", [](FrameMessages& f) { f.info.K[0] = 0.0; }, "camera_info K is unusable"},
+      {"zero focal length", [](FrameMessages& f) { f.info.K[0] = 0.0; },
+       "camera_info K is unusable: focal length must be finite and positive (fx=0.000000,"},
+      {"NaN focal length", [](FrameMessages& f) { f.info.K[4] = std::nan(""); },
+       "camera_info K is unusable: focal length must be finite and positive (fx=" +
+           std::to_string(good.info.K[0]) + ", fy=nan)"},
+      {"uncalibrated camera_info (K all zero)", [](FrameMessages& f) { f.info.K = {}; },
+       "camera_info K is unusable: focal length must be finite and positive (fx=0.000000, fy=0.000000)"},
+      {"camera_info height", [](FrameMessages& f) { f.info.height = 480; },
+       "camera_info is for 320x480 but the images are 320x240"},
+      {"depth all zero", [](FrameMessages& f) { std::fill(f.depth.data.begin(), f.depth.data.end(), 0); },
+       "depth has no valid pixel: 76800 zero"},
+      {"depth all NaN", [](FrameMessages& f) { f = withFloatDepth(f, std::nanf("")); },
+       "depth has no valid pixel: 76800 NaN"},
+      {"depth all Inf",
+       [](FrameMessages& f) { f = withFloatDepth(f, std::numeric_limits<float>::infinity()); },
+       "depth has no valid pixel: 76800 infinite"},
+      {"depth negative", [](FrameMessages& f) { f = withFloatDepth(f, -1.5f); },
+       "depth has no valid pixel: 76800 negative"},
+      {"colour buffer labelled 16UC1",
+       [](FrameMessages& f) {
+         f.depth.data = f.colour.data;
+         f.depth.step = f.colour.step;
+       },
+       "depth image is labelled '16UC1' (2 bytes a pixel) but its rows hold 3 bytes a pixel (step 960 for "
+       "width 320): a colour image on the depth topic?"},
+      {"colour image on the depth topic",
+       [](FrameMessages& f) {
+         const std::string frame_id = f.depth.header.frame_id;
+         f.depth = f.colour;
+         f.depth.header.frame_id = frame_id;
+       },
+       "unsupported depth encoding 'bgr8' (expected 16UC1 millimetres or 32FC1 metres, REP 118); a colour "
+       "image on the depth topic?"},
+      {"unsupported colour encoding (16-bit)", [](FrameMessages& f) { f.colour.encoding = "rgb16"; },
+       "unsupported colour encoding 'rgb16'"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
@@ -116,6 +184,8 @@ TEST(OnDemand, BadInputsFailWithTheirReasonAndTheNodeAnswersTheNextGoodFrame) {
     EXPECT_TRUE(contains(response.message, c.reason)) << response.message;
     EXPECT_TRUE(failureResult(c.reason));
     EXPECT_TRUE(warned(c.reason));
+    // And the next good frame is served.
+    expectAccurate(callWhilePublishing(sending(good), 5.0), good.truth);
   }
   {
     SCOPED_TRACE("missing camera_info");
@@ -129,6 +199,26 @@ TEST(OnDemand, BadInputsFailWithTheirReasonAndTheNodeAnswersTheNextGoodFrame) {
   }
   const auto response = callWhilePublishing(sending(good), 5.0);
   expectAccurate(response, good.truth);
+}
+
+TEST(OnDemand, BadInputIsLoggedOncePerPeriodNotPerFrame) {
+  // Ten frames in a second with one fault: one log line (the period is 5 s),
+  // and the service still answers each call with the reason.
+  FrameMessages bad = (*g_frames)[2];
+  bad.colour.encoding = "yuv422";
+  const std::string reason = "unsupported colour encoding 'yuv422'";
+  ASSERT_EQ(countWarnings(reason), 0u);
+  auto send = sending(bad);
+  for (int i = 0; i < 10; ++i) {
+    send();
+    ros::WallDuration(0.1).sleep();
+  }
+  ASSERT_TRUE(warned(reason));
+  ros::WallDuration(0.5).sleep();
+  EXPECT_EQ(countWarnings(reason), 1u);
+  const auto response = callWhilePublishing(sending(bad), 3.0);
+  EXPECT_FALSE(response.success);
+  EXPECT_TRUE(contains(response.message, reason)) << response.message;
 }
 
 TEST(OnDemand, PoseWithinFiveCentimetresAndDegreesWithPoseAndTfPublished) {
@@ -196,6 +286,48 @@ TEST(OnDemand, WaitForNextTimesOutWhenNoNewFrameComes) {
   EXPECT_FALSE(srv.response.success);
   EXPECT_TRUE(contains(srv.response.message, "no new synchronised frame within 0.30 s")) << srv.response.message;
   EXPECT_LT((ros::WallTime::now() - start).toSec(), 1.5);
+}
+
+TEST(OnDemand, ZeroOrNegativeTimeoutMeansTheServiceTimeoutAndNonFiniteIsRefused) {
+  const FrameMessages frame = (*g_frames)[7];
+  ASSERT_TRUE(callWhilePublishing(sending(frame), 5.0).success);
+  // With a frame at hand, <= 0 answers from it at once.
+  for (double timeout : {0.0, -1.0, -std::numeric_limits<double>::infinity()}) {
+    SCOPED_TRACE(timeout);
+    relocalizer::Relocalize srv;
+    srv.request.timeout = timeout;
+    srv.request.wait_for_next = false;
+    ASSERT_TRUE(ros::service::call("/relocalizer/relocalize", srv));
+    EXPECT_TRUE(srv.response.success) << srv.response.message;
+  }
+  // Waiting for a frame that never comes, <= 0 waits ~service_timeout (2 s).
+  for (double timeout : {0.0, -5.0}) {
+    SCOPED_TRACE(timeout);
+    relocalizer::Relocalize srv;
+    srv.request.timeout = timeout;
+    srv.request.wait_for_next = true;
+    const ros::WallTime start = ros::WallTime::now();
+    ASSERT_TRUE(ros::service::call("/relocalizer/relocalize", srv));
+    const double elapsed = (ros::WallTime::now() - start).toSec();
+    EXPECT_FALSE(srv.response.success);
+    EXPECT_TRUE(contains(srv.response.message, "no new synchronised frame within 2.00 s")) << srv.response.message;
+    EXPECT_GE(elapsed, 1.9);
+    EXPECT_LT(elapsed, 4.0);
+  }
+  // NaN and infinity are no durations: refused at once, with the reason.
+  for (const auto& [timeout, text] : {std::pair{std::nan(""), "NaN"},
+                                      {std::numeric_limits<double>::infinity(), "infinity"}}) {
+    SCOPED_TRACE(text);
+    relocalizer::Relocalize srv;
+    srv.request.timeout = timeout;
+    srv.request.wait_for_next = true;
+    const ros::WallTime start = ros::WallTime::now();
+    ASSERT_TRUE(ros::service::call("/relocalizer/relocalize", srv));
+    EXPECT_FALSE(srv.response.success);
+    EXPECT_EQ(srv.response.message, std::string("timeout must be a finite number of seconds (got ") + text +
+                                        "); 0 or less means ~service_timeout (2.00 s)");
+    EXPECT_LT((ros::WallTime::now() - start).toSec(), 1.0);
+  }
 }
 
 int main(int argc, char** argv) {

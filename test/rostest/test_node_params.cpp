@@ -5,9 +5,17 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
+#include <sys/stat.h>
+
 #include <array>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "../../src/ros/node_params.h"
 
@@ -79,19 +87,106 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
   }
 }
 
-TEST(NodeParams, NodeWithAnUnreadableModelExitsNonZeroWithOneLine) {
-  const std::string command = std::string(RELOCALIZER_NODE_PATH) +
-                              " __name:=broken _model:=/nonexistent/model.bin 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
+namespace {
+
+struct NodeRun {
+  int status = -1;
   std::string output;
+};
+
+// Runs relocalizer_node on `model` until it exits (it must: the model is bad).
+NodeRun runNodeWithModel(const std::string& model) {
+  NodeRun run;
+  const std::string command =
+      std::string(RELOCALIZER_NODE_PATH) + " __name:=broken _model:='" + model + "' 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return run;
   std::array<char, 256> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe)) output += buffer.data();
-  const int status = pclose(pipe);
-  EXPECT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 1);
-  EXPECT_NE(output.find("/nonexistent/model.bin"), std::string::npos) << output;
-  EXPECT_EQ(std::count(output.begin(), output.end(), '\n'), 1) << output;
+  while (fgets(buffer.data(), buffer.size(), pipe)) run.output += buffer.data();
+  run.status = pclose(pipe);
+  return run;
+}
+
+std::vector<uint8_t> readBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+void writeBytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+}
+
+}  // namespace
+
+TEST(NodeParams, NodeWithAnUnreadableModelExitsNonZeroWithOneLine) {
+  const NodeRun run = runNodeWithModel("/nonexistent/model.bin");
+  EXPECT_TRUE(WIFEXITED(run.status));
+  EXPECT_EQ(WEXITSTATUS(run.status), 1);
+  EXPECT_NE(run.output.find("/nonexistent/model.bin: cannot open model file"), std::string::npos) << run.output;
+  EXPECT_EQ(std::count(run.output.begin(), run.output.end(), '\n'), 1) << run.output;
+}
+
+// Every kind of bad model file, made here from the fixture's good model: the
+// node exits with code 1 (no signal: no crash) and one line naming the file
+// and the reason.
+TEST(NodeParams, BadModelFilesStopTheNodeWithTheirReason) {
+  std::string fixture;
+  ASSERT_TRUE(ros::NodeHandle("~").getParam("fixture", fixture));
+  const std::vector<uint8_t> good = readBytes(fixture + "/model.bin");
+  ASSERT_GT(good.size(), 64u);
+  char dir_template[] = "/tmp/relocalizer_bad_models_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string dir = dir_template;
+
+  struct Case {
+    std::string name;
+    std::vector<uint8_t> bytes;  // written to dir/name unless a path is given
+    std::string reason;
+    std::string path = "";
+  };
+  auto with = [&good](const std::function<void(std::vector<uint8_t>&)>& change) {
+    std::vector<uint8_t> bytes = good;
+    change(bytes);
+    return bytes;
+  };
+  const uint64_t body = good.size() - 28;  // preamble: magic 8, version 4, reserved 4, length 8, CRC 4
+  std::vector<Case> cases = {
+      {"truncated.bin", with([](auto& b) { b.resize(b.size() / 2); }),
+       "truncated model file (" + std::to_string(good.size() / 2 - 28) + " of " + std::to_string(body) +
+           " body bytes present)"},
+      {"truncated_preamble.bin", with([](auto& b) { b.resize(20); }), "truncated model file (header incomplete)"},
+      {"wrong_magic.bin", with([](auto& b) { std::memcpy(b.data(), "PLTREES!", 8); }),
+       "not a relocalizer model (wrong magic number; expected a file written by `train`)"},
+      {"future_version.bin", with([](auto& b) { b[8] = 2; }),
+       "model format version 2 is not supported (this build reads version 1); retrain or use a matching build"},
+      {"checksum.bin", with([](auto& b) { b[b.size() - 7] ^= 0x40; }), "checksum mismatch: the model file is corrupt"},
+      {"empty.bin", {}, "model file is empty"},
+      // Files a user might pass by mistake: the bag, the node's YAML.
+      {"bag", {}, "not a relocalizer model (wrong magic number; expected a file written by `train`)",
+       fixture + "/test.bag"},
+      {"yaml", {}, "not a relocalizer model (wrong magic number; expected a file written by `train`)",
+       ros::param::param<std::string>("~config", "")},
+  };
+  // A folder (the loader would see a size near 2^63) and a FIFO (it would
+  // block start-up): refused before loading.
+  ASSERT_TRUE(std::filesystem::create_directory(dir + "/model_folder"));
+  ASSERT_EQ(mkfifo((dir + "/model_fifo").c_str(), 0600), 0);
+  cases.push_back({"folder", {}, "is a directory, not a model file", dir + "/model_folder"});
+  cases.push_back({"fifo", {}, "is not a regular file (a device or a pipe?), not a model file", dir + "/model_fifo"});
+  for (Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    if (c.path.empty()) {
+      c.path = dir + "/" + c.name;
+      writeBytes(c.path, c.bytes);
+    }
+    const NodeRun run = runNodeWithModel(c.path);
+    ASSERT_TRUE(WIFEXITED(run.status)) << "killed by a signal: " << run.output;
+    EXPECT_EQ(WEXITSTATUS(run.status), 1);
+    EXPECT_NE(run.output.find("relocalizer: " + c.path + ": " + c.reason), std::string::npos) << run.output;
+    EXPECT_EQ(std::count(run.output.begin(), run.output.end(), '\n'), 1) << run.output;
+  }
+  std::filesystem::remove_all(dir);
 }
 
 int main(int argc, char** argv) {

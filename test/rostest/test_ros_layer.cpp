@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <functional>
+#include <limits>
 #include <thread>
 
 #include "../../src/ros/frame_buffer.h"
@@ -74,6 +76,7 @@ TEST(MessageConversion, RowPaddingIsHonoured) {
   colour.step = 4;  // two bytes of padding per row
   colour.data = {1, 2, 99, 99, 3, 4, 99, 99};
   auto depth = image(2, 2, enc::TYPE_16UC1, 2);
+  depth.data = {0xe8, 0x03, 0xe8, 0x03, 0xe8, 0x03, 0xe8, 0x03};  // 1000 mm (all-zero depth is refused)
   auto frame = frameFromMessages(colour, depth, info(2, 2));
   ASSERT_TRUE(frame.ok()) << frame.error();
   EXPECT_EQ(frame->colour.at<cv::Vec3b>(1, 0)[0], 3);
@@ -101,6 +104,86 @@ TEST(MessageConversion, RejectsWhatWouldReadOutOfBoundsOrMisregister) {
   nan_k.K[4] = std::nan("");
   EXPECT_NE(checkFrameMessages(colour, depth, nan_k).find("K is unusable"), std::string::npos);
   EXPECT_NE(checkFrameMessages(image(0, 0, enc::BGR8, 3), depth, info(8, 6)).find("empty"), std::string::npos);
+}
+
+TEST(MessageConversion, ColourLabelledAsDepthIsRejected) {
+  const auto colour = image(8, 6, enc::BGR8, 3);
+  // A bgr8 buffer (3 bytes a pixel, its own step) published as 16UC1.
+  auto relabelled = image(8, 6, enc::BGR8, 3);
+  relabelled.encoding = enc::TYPE_16UC1;
+  EXPECT_EQ(checkFrameMessages(colour, relabelled, info(8, 6)),
+            "depth image is labelled '16UC1' (2 bytes a pixel) but its rows hold 3 bytes a pixel "
+            "(step 24 for width 8): a colour image on the depth topic?");
+  // The same buffer with a 16-bit step: more bytes than the header describes.
+  relabelled.step = 16;
+  EXPECT_EQ(checkFrameMessages(colour, relabelled, info(8, 6)),
+            "depth image holds 144 bytes, more than step x height (96) for '16UC1' 8x6");
+  // A colour image sent on the depth topic as it is.
+  EXPECT_EQ(checkFrameMessages(colour, image(8, 6, enc::BGR8, 3), info(8, 6)),
+            "unsupported depth encoding 'bgr8' (expected 16UC1 millimetres or 32FC1 metres, REP 118); "
+            "a colour image on the depth topic?");
+  // Row padding that is not a colour row is still fine.
+  auto padded = image(8, 6, enc::TYPE_16UC1, 2);
+  padded.step = 20;
+  padded.data.assign(20 * 6, 0);
+  EXPECT_EQ(checkFrameMessages(colour, padded, info(8, 6)), "");
+}
+
+TEST(MessageConversion, DepthWithoutAValidPixelSaysWhatItHolds) {
+  const auto colour = image(8, 6, enc::BGR8, 3);
+  auto depth16 = [](uint16_t value) {
+    auto msg = image(8, 6, enc::TYPE_16UC1, 2);
+    for (size_t i = 0; i < msg.data.size(); i += 2) std::memcpy(&msg.data[i], &value, 2);
+    return msg;
+  };
+  auto depth32 = [](std::function<float(int)> value) {
+    auto msg = image(8, 6, enc::TYPE_32FC1, 4);
+    for (int i = 0; i < 48; ++i) {
+      const float v = value(i);
+      std::memcpy(&msg.data[4 * i], &v, 4);
+    }
+    return msg;
+  };
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<std::pair<sensor_msgs::Image, std::string>> cases = {
+      {depth16(0), "depth has no valid pixel: 48 zero"},
+      {depth16(65535), "depth has no valid pixel: 48 65535 (saturated)"},
+      {depth32([](int) { return 0.0f; }), "depth has no valid pixel: 48 zero"},
+      {depth32([](int) { return std::nanf(""); }), "depth has no valid pixel: 48 NaN"},
+      {depth32([inf](int) { return inf; }), "depth has no valid pixel: 48 infinite"},
+      {depth32([inf](int i) { return i % 2 ? -inf : -1.5f; }), "depth has no valid pixel: 24 infinite, 24 negative"},
+      {depth32([](int i) { return i < 8 ? std::nanf("") : -0.5f; }), "depth has no valid pixel: 8 NaN, 40 negative"},
+  };
+  for (const auto& [depth, reason] : cases) {
+    EXPECT_EQ(checkFrameMessages(colour, depth, info(8, 6)), "");  // headers are fine
+    auto frame = frameFromMessages(colour, depth, info(8, 6));
+    ASSERT_FALSE(frame.ok()) << reason;
+    EXPECT_EQ(frame.error(), reason);
+  }
+  // One valid pixel is a frame; too little depth is then the core's call.
+  auto one = depth16(0);
+  const uint16_t mm = 1200;
+  std::memcpy(&one.data[10], &mm, 2);
+  EXPECT_TRUE(frameFromMessages(colour, one, info(8, 6)).ok());
+}
+
+TEST(MessageConversion, CameraInfoFocalLengthMustBeFiniteAndPositive) {
+  const auto colour = image(8, 6, enc::BGR8, 3);
+  const auto depth = image(8, 6, enc::TYPE_16UC1, 2);
+  const std::vector<std::pair<size_t, double>> spoilt = {
+      {0, 0.0}, {4, 0.0}, {0, -100.0}, {0, std::nan("")}, {4, std::numeric_limits<double>::infinity()}};
+  for (const auto& [index, value] : spoilt) {
+    auto k = info(8, 6);
+    k.K[index] = value;
+    EXPECT_EQ(checkFrameMessages(colour, depth, k).rfind("camera_info K is unusable: focal length must be "
+                                                         "finite and positive (fx=", 0),
+              0u)
+        << index << " " << value << ": " << checkFrameMessages(colour, depth, k);
+  }
+  auto uncalibrated = info(8, 6);
+  uncalibrated.K = {};  // what an uncalibrated driver sends
+  EXPECT_NE(checkFrameMessages(colour, depth, uncalibrated).find("focal length must be finite and positive"),
+            std::string::npos);
 }
 
 TEST(MessageConversion, StripsLeadingSlashes) {
@@ -158,6 +241,24 @@ TEST(FrameBuffer, NewestWaitsForALaterFrameAndReadsWithoutTaking) {
   later.join();
   ASSERT_TRUE(next);
   EXPECT_EQ(next->value, 11);
+}
+
+TEST(FrameBuffer, ClearForgetsPendingAndLatestButNotTheSequence) {
+  using Clock = FrameBuffer<int>::Clock;
+  FrameBuffer<int> buffer(FrameBuffer<int>::Policy::Fifo);
+  for (int i = 1; i <= 3; ++i) buffer.push(i);
+  EXPECT_EQ(buffer.clear(), 3u);
+  EXPECT_EQ(buffer.dropped(), 3u);
+  EXPECT_EQ(buffer.pendingCount(), 0u);
+  EXPECT_EQ(buffer.lastSeq(), 3u);
+  // A call for "the latest frame" now waits for one from after the clear.
+  EXPECT_FALSE(buffer.newest(0, Clock::now() + std::chrono::milliseconds(20)));
+  buffer.push(4);
+  auto latest = buffer.newest(0, Clock::now());
+  ASSERT_TRUE(latest);
+  EXPECT_EQ(latest->value, 4);
+  EXPECT_EQ(latest->seq, 4u);
+  EXPECT_EQ(buffer.take()->value, 4);
 }
 
 TEST(FrameBuffer, CloseWakesEveryWaiter) {
