@@ -3,6 +3,7 @@
 #include <sensor_msgs/image_encodings.h>
 
 #include <Eigen/Geometry>
+#include <cmath>
 #include <cstdint>
 #include <opencv2/core.hpp>
 
@@ -41,9 +42,23 @@ std::string checkBuffer(const sensor_msgs::Image& image, const PixelLayout& layo
   if (static_cast<uint64_t>(image.step) < static_cast<uint64_t>(image.width) * layout.bytes_per_pixel)
     return what + " image step " + std::to_string(image.step) + " is shorter than a row of " +
            std::to_string(image.width) + " '" + image.encoding + "' pixels";
-  if (static_cast<uint64_t>(image.data.size()) < static_cast<uint64_t>(image.step) * image.height)
+  const uint64_t needed = static_cast<uint64_t>(image.step) * image.height;
+  if (static_cast<uint64_t>(image.data.size()) < needed)
     return what + " image holds " + std::to_string(image.data.size()) + " bytes, step x height needs " +
-           std::to_string(static_cast<uint64_t>(image.step) * image.height);
+           std::to_string(needed);
+  // sensor_msgs/Image: data is exactly step x height. More means the header
+  // describes another image than the buffer holds (e.g. colour relabelled).
+  if (static_cast<uint64_t>(image.data.size()) > needed)
+    return what + " image holds " + std::to_string(image.data.size()) + " bytes, more than step x height (" +
+           std::to_string(needed) + ") for '" + image.encoding + "' " + size(image.width, image.height);
+  // A colour buffer published as 16-bit depth (cv_bridge with the wrong
+  // encoding keeps the colour step) reads as noise in metres. Row padding is
+  // legal, but rows of exactly 3 or 4 bytes a pixel are a colour image's.
+  if (layout.bytes_per_pixel == 2 && image.width > 0 &&
+      (image.step == 3 * image.width || image.step == 4 * image.width))
+    return what + " image is labelled '" + image.encoding + "' (2 bytes a pixel) but its rows hold " +
+           std::to_string(image.step / image.width) + " bytes a pixel (step " + std::to_string(image.step) +
+           " for width " + std::to_string(image.width) + "): a colour image on the depth topic?";
   // Multi-byte depth in the other byte order would be read as garbage
   // distances, which is worse than no frame.
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
@@ -64,7 +79,54 @@ cv::Mat wrap(const sensor_msgs::Image& image, int cv_type) {
                  const_cast<uint8_t*>(image.data.data()), image.step);
 }
 
+// Why no depth pixel is usable, by kind of invalid value: "76800 zero",
+// "38400 NaN, 38400 infinite", ... 16-bit depth: 0 (no reading) and 65535
+// (saturated); float depth: zero, NaN, +-Inf and negative.
+std::string describeInvalidDepth(const cv::Mat& raw) {
+  uint64_t zero = 0, nan = 0, infinite = 0, negative = 0, saturated = 0;
+  for (int v = 0; v < raw.rows; ++v) {
+    if (raw.type() == CV_16UC1) {
+      const auto* row = raw.ptr<uint16_t>(v);
+      for (int u = 0; u < raw.cols; ++u) {
+        zero += row[u] == 0;
+        saturated += row[u] == 65535;
+      }
+    } else {
+      const auto* row = raw.ptr<float>(v);
+      for (int u = 0; u < raw.cols; ++u) {
+        const float d = row[u];
+        if (std::isnan(d)) ++nan;
+        else if (std::isinf(d)) ++infinite;
+        else if (d < 0) ++negative;
+        else if (d == 0) ++zero;
+      }
+    }
+  }
+  std::string text;
+  auto add = [&text](uint64_t count, const char* kind) {
+    if (!count) return;
+    text += (text.empty() ? "" : ", ") + std::to_string(count) + " " + kind;
+  };
+  add(zero, "zero");
+  add(nan, "NaN");
+  add(infinite, "infinite");
+  add(negative, "negative");
+  add(saturated, "65535 (saturated)");
+  return text;
+}
+
 }  // namespace
+
+relocalizer::CameraIntrinsics cameraFromInfo(const sensor_msgs::CameraInfo& info) {
+  relocalizer::CameraIntrinsics camera;
+  camera.fx = info.K[0];
+  camera.fy = info.K[4];
+  camera.cx = info.K[2];
+  camera.cy = info.K[5];
+  camera.width = static_cast<int>(info.width);
+  camera.height = static_cast<int>(info.height);
+  return camera;
+}
 
 std::string stripLeadingSlashes(const std::string& frame_id) {
   const size_t first = frame_id.find_first_not_of('/');
@@ -80,7 +142,8 @@ std::string checkFrameMessages(const sensor_msgs::Image& colour, const sensor_ms
   const PixelLayout depth_layout = depthLayout(depth.encoding);
   if (depth_layout.cv_type < 0)
     return "unsupported depth encoding '" + depth.encoding +
-           "' (expected 16UC1 millimetres or 32FC1 metres, REP 118)";
+           "' (expected 16UC1 millimetres or 32FC1 metres, REP 118)" +
+           (colourLayout(depth.encoding).cv_type >= 0 ? "; a colour image on the depth topic?" : "");
   if (std::string why = checkBuffer(colour, colour_layout, "colour"); !why.empty()) return why;
   if (std::string why = checkBuffer(depth, depth_layout, "depth"); !why.empty()) return why;
   if (colour.width != depth.width || colour.height != depth.height)
@@ -94,13 +157,7 @@ std::string checkFrameMessages(const sensor_msgs::Image& colour, const sensor_ms
   if (colour_frame != depth_frame)
     return "depth frame '" + depth_frame + "' differs from colour frame '" + colour_frame +
            "'; depth must be registered to colour";
-  relocalizer::CameraIntrinsics camera;
-  camera.fx = info.K[0];
-  camera.fy = info.K[4];
-  camera.cx = info.K[2];
-  camera.cy = info.K[5];
-  camera.width = static_cast<int>(info.width);
-  camera.height = static_cast<int>(info.height);
+  const relocalizer::CameraIntrinsics camera = cameraFromInfo(info);
   if (std::string why = camera.validationError(); !why.empty())
     return "camera_info K is unusable: " + why;
   return {};
@@ -116,16 +173,16 @@ Expected<RgbdFrame> frameFromMessages(const sensor_msgs::Image& colour,
                                        colour.encoding);
   if (!bgr) return relocalizer::makeError(bgr.error());
   // REP 118: 16-bit depth is millimetres.
-  auto metres = relocalizer::depthToMetres(wrap(depth, depthLayout(depth.encoding).cv_type), 1000.0);
+  const cv::Mat raw_depth = wrap(depth, depthLayout(depth.encoding).cv_type);
+  auto metres = relocalizer::depthToMetres(raw_depth, 1000.0);
   if (!metres) return relocalizer::makeError(metres.error());
+  // The core would say "too little valid depth: 0 pixels"; which invalid
+  // values the camera sent tells a broken driver from a covered lens.
+  if (relocalizer::countValidDepth(*metres) == 0)
+    return relocalizer::makeError("depth has no valid pixel: " + describeInvalidDepth(raw_depth));
   frame.colour = std::move(*bgr);
   frame.depth = std::move(*metres);
-  frame.camera.fx = info.K[0];
-  frame.camera.fy = info.K[4];
-  frame.camera.cx = info.K[2];
-  frame.camera.cy = info.K[5];
-  frame.camera.width = static_cast<int>(info.width);
-  frame.camera.height = static_cast<int>(info.height);
+  frame.camera = cameraFromInfo(info);
   frame.stamp = colour.header.stamp.toSec();
   frame.id = static_cast<int>(colour.header.seq);
   frame.source = "frame at " + std::to_string(colour.header.stamp.sec) + "." +

@@ -1,11 +1,12 @@
-// evaluate: relocalizes every selected frame of a dataset with a trained model
-// and reports accuracy and latency as the relocalization literature does.
+// evaluate: relocalizes every selected frame of a dataset (a folder or a rosbag)
+// with a trained model and reports accuracy and latency as the relocalization
+// literature does.
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "cli_support.h"
-#include "relocalizer/dataset.h"
+#include "frame_source.h"
 #include "relocalizer/evaluation.h"
 #include "relocalizer/progress.h"
 #include "relocalizer/relocalizer.h"
@@ -18,17 +19,17 @@ int main(int argc, char** argv) {
       "Relocalizes each selected frame of a dataset independently and prints the share within "
       "5 cm / 5 deg and 2 cm / 2 deg, median errors, ATE RMSE, frames without a pose and latency "
       "per stage. With --output it writes poses.txt (TUM format), errors.csv, summary.json, "
-      "trajectory.png and errors.png.",
+      "trajectory.png and errors.png. The frames and their ground truth come from a dataset folder "
+      "(--dataset) or a rosbag (--bag) with the same pose source as train --bag.",
       "evaluate"};
-  std::string model_path, dataset_path, format_name = "auto", frames, split = "all", output, config,
-      forests = "both";
+  std::string model_path, output, config, forests = "both";
   int threads = 0;
   bool prediction_quality = false;
   app.add_option("-m,--model", model_path, "Model file written by train")->required();
-  app.add_option("-d,--dataset", dataset_path, "Dataset folder with ground truth")->required();
-  app.add_option("--format", format_name, "auto | 7scenes | 12scenes | tum")->capture_default_str();
-  app.add_option("--frames", frames, "Frame ids to evaluate, e.g. 100-199,300-399 (default: all)");
-  app.add_option("--split", split, "train | test | all (7-Scenes scenes)")->capture_default_str();
+  cli::SourceOptions source_options;
+  source_options.add(app, "Dataset folder with ground truth",
+                     "Frame ids to evaluate, e.g. 100-199,300-399 (default: all); for a bag, ids "
+                     "are indices in its synchronized frame order");
   app.add_option("-o,--output", output, "Folder for poses.txt, errors.csv, summary.json, plots");
   app.add_option("-c,--config", config,
                  "YAML file whose 'relocalizer:' section overrides the defaults (config/default.yaml)");
@@ -51,15 +52,10 @@ int main(int argc, char** argv) {
   params.use_points = forests != "lines";
   params.use_lines = forests != "points";
 
-  auto format = parseDatasetFormat(format_name);
-  if (!format) return cli::fail(app, format.error());
-  DatasetOptions options;
-  options.format = *format;
-  options.frames = frames;
-  options.split = split;
-  auto dataset = openDataset(dataset_path, options);
-  if (!dataset) return cli::fail(app, dataset.error());
-  const Dataset& data = **dataset;
+  auto source = source_options.open();
+  if (!source) return cli::fail(app, source.error());
+  const cli::FrameSource& data = **source;
+  const std::string& dataset_path = data.path();
 
   auto relocalizer = Relocalizer::fromFile(model_path, params);
   if (!relocalizer) return cli::fail(app, relocalizer.error());
@@ -135,14 +131,17 @@ int main(int argc, char** argv) {
 
   if (!output.empty()) {
     EvaluationOutputOptions out;
-    out.integer_stamps = data.format() == DatasetFormat::SevenScenesFolder ||
-                         data.format() == DatasetFormat::SevenScenesScene ||
-                         data.format() == DatasetFormat::TwelveScenes;
+    out.integer_stamps = data.integerStamps();
     out.title = std::filesystem::path(dataset_path).filename().string() + " (" + forests + ")";
     nlohmann::json extra;
     extra["model"] = model_path;
     extra["dataset"] = dataset_path;
-    extra["frame_selection"] = frames;
+    extra["frame_selection"] = source_options.frames;
+    if (!source_options.bag.empty()) {
+      extra["format"] = data.formatDescription();
+      extra["frames_used"] = data.usedIds();
+      extra["min_motion"] = source_options.min_motion;
+    }
     extra["forests"] = forests;
     extra["threads"] = thread_count;
     extra["software_version"] = kSoftwareVersion;

@@ -1,5 +1,5 @@
-// train: grows the point and line forests on posed RGB-D frames and writes one
-// model file.
+// train: grows the point and line forests on posed RGB-D frames (a dataset
+// folder or a rosbag) and writes one model file.
 
 #include <tbb/parallel_for.h>
 
@@ -8,8 +8,8 @@
 #include <mutex>
 
 #include "cli_support.h"
+#include "frame_source.h"
 #include "relocalizer/config.h"
-#include "relocalizer/dataset.h"
 #include "relocalizer/model_io.h"
 #include "relocalizer/progress.h"
 #include "relocalizer/training.h"
@@ -20,17 +20,17 @@ using namespace relocalizer;
 int main(int argc, char** argv) {
   CLI::App app{
       "Trains a PLForests model (point forest + line forest) on the posed RGB-D frames of one "
-      "scene and writes it to one versioned binary file. Parameters come from config/forest.yaml "
-      "(the defaults) and --config.",
+      "scene and writes it to one versioned binary file. The frames come from a dataset folder "
+      "(--dataset) or a rosbag (--bag) whose camera poses are on /tf (e.g. from a SLAM stack) or "
+      "on a pose topic. Parameters come from config/forest.yaml (the defaults) and --config.",
       "train"};
-  std::string dataset_path, format_name = "auto", frames, split = "all", output, config, forests;
+  std::string output, config, forests;
   int threads = 0;
   uint64_t seed = 0;
-  app.add_option("-d,--dataset", dataset_path, "Dataset folder (7-Scenes, 12-Scenes, TUM)")
-      ->required();
-  app.add_option("--format", format_name, "auto | 7scenes | 12scenes | tum")->capture_default_str();
-  app.add_option("--frames", frames, "Frame ids to train on, e.g. 0-99,200-299 (default: all)");
-  app.add_option("--split", split, "train | test | all (7-Scenes scenes)")->capture_default_str();
+  cli::SourceOptions source_options;
+  source_options.add(app, "Dataset folder (7-Scenes, 12-Scenes, TUM)",
+                     "Frame ids to train on, e.g. 0-99,200-299 (default: all); for a bag, ids are "
+                     "indices in its synchronized frame order");
   app.add_option("-o,--output", output, "Model file to write")->required();
   app.add_option("-c,--config", config, "YAML file overriding config/forest.yaml defaults");
   app.add_option("-j,--threads", threads, "Worker threads (0 = every core)")
@@ -52,15 +52,10 @@ int main(int argc, char** argv) {
     params.train_points = forests != "lines";
     params.train_lines = forests != "points";
   }
-  auto format = parseDatasetFormat(format_name);
-  if (!format) return cli::fail(app, format.error());
-  DatasetOptions options;
-  options.format = *format;
-  options.frames = frames;
-  options.split = split;
-  auto dataset = openDataset(dataset_path, options);
-  if (!dataset) return cli::fail(app, dataset.error());
-  const Dataset& data = **dataset;
+  auto source = source_options.open();
+  if (!source) return cli::fail(app, source.error());
+  const cli::FrameSource& data = **source;
+  const std::string& dataset_path = data.path();
   std::printf("%s\n", data.summary().c_str());
 
   const int thread_count = cli::resolveThreads(threads);
@@ -116,8 +111,9 @@ int main(int argc, char** argv) {
 
   TrainingSummary& summary = model.summary;
   summary.dataset = dataset_path;
-  summary.format = formatName(data.format());
-  summary.frames = frames;
+  summary.format = data.formatDescription();
+  // A bag's frames are chosen by poses and key-frame selection too: record the ids used.
+  summary.frames = source_options.bag.empty() ? source_options.frames : data.usedIds();
   summary.images = static_cast<int>(images.size());
   summary.seconds = seconds;
   summary.threads = thread_count;

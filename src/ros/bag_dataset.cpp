@@ -1,0 +1,882 @@
+#include "bag_dataset.h"
+
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/exceptions.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/image_encodings.h>
+#include <tf2/buffer_core.h>
+#include <tf2/exceptions.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <set>
+#include <sstream>
+
+#include "message_conversion.h"
+#include "relocalizer/frame_selection.h"
+
+namespace relocalizer_ros {
+
+namespace {
+
+namespace enc = sensor_msgs::image_encodings;
+using relocalizer::FrameSelection;
+using relocalizer::makeError;
+
+constexpr const char* kTf = "/tf";
+constexpr const char* kTfStatic = "/tf_static";
+
+// Topic names compare without regard to a leading slash: "camera/rgb/image_raw"
+// on the command line names "/camera/rgb/image_raw" in the bag.
+std::string normalTopic(const std::string& topic) {
+  return topic.empty() || topic[0] == '/' ? topic : "/" + topic;
+}
+
+std::string seconds(const ros::Time& t) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6f", t.toSec());
+  return buffer;
+}
+
+std::string number(double value, const char* format = "%g") {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, format, value);
+  return buffer;
+}
+
+// The encodings frameFromMessages converts (message_conversion.cpp), checked per
+// message at open time so a bad recording fails before any work.
+bool colourEncodingSupported(const std::string& e) {
+  return e == enc::BGR8 || e == enc::RGB8 || e == enc::BGRA8 || e == enc::RGBA8 || e == enc::MONO8;
+}
+bool depthEncodingSupported(const std::string& e) {
+  return e == enc::TYPE_16UC1 || e == enc::MONO16 || e == enc::TYPE_32FC1;
+}
+
+template <typename T>
+bool hasType(const rosbag::ConnectionInfo& c) {
+  return c.md5sum == ros::message_traits::MD5Sum<T>::value();
+}
+
+template <typename T>
+std::string typeName() {
+  return ros::message_traits::DataType<T>::value();
+}
+
+// One image message as the scan saw it; pixels stay in the bag.
+struct ImageEntry {
+  ros::Time stamp;
+  std::string frame_id;
+  uint32_t width = 0, height = 0;
+  size_t message = 0;  // index into Impl::messages
+};
+
+struct PoseSample {
+  ros::Time stamp;
+  Pose pose;
+};
+
+// One TF edge: child -> parent, with the stamps of its samples (dynamic edges).
+struct TfEdge {
+  std::string parent;
+  bool is_static = true;
+  std::vector<ros::Time> stamps;  // sorted, unique
+};
+
+// Index of the last stamp <= t and of the first >= t, or -1.
+template <typename Stamps, typename Get>
+std::pair<long, long> bracket(const Stamps& items, const ros::Time& t, Get get) {
+  const auto it =
+      std::lower_bound(items.begin(), items.end(), t,
+                       [&](const auto& item, const ros::Time& x) { return get(item) < x; });
+  long after = it == items.end() ? -1 : static_cast<long>(it - items.begin());
+  long before = -1;
+  if (after >= 0 && get(items[after]) == t)
+    before = after;
+  else if (it != items.begin())
+    before = static_cast<long>(it - items.begin()) - 1;
+  return {before, after};
+}
+
+// Whether samples at most `tolerance` s before (or at) and after (or at) t exist.
+template <typename Stamps, typename Get>
+bool inTime(const Stamps& items, const ros::Time& t, double tolerance, Get get,
+            long* before_out = nullptr, long* after_out = nullptr) {
+  const auto [before, after] = bracket(items, t, get);
+  if (before < 0 || after < 0) return false;
+  if ((t - get(items[before])).toSec() > tolerance || (get(items[after]) - t).toSec() > tolerance)
+    return false;
+  if (before_out) *before_out = before;
+  if (after_out) *after_out = after;
+  return true;
+}
+
+// ", one every 0.1 s (median)" for a hint at the tolerance a stream needs.
+std::string medianSpacing(const std::vector<ros::Time>& stamps) {
+  if (stamps.size() < 2) return {};
+  std::vector<double> gaps;
+  for (size_t i = 1; i < stamps.size(); ++i) gaps.push_back((stamps[i] - stamps[i - 1]).toSec());
+  std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
+  return ", one every " + number(gaps[gaps.size() / 2], "%.3g") + " s (median)";
+}
+
+}  // namespace
+
+Expected<std::pair<double, double>> parseMinMotion(const std::string& text) {
+  const auto bad = [&](const std::string& why) {
+    return makeError("bad --min-motion '" + text + "': " + why +
+                     " (expected METRES,DEGREES such as 0.05,5; 0 turns selection off)");
+  };
+  std::vector<double> values;
+  if (!text.empty() && text.back() == ',') return bad("empty item");
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    item.erase(0, item.find_first_not_of(" \t"));
+    item.erase(item.find_last_not_of(" \t") + 1);
+    if (item.empty()) return bad("empty item");
+    size_t used = 0;
+    double value = 0;
+    try {
+      value = std::stod(item, &used);
+    } catch (const std::exception&) {
+      return bad("'" + item + "' is not a number");
+    }
+    if (used != item.size()) return bad("'" + item + "' is not a number");
+    if (!std::isfinite(value) || value < 0) return bad("'" + item + "' must be finite and >= 0");
+    values.push_back(value);
+  }
+  if (values.empty() || values.size() > 2) return bad("expected one or two numbers");
+  return std::pair<double, double>(values[0], values.size() > 1 ? values[1] : 0.0);
+}
+
+struct BagDataset::Impl {
+  std::string path;
+  BagOptions options;
+  std::unique_ptr<rosbag::Bag> bag;
+  mutable std::mutex bag_mutex;  // rosbag reads share one file and chunk buffer
+
+  std::vector<rosbag::MessageInstance> messages;  // image messages, read on load()
+  std::vector<ImageEntry> colour, depth;
+  std::vector<sensor_msgs::CameraInfo> infos;                 // sorted by stamp
+  std::map<std::string, std::pair<std::string, int>> topics;  // topic -> (type, messages)
+  std::set<std::string> colour_encodings, depth_encodings;
+
+  struct Frame {
+    int id = -1;
+    size_t colour = 0, depth = 0, info = 0;  // into colour, depth, infos
+    std::optional<Pose> pose;
+  };
+  std::vector<Frame> synced;  // all synchronized frames, by colour stamp; id = index
+  std::vector<size_t> kept;   // into synced
+  std::string pose_source;
+  std::string pose_detail;         // for the summary: what the pose source held
+  std::string no_pose_hint;        // why the first frame without a pose had none
+  std::string pose_child;          // Odometry / TransformStamped child_frame_id on the pose topic
+  ros::Time pose_begin, pose_end;  // time span of the pose samples
+  BagCounts counts;
+  CameraIntrinsics camera;
+  bool distorted = false;  // some kept frame's camera_info has non-zero D
+
+  std::string where() const { return path + ": "; }
+  std::string topicList() const {
+    std::string text;
+    for (const auto& [topic, info] : topics)
+      text += (text.empty() ? "" : ", ") + topic + " (" + info.first + ", " +
+              std::to_string(info.second) + (info.second == 1 ? " message)" : " messages)");
+    return text.empty() ? "none" : text;
+  }
+
+  relocalizer::Status scan();
+  relocalizer::Status synchronize();
+  relocalizer::Status posesFromTf(const std::vector<geometry_msgs::TransformStamped>& tf,
+                                  const std::vector<bool>& is_static);
+  relocalizer::Status posesFromTopic(const std::vector<PoseSample>& samples,
+                                     const std::string& type);
+  relocalizer::Status select();
+  std::string cameraFrameOf(const Frame& f) const {
+    return options.camera_frame.empty() ? stripLeadingSlashes(colour[f.colour].frame_id)
+                                        : stripLeadingSlashes(options.camera_frame);
+  }
+};
+
+relocalizer::Status BagDataset::Impl::scan() {
+  const std::string rgb_topic = normalTopic(options.rgb_topic);
+  const std::string depth_topic = normalTopic(options.depth_topic);
+  const std::string info_topic = normalTopic(options.camera_info_topic);
+  const std::string pose_topic = normalTopic(options.pose_topic);
+
+  // Topics, types and message counts from the index (no message is read).
+  rosbag::View everything(*bag);
+  for (const rosbag::ConnectionInfo* c : everything.getConnections())
+    topics.emplace(normalTopic(c->topic), std::make_pair(c->datatype, 0));
+  for (const rosbag::MessageInstance& m : everything) ++topics[normalTopic(m.getTopic())].second;
+  if (everything.size() == 0)
+    return makeError(where() + "the bag is empty (no messages" +
+                     (topics.empty() ? std::string(")") : ", topics " + topicList() + ")"));
+
+  const auto require = [&](const std::string& topic, const std::string& option,
+                           const std::vector<std::string>& types) -> std::string {
+    const auto it = topics.find(topic);
+    if (it == topics.end() || it->second.second == 0)
+      return where() + "no messages on topic '" + topic + "' (" + option + "); the bag has " +
+             topicList();
+    if (std::find(types.begin(), types.end(), it->second.first) == types.end()) {
+      std::string expected;
+      for (const auto& t : types) expected += (expected.empty() ? "" : " or ") + t;
+      std::string hint;
+      if (it->second.first == "sensor_msgs/CompressedImage")
+        hint =
+            "; record the raw image topics, or decompress with `rosrun image_transport "
+            "republish compressed in:=... raw out:=...` and record that";
+      return where() + "topic '" + topic + "' (" + option + ") carries " + it->second.first +
+             ", expected " + expected + hint;
+    }
+    return {};
+  };
+  for (const auto& [topic, option, type] :
+       {std::tuple{rgb_topic, "--rgb-topic", typeName<sensor_msgs::Image>()},
+        {depth_topic, "--depth-topic", typeName<sensor_msgs::Image>()},
+        {info_topic, "--camera-info-topic", typeName<sensor_msgs::CameraInfo>()}})
+    if (std::string why = require(topic, option, {type}); !why.empty()) return makeError(why);
+  if (rgb_topic == depth_topic)
+    return makeError(where() + "--rgb-topic and --depth-topic are both '" + rgb_topic + "'");
+
+  const bool use_tf = options.pose_topic.empty();
+  std::string pose_type;
+  if (use_tf) {
+    if (!topics.count(kTf) && !topics.count(kTfStatic))
+      return makeError(where() +
+                       "no poses: the bag has no /tf or /tf_static (and no --pose-topic " +
+                       "was given); the bag has " + topicList());
+    for (const char* t : {kTf, kTfStatic})
+      if (topics.count(t))
+        if (std::string why = require(t, "TF", {typeName<tf2_msgs::TFMessage>(), "tf/tfMessage"});
+            !why.empty())
+          return makeError(why);
+  } else {
+    if (std::string why =
+            require(pose_topic, "--pose-topic",
+                    {typeName<geometry_msgs::PoseStamped>(),
+                     typeName<geometry_msgs::PoseWithCovarianceStamped>(),
+                     typeName<nav_msgs::Odometry>(), typeName<geometry_msgs::TransformStamped>()});
+        !why.empty())
+      return makeError(why);
+    pose_type = topics.at(pose_topic).first;
+  }
+
+  // One pass in bag order over every topic used; images keep only their headers.
+  std::vector<std::string> wanted = {rgb_topic, depth_topic, info_topic};
+  if (use_tf) {
+    wanted.push_back(kTf);
+    wanted.push_back(kTfStatic);
+  } else {
+    wanted.push_back(pose_topic);
+  }
+  std::set<std::string> wanted_set(wanted.begin(), wanted.end());
+  rosbag::View view(*bag, [&](const rosbag::ConnectionInfo* c) {
+    return wanted_set.count(normalTopic(c->topic)) > 0;
+  });
+  std::vector<geometry_msgs::TransformStamped> transforms;
+  std::vector<bool> transform_static;
+  std::vector<PoseSample> samples;
+  std::string pose_frame_error;
+  for (const rosbag::MessageInstance& m : view) {
+    const std::string topic = normalTopic(m.getTopic());
+    if (topic == rgb_topic || topic == depth_topic) {
+      const bool is_colour = topic == rgb_topic;
+      auto image = m.instantiate<sensor_msgs::Image>();
+      if (!image)
+        return makeError(where() + "topic '" + topic + "': a message is not a sensor_msgs/Image");
+      if (is_colour ? !colourEncodingSupported(image->encoding)
+                    : !depthEncodingSupported(image->encoding))
+        return makeError(
+            where() + "topic '" + topic + "' (" + (is_colour ? "--rgb-topic" : "--depth-topic") +
+            "): unsupported " + (is_colour ? "colour" : "depth") + " encoding '" + image->encoding +
+            "' at stamp " + seconds(image->header.stamp) +
+            (is_colour ? " (expected bgr8, rgb8, bgra8, rgba8 or mono8)"
+                       : " (expected 16UC1 or mono16 millimetres, or 32FC1 metres, REP 118)"));
+      (is_colour ? colour_encodings : depth_encodings).insert(image->encoding);
+      messages.push_back(m);
+      (is_colour ? colour : depth)
+          .push_back({image->header.stamp, image->header.frame_id, image->width, image->height,
+                      messages.size() - 1});
+    } else if (topic == info_topic) {
+      auto info = m.instantiate<sensor_msgs::CameraInfo>();
+      if (!info)
+        return makeError(where() + "topic '" + topic +
+                         "': a message is not a sensor_msgs/CameraInfo");
+      infos.push_back(*info);
+    } else if (topic == kTf || topic == kTfStatic) {
+      auto tf = m.instantiate<tf2_msgs::TFMessage>();
+      if (!tf)
+        return makeError(where() + "topic '" + topic + "': a message is not a tf2_msgs/TFMessage");
+      for (const auto& t : tf->transforms) {
+        transforms.push_back(t);
+        transform_static.push_back(topic == kTfStatic);
+      }
+    } else if (topic == pose_topic) {
+      std_msgs::Header header;
+      Pose pose;
+      std::string child;
+      if (auto p = m.instantiate<geometry_msgs::PoseStamped>()) {
+        header = p->header;
+        pose = fromPoseMsg(p->pose);
+      } else if (auto pc = m.instantiate<geometry_msgs::PoseWithCovarianceStamped>()) {
+        header = pc->header;
+        pose = fromPoseMsg(pc->pose.pose);
+      } else if (auto o = m.instantiate<nav_msgs::Odometry>()) {
+        header = o->header;
+        pose = fromPoseMsg(o->pose.pose);
+        child = o->child_frame_id;
+      } else if (auto ts = m.instantiate<geometry_msgs::TransformStamped>()) {
+        header = ts->header;
+        pose = fromTransformMsg(ts->transform);
+        child = ts->child_frame_id;
+      } else {
+        return makeError(where() + "topic '" + topic + "': a message is not a pose (" +
+                         m.getDataType() + ")");
+      }
+      const std::string frame = stripLeadingSlashes(header.frame_id);
+      if (!frame.empty() && frame != stripLeadingSlashes(options.map_frame) &&
+          pose_frame_error.empty())
+        pose_frame_error = where() + "poses on '" + topic + "' are in frame '" + frame +
+                           "', not the map frame '" + stripLeadingSlashes(options.map_frame) +
+                           "' (pass --map-frame " + frame + ")";
+      child = stripLeadingSlashes(child);
+      if (!child.empty() && pose_child.empty()) pose_child = child;
+      if (!child.empty() && child != pose_child && pose_frame_error.empty())
+        pose_frame_error = where() + "poses on '" + topic + "' are of frames '" + pose_child +
+                           "' and '" + child + "'; a pose topic must give the camera's own pose";
+      if (!pose.matrix().allFinite()) {
+        ++counts.pose_samples_ignored;
+        continue;
+      }
+      samples.push_back({header.stamp, pose});
+      ++counts.pose_samples;
+    }
+  }
+  if (!pose_frame_error.empty()) return makeError(pose_frame_error);
+  counts.colour_images = static_cast<int>(colour.size());
+  counts.depth_images = static_cast<int>(depth.size());
+  counts.camera_infos = static_cast<int>(infos.size());
+
+  if (auto synced_ok = synchronize(); !synced_ok) return synced_ok;
+  if (use_tf) {
+    if (auto ok = posesFromTf(transforms, transform_static); !ok) return ok;
+  } else {
+    if (auto ok = posesFromTopic(samples, pose_type); !ok) return ok;
+  }
+  return select();
+}
+
+relocalizer::Status BagDataset::Impl::synchronize() {
+  const auto by_stamp = [](const ImageEntry& a, const ImageEntry& b) { return a.stamp < b.stamp; };
+  std::stable_sort(colour.begin(), colour.end(), by_stamp);
+  std::stable_sort(depth.begin(), depth.end(), by_stamp);
+  std::stable_sort(infos.begin(), infos.end(),
+                   [](const auto& a, const auto& b) { return a.header.stamp < b.header.stamp; });
+  const ros::Duration tolerance(options.sync_tolerance);
+
+  // Colour-depth pairs within the tolerance, nearest first, each image used once.
+  struct Candidate {
+    double gap;
+    size_t c, d;
+  };
+  std::vector<Candidate> candidates;
+  for (size_t c = 0; c < colour.size(); ++c) {
+    const ros::Time t = colour[c].stamp;
+    const ros::Time lo = t.toSec() > options.sync_tolerance ? t - tolerance : ros::Time(0, 0);
+    auto it = std::lower_bound(depth.begin(), depth.end(), lo,
+                               [](const ImageEntry& e, const ros::Time& x) { return e.stamp < x; });
+    for (; it != depth.end() && it->stamp <= t + tolerance; ++it)
+      candidates.push_back(
+          {std::abs((it->stamp - t).toSec()), c, static_cast<size_t>(it - depth.begin())});
+  }
+  std::stable_sort(
+      candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+        return a.gap < b.gap || (a.gap == b.gap && (a.c < b.c || (a.c == b.c && a.d < b.d)));
+      });
+  std::vector<long> depth_of(colour.size(), -1);
+  std::vector<bool> depth_used(depth.size(), false);
+  for (const Candidate& k : candidates)
+    if (depth_of[k.c] < 0 && !depth_used[k.d]) {
+      depth_of[k.c] = static_cast<long>(k.d);
+      depth_used[k.d] = true;
+    }
+
+  for (size_t c = 0; c < colour.size(); ++c) {
+    if (depth_of[c] < 0) {
+      ++counts.colour_without_depth;
+      continue;
+    }
+    // Nearest camera_info; several frames may share one.
+    const auto [before, after] = bracket(
+        infos, colour[c].stamp, [](const sensor_msgs::CameraInfo& i) { return i.header.stamp; });
+    long best = -1;
+    double gap = 0;
+    for (long candidate : {before, after}) {
+      if (candidate < 0) continue;
+      const double g = std::abs((infos[candidate].header.stamp - colour[c].stamp).toSec());
+      if (best < 0 || g < gap) best = candidate, gap = g;
+    }
+    if (best < 0 || gap > options.sync_tolerance) {
+      ++counts.colour_without_info;
+      continue;
+    }
+    // Checked here rather than frame by frame in load(): an unregistered depth
+    // topic is a property of the recording, so say so before any work.
+    const ImageEntry& c_entry = colour[c];
+    const ImageEntry& d_entry = depth[static_cast<size_t>(depth_of[c])];
+    const sensor_msgs::CameraInfo& info = infos[static_cast<size_t>(best)];
+    const auto size = [](uint32_t w, uint32_t h) {
+      return std::to_string(w) + "x" + std::to_string(h);
+    };
+    if (stripLeadingSlashes(c_entry.frame_id) != stripLeadingSlashes(d_entry.frame_id))
+      return makeError(where() + "depth on '" + normalTopic(options.depth_topic) +
+                       "' is in frame '" + d_entry.frame_id + "' but colour on '" +
+                       normalTopic(options.rgb_topic) + "' is in frame '" + c_entry.frame_id +
+                       "' (at " + seconds(c_entry.stamp) +
+                       "): depth must be registered to colour (e.g. a depth_registered topic)");
+    if (c_entry.width != d_entry.width || c_entry.height != d_entry.height ||
+        info.width != c_entry.width || info.height != c_entry.height)
+      return makeError(where() + "sizes differ at " + seconds(c_entry.stamp) + ": colour on '" +
+                       normalTopic(options.rgb_topic) + "' " + size(c_entry.width, c_entry.height) +
+                       ", depth on '" + normalTopic(options.depth_topic) + "' " +
+                       size(d_entry.width, d_entry.height) + ", camera_info on '" +
+                       normalTopic(options.camera_info_topic) + "' " +
+                       size(info.width, info.height) + "; depth must be registered to colour");
+    Frame f;
+    f.id = static_cast<int>(synced.size());
+    f.colour = c;
+    f.depth = static_cast<size_t>(depth_of[c]);
+    f.info = static_cast<size_t>(best);
+    synced.push_back(f);
+  }
+  counts.synchronized = static_cast<int>(synced.size());
+  if (synced.empty()) {
+    const auto range = [](const auto& items, auto get) {
+      return items.empty() ? std::string("none")
+                           : seconds(get(items.front())) + " - " + seconds(get(items.back()));
+    };
+    const auto image_stamp = [](const ImageEntry& e) { return e.stamp; };
+    return makeError(where() + "no colour image on '" + normalTopic(options.rgb_topic) +
+                     "' has a depth image on '" + normalTopic(options.depth_topic) +
+                     "' and a camera_info on '" + normalTopic(options.camera_info_topic) +
+                     "' within " + number(options.sync_tolerance) +
+                     " s (--sync-tolerance); stamps: colour " + range(colour, image_stamp) +
+                     ", depth " + range(depth, image_stamp) + ", camera_info " +
+                     range(infos, [](const sensor_msgs::CameraInfo& i) { return i.header.stamp; }));
+  }
+  return relocalizer::okStatus();
+}
+
+relocalizer::Status BagDataset::Impl::posesFromTf(
+    const std::vector<geometry_msgs::TransformStamped>& transforms,
+    const std::vector<bool>& is_static) {
+  // Edges and their sample stamps, cleaned of what tf2 would reject with a log
+  // line per message: empty or self frames, non-finite values, repeated stamps.
+  std::map<std::string, TfEdge> edges;
+  std::vector<size_t> usable;
+  std::set<std::pair<std::string, ros::Time>> seen;
+  ros::Time first, last;
+  for (size_t i = 0; i < transforms.size(); ++i) {
+    ++counts.tf_transforms;
+    const auto& t = transforms[i];
+    const std::string parent = stripLeadingSlashes(t.header.frame_id);
+    const std::string child = stripLeadingSlashes(t.child_frame_id);
+    const auto& q = t.transform.rotation;
+    const auto& v = t.transform.translation;
+    const bool finite = std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z) &&
+                        std::isfinite(q.w) && std::isfinite(v.x) && std::isfinite(v.y) &&
+                        std::isfinite(v.z) &&
+                        (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w) > 1e-12;
+    if (parent.empty() || child.empty() || parent == child || !finite ||
+        (!is_static[i] && !seen.insert({child, t.header.stamp}).second)) {
+      ++counts.tf_ignored;
+      continue;
+    }
+    TfEdge& edge = edges[child];
+    edge.parent = parent;
+    if (!is_static[i]) {
+      edge.is_static = false;
+      edge.stamps.push_back(t.header.stamp);
+      if (first.isZero() || t.header.stamp < first) first = t.header.stamp;
+      if (last.isZero() || t.header.stamp > last) last = t.header.stamp;
+    }
+    usable.push_back(i);
+  }
+  for (auto& [child, edge] : edges) std::sort(edge.stamps.begin(), edge.stamps.end());
+
+  // The cache must hold the whole recording, or lookups early in the bag
+  // would fail once later transforms are inserted.
+  const double span = last.isZero() ? 0.0 : (last - first).toSec();
+  tf2::BufferCore buffer(ros::Duration(span + 10.0));
+  for (size_t i : usable) {
+    geometry_msgs::TransformStamped t = transforms[i];
+    t.header.frame_id = stripLeadingSlashes(t.header.frame_id);
+    t.child_frame_id = stripLeadingSlashes(t.child_frame_id);
+    buffer.setTransform(t, "bag", is_static[i]);
+  }
+  pose_begin = first;
+  pose_end = last;
+
+  // The frames present, for messages that must say what the bag does have.
+  std::set<std::string> frames;
+  for (const auto& [child, edge] : edges) {
+    frames.insert(child);
+    frames.insert(edge.parent);
+  }
+  const auto frame_list = [&] {
+    std::string text;
+    for (const std::string& f : frames) {
+      const auto it = edges.find(f);
+      text += (text.empty() ? "" : ", ") + f +
+              (it == edges.end() ? " (root)"
+                                 : " (child of " + it->second.parent +
+                                       (it->second.is_static ? ", static)" : ")"));
+    }
+    return text.empty() ? std::string("none") : text;
+  };
+  // Path to the root, the frame itself first (cycles cut).
+  const auto ancestors = [&](const std::string& frame) {
+    std::vector<std::string> chain{frame};
+    std::set<std::string> visited{frame};
+    for (auto it = edges.find(frame); it != edges.end(); it = edges.find(chain.back())) {
+      if (!visited.insert(it->second.parent).second) break;
+      chain.push_back(it->second.parent);
+    }
+    return chain;
+  };
+
+  const std::string map_frame = stripLeadingSlashes(options.map_frame);
+  // Per camera frame: the dynamic edges between it and the map frame.
+  std::map<std::string, std::vector<const TfEdge*>> paths;
+  for (const Frame& f : synced) {
+    const std::string camera_frame = cameraFrameOf(f);
+    if (paths.count(camera_frame)) continue;
+    if (camera_frame.empty())
+      return makeError(where() + "colour images on '" + normalTopic(options.rgb_topic) +
+                       "' have an empty header frame_id; pass --camera-frame");
+    const auto up_camera = ancestors(camera_frame);
+    const auto up_map = ancestors(map_frame);
+    auto common = up_camera.end();
+    for (auto it = up_camera.begin(); it != up_camera.end() && common == up_camera.end(); ++it)
+      if (std::find(up_map.begin(), up_map.end(), *it) != up_map.end()) common = it;
+    if (common == up_camera.end()) {
+      std::string missing;
+      for (const std::string& name : {map_frame, camera_frame})
+        if (!frames.count(name)) missing += "; '" + name + "' is not in /tf or /tf_static";
+      return makeError(where() + "no TF path from the map frame '" + map_frame +
+                       "' (--map-frame) to the camera frame '" + camera_frame + "' (" +
+                       (options.camera_frame.empty() ? "the colour images' frame_id; --camera-frame"
+                                                     : "--camera-frame") +
+                       ")" + missing + "; TF frames in the bag: " + frame_list());
+    }
+    std::vector<const TfEdge*> dynamic;
+    const auto collect = [&](const std::vector<std::string>& chain, const std::string& stop) {
+      for (const std::string& frame : chain) {
+        if (frame == stop) break;
+        const TfEdge& edge = edges.at(frame);
+        if (!edge.is_static) dynamic.push_back(&edge);
+      }
+    };
+    collect(up_camera, *common);
+    collect(up_map, *common);
+    paths[camera_frame] = dynamic;
+  }
+
+  for (Frame& f : synced) {
+    const std::string camera_frame = cameraFrameOf(f);
+    const ros::Time t = colour[f.colour].stamp;
+    bool in_time = true;
+    for (const TfEdge* edge : paths.at(camera_frame))
+      if (!inTime(edge->stamps, t, options.pose_tolerance, [](const ros::Time& s) { return s; })) {
+        in_time = false;
+        if (no_pose_hint.empty()) {
+          std::string child;
+          for (const auto& [name, e] : edges)
+            if (&e == edge) child = name;
+          no_pose_hint = "e.g. frame " + std::to_string(f.id) + " at " + seconds(t) + ": TF " +
+                         edge->parent + " -> " + child + " has no samples within " +
+                         number(options.pose_tolerance) + " s on both sides (its samples span " +
+                         (edge->stamps.empty() ? std::string("nothing")
+                                               : seconds(edge->stamps.front()) + " - " +
+                                                     seconds(edge->stamps.back())) +
+                         medianSpacing(edge->stamps) + ")";
+        }
+        break;
+      }
+    if (!in_time) continue;
+    try {
+      f.pose = fromTransformMsg(buffer.lookupTransform(map_frame, camera_frame, t).transform);
+    } catch (const tf2::TransformException& e) {
+      if (no_pose_hint.empty())
+        no_pose_hint = "e.g. frame " + std::to_string(f.id) + " at " + seconds(t) + ": " + e.what();
+    }
+  }
+  pose_source =
+      "TF " + map_frame + " -> " +
+      (options.camera_frame.empty() ? "image frame_id" : stripLeadingSlashes(options.camera_frame));
+  if (options.camera_frame.empty() && paths.size() == 1)
+    pose_source = "TF " + map_frame + " -> " + paths.begin()->first;
+  pose_detail = std::to_string(counts.tf_transforms) + " transforms on /tf + /tf_static" +
+                (counts.tf_ignored ? " (" + std::to_string(counts.tf_ignored) +
+                                         " ignored: repeated stamps, NaN, empty or self frames)"
+                                   : std::string());
+  return relocalizer::okStatus();
+}
+
+relocalizer::Status BagDataset::Impl::posesFromTopic(const std::vector<PoseSample>& unsorted,
+                                                     const std::string& type) {
+  // Odometry and TransformStamped name the frame they locate: it must be the camera's.
+  if (!pose_child.empty())
+    for (const Frame& f : synced)
+      if (cameraFrameOf(f) != pose_child)
+        return makeError(
+            where() + "poses on '" + normalTopic(options.pose_topic) + "' are of frame '" +
+            pose_child + "', not the camera frame '" + cameraFrameOf(f) + "' (" +
+            (options.camera_frame.empty() ? "the colour images' frame_id" : "--camera-frame") +
+            "); a pose topic must give the camera's own pose (or use TF)");
+  std::vector<PoseSample> samples = unsorted;
+  std::stable_sort(samples.begin(), samples.end(),
+                   [](const PoseSample& a, const PoseSample& b) { return a.stamp < b.stamp; });
+  if (!samples.empty()) {
+    pose_begin = samples.front().stamp;
+    pose_end = samples.back().stamp;
+  }
+  const auto stamp_of = [](const PoseSample& s) { return s.stamp; };
+  for (Frame& f : synced) {
+    const ros::Time t = colour[f.colour].stamp;
+    long before = -1, after = -1;
+    if (!inTime(samples, t, options.pose_tolerance, stamp_of, &before, &after)) {
+      if (no_pose_hint.empty())
+        no_pose_hint = "e.g. frame " + std::to_string(f.id) + " at " + seconds(t) +
+                       " has no pose sample within " + number(options.pose_tolerance) +
+                       " s on both sides";
+      continue;
+    }
+    const PoseSample& a = samples[before];
+    const PoseSample& b = samples[after];
+    if (a.stamp == t || b.stamp == a.stamp) {
+      f.pose = a.stamp == t ? a.pose : b.pose;
+      continue;
+    }
+    const double r = (t - a.stamp).toSec() / (b.stamp - a.stamp).toSec();
+    Pose pose = Pose::Identity();
+    pose.translation() = (1.0 - r) * a.pose.translation() + r * b.pose.translation();
+    pose.linear() = Eigen::Quaterniond(a.pose.linear())
+                        .slerp(r, Eigen::Quaterniond(b.pose.linear()))
+                        .normalized()
+                        .toRotationMatrix();
+    f.pose = pose;
+  }
+  pose_source = "topic " + normalTopic(options.pose_topic) + " (" + type + ")";
+  pose_detail = std::to_string(samples.size()) + " samples" +
+                (counts.pose_samples_ignored
+                     ? " (" + std::to_string(counts.pose_samples_ignored) + " non-finite ignored)"
+                     : std::string());
+  return relocalizer::okStatus();
+}
+
+relocalizer::Status BagDataset::Impl::select() {
+  auto selection = FrameSelection::parse(options.frames);
+  if (!selection) return makeError(selection.error());
+  const bool key_frames = options.min_translation > 0 || options.min_rotation_degrees > 0;
+  const Pose* last = nullptr;
+  for (size_t i = 0; i < synced.size(); ++i) {
+    const Frame& f = synced[i];
+    if (!selection->contains(f.id)) continue;
+    ++counts.selected;
+    if (!f.pose) {
+      ++counts.without_pose;
+      continue;
+    }
+    ++counts.with_pose;
+    if (key_frames && last) {
+      const bool moved = options.min_translation > 0 &&
+                         relocalizer::translationError(*f.pose, *last) >= options.min_translation;
+      const bool turned =
+          options.min_rotation_degrees > 0 &&
+          relocalizer::rotationErrorDegrees(*f.pose, *last) >= options.min_rotation_degrees;
+      if (!moved && !turned) continue;
+    }
+    kept.push_back(i);
+    last = &*f.pose;
+  }
+  counts.key_frames = static_cast<int>(kept.size());
+  if (counts.selected == 0)
+    return makeError(where() + "frame selection '" + options.frames + "' matches none of the " +
+                     std::to_string(synced.size()) + " synchronized frames (ids 0-" +
+                     std::to_string(synced.size() - 1) + ")");
+  if (kept.empty())
+    return makeError(
+        where() + "none of the " + std::to_string(counts.selected) +
+        " selected frames (colour stamps " + seconds(colour[synced.front().colour].stamp) + " - " +
+        seconds(colour[synced.back().colour].stamp) + ") has a pose from " + pose_source +
+        " within " + number(options.pose_tolerance) + " s (--pose-tolerance); pose samples span " +
+        (pose_begin.isZero() && pose_end.isZero()
+             ? std::string("nothing (static only)")
+             : seconds(pose_begin) + " - " + seconds(pose_end)) +
+        (no_pose_hint.empty() ? std::string() : "; " + no_pose_hint));
+  for (size_t k : kept)
+    for (double coefficient : infos[synced[k].info].D) distorted = distorted || coefficient != 0.0;
+  camera = cameraFromInfo(infos[synced[kept.front()].info]);
+  return relocalizer::okStatus();
+}
+
+BagDataset::BagDataset(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+BagDataset::~BagDataset() = default;
+
+Expected<std::unique_ptr<BagDataset>> BagDataset::open(const std::string& path,
+                                                       const BagOptions& options) {
+  if (path.empty()) return makeError("bag path is empty");
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return makeError(path + ": no such file");
+  if (std::filesystem::is_directory(path, ec))
+    return makeError(path + ": is a folder, not a bag file");
+  for (const auto& [value, name] : {std::pair{options.sync_tolerance, "--sync-tolerance"},
+                                    {options.pose_tolerance, "--pose-tolerance"}})
+    if (!std::isfinite(value) || value < 0)
+      return makeError(std::string(name) + " must be finite and >= 0, got " + number(value));
+  if (stripLeadingSlashes(options.map_frame).empty()) return makeError("the map frame is empty");
+
+  auto impl = std::make_unique<Impl>();
+  impl->path = path;
+  impl->options = options;
+  try {
+    impl->bag = std::make_unique<rosbag::Bag>();
+    try {
+      impl->bag->open(path, rosbag::bagmode::Read);
+    } catch (const rosbag::BagException& e) {
+      return makeError(path + ": cannot be opened as a rosbag: " + e.what());
+    }
+    if (auto ok = impl->scan(); !ok) return makeError(ok.error());
+  } catch (const rosbag::BagException& e) {
+    return makeError(path + ": cannot be read: " + e.what());
+  } catch (const ros::Exception& e) {
+    return makeError(path + ": " + e.what());
+  } catch (const std::exception& e) {
+    return makeError(path + ": " + e.what());
+  }
+  return std::unique_ptr<BagDataset>(new BagDataset(std::move(impl)));
+}
+
+size_t BagDataset::size() const { return impl_->kept.size(); }
+int BagDataset::id(size_t i) const { return impl_->synced[impl_->kept.at(i)].id; }
+double BagDataset::stamp(size_t i) const {
+  return impl_->colour[impl_->synced[impl_->kept.at(i)].colour].stamp.toSec();
+}
+const std::optional<Pose>& BagDataset::groundTruth(size_t i) const {
+  return impl_->synced[impl_->kept.at(i)].pose;
+}
+const CameraIntrinsics& BagDataset::camera() const { return impl_->camera; }
+const std::string& BagDataset::path() const { return impl_->path; }
+const std::string& BagDataset::poseSource() const { return impl_->pose_source; }
+const BagCounts& BagDataset::counts() const { return impl_->counts; }
+
+Expected<RgbdFrame> BagDataset::load(size_t i) const {
+  if (i >= size())
+    return makeError("frame index " + std::to_string(i) + " is out of range: " + impl_->path +
+                     " has " + std::to_string(size()) + " kept frames");
+  const Impl::Frame& f = impl_->synced[impl_->kept[i]];
+  const ImageEntry& c = impl_->colour[f.colour];
+  const ImageEntry& d = impl_->depth[f.depth];
+  const std::string where = impl_->path + ": frame " + std::to_string(f.id) + " (" +
+                            normalTopic(impl_->options.rgb_topic) + " at " + seconds(c.stamp) +
+                            ", " + normalTopic(impl_->options.depth_topic) + " at " +
+                            seconds(d.stamp) + ")";
+  sensor_msgs::ImageConstPtr colour, depth;
+  try {
+    std::lock_guard<std::mutex> lock(impl_->bag_mutex);
+    colour = impl_->messages[c.message].instantiate<sensor_msgs::Image>();
+    depth = impl_->messages[d.message].instantiate<sensor_msgs::Image>();
+  } catch (const std::exception& e) {
+    return makeError(where + ": cannot be read: " + e.what());
+  }
+  if (!colour || !depth) return makeError(where + ": cannot be read as sensor_msgs/Image");
+  auto frame = frameFromMessages(*colour, *depth, impl_->infos[f.info]);
+  if (!frame) return makeError(where + ": " + frame.error());
+  frame->id = f.id;
+  frame->stamp = c.stamp.toSec();
+  frame->ground_truth = f.pose;
+  frame->source = where;
+  return std::move(*frame);
+}
+
+std::string BagDataset::summary() const {
+  const Impl& d = *impl_;
+  const BagCounts& n = d.counts;
+  std::ostringstream out;
+  const auto encodings = [](const std::set<std::string>& set) {
+    std::string text;
+    for (const auto& e : set) text += (text.empty() ? "" : "/") + e;
+    return text;
+  };
+  out << "format:       rosbag\n";
+  out << "bag:          " << d.path << "\n";
+  out << "topics:       colour " << normalTopic(d.options.rgb_topic) << " (" << n.colour_images
+      << ", " << encodings(d.colour_encodings) << "), depth " << normalTopic(d.options.depth_topic)
+      << " (" << n.depth_images << ", " << encodings(d.depth_encodings) << "), camera_info "
+      << normalTopic(d.options.camera_info_topic) << " (" << n.camera_infos << ")\n";
+  out << "synchronized: " << n.synchronized << " frames (colour + depth + camera_info within "
+      << number(d.options.sync_tolerance) << " s)";
+  if (n.colour_without_depth || n.colour_without_info)
+    out << "; " << n.colour_without_depth << " colour images without depth, "
+        << n.colour_without_info << " without camera_info";
+  out << ", stamps " << seconds(d.colour[d.synced.front().colour].stamp) << " - "
+      << seconds(d.colour[d.synced.back().colour].stamp) << "\n";
+  if (n.selected != n.synchronized)
+    out << "selected:     " << n.selected << " by '" << d.options.frames << "'\n";
+  out << "poses:        " << d.pose_source << ", " << d.pose_detail << "; tolerance "
+      << number(d.options.pose_tolerance) << " s: " << n.with_pose << " with a pose, "
+      << n.without_pose << " skipped without a pose in time\n";
+  if (n.without_pose > 0 && !d.no_pose_hint.empty())
+    out << "              " << d.no_pose_hint << "\n";
+  std::vector<int> ids;
+  for (size_t i = 0; i < size(); ++i) ids.push_back(id(i));
+  out << "key frames:   ";
+  if (d.options.min_translation > 0 || d.options.min_rotation_degrees > 0)
+    out << n.key_frames << " of " << n.with_pose
+        << " moved >= " << number(d.options.min_translation)
+        << " m or turned >= " << number(d.options.min_rotation_degrees)
+        << " deg since the last kept\n";
+  else
+    out << "off (every frame with a pose)\n";
+  // Key frames of a long recording are thousands of single ids: show both ends.
+  std::string id_list = relocalizer::formatIdRanges(ids);
+  if (id_list.size() > 100) {
+    const size_t head = id_list.rfind(',', 60), tail = id_list.find(',', id_list.size() - 30);
+    if (head != std::string::npos && tail != std::string::npos && head < tail)
+      id_list = id_list.substr(0, head) + ",...," + id_list.substr(tail + 1);
+  }
+  out << "frames:       " << size() << " kept, ids " << id_list << "\n";
+  out << "image size:   " << d.camera.width << "x" << d.camera.height << "\n";
+  out << "intrinsics:   fx " << number(d.camera.fx) << " fy " << number(d.camera.fy) << " cx "
+      << number(d.camera.cx) << " cy " << number(d.camera.cy) << " (camera_info K"
+      << (d.distorted ? "; its distortion D is not zero and is ignored, as the node does: "
+                        "rectified images train better"
+                      : "")
+      << ")\n";
+  // Path length over consecutive synchronized frames with poses, like the
+  // dataset summary's consecutive ids, so skipped frames do not count.
+  double length = 0.0;
+  for (size_t i = 1; i < d.synced.size(); ++i)
+    if (d.synced[i - 1].pose && d.synced[i].pose)
+      length += (d.synced[i].pose->translation() - d.synced[i - 1].pose->translation()).norm();
+  out << "path length:  " << number(length, "%.2f") << " m (poses of consecutive frames)\n";
+  return out.str();
+}
+
+}  // namespace relocalizer_ros
