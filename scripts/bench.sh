@@ -38,11 +38,9 @@ if [ "${SWEEP:-0}" = 1 ]; then sweep=(--sweep "$out/sweep"); fi
   --json "$out/stages.json" "${sweep[@]}" > "$out/benchmark.log"
 node_json="$out/node.json"
 rm -f "$node_json"
-if [ -x "$tools/replay_benchmark" ] || [ -f scripts/bench_node.sh ]; then
-  echo "bench: node replay at 30 Hz, continuous mode"
-  ./scripts/bench_node.sh "$build_dir" "$out/bench.model" "${test_args[1]}" "${test_args[3]:-}" "$node_json" \
-    > "$out/node.log" 2>&1 || echo "bench: node replay failed (see $out/node.log)"
-fi
+echo "bench: node replay at 30 Hz, continuous mode"
+./scripts/bench_node.sh "$build_dir" "$out/bench.model" "${test_args[1]}" "${test_args[3]:-}" "$node_json" \
+  > "$out/node.log" 2>&1 || echo "bench: node replay failed (see $out/node.log)"
 
 /usr/bin/python3 - "$out" "$threads" <<'PY'
 import json, os, re, sys
@@ -75,8 +73,11 @@ print(f"{'accuracy, within 5 cm / 5 deg':44s} {100 * summary['within_5cm_5deg']:
 node = os.path.join(out, "node.json")
 if os.path.exists(node):
     n = json.load(open(node))
-    for key, value in n.items():
-        print(f"{key:44s} {value:>10}")
+    label = f"node, 30 Hz replay, {n['node_threads']} thread(s)"
+    if "latency_ms_median" in n:
+        print(f"{label + ', stamp to ~result':44s} {n['latency_ms_median']:10.1f} ms median {n['latency_ms_p95']:7.1f} p95")
+    print(f"{label + ', frames answered':44s} {100 * n['answered_share']:10.1f} % of {n['published']}")
+    print(f"{'node peak RSS':44s} {n['node_peak_rss_mb']:10.0f} MiB")
 else:
     print(f"{'node replay':44s} {'not measured':>28s}")
 PY

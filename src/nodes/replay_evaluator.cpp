@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   private_nh.param("node_timeout", options.node_timeout, options.node_timeout);
   private_nh.param("result_timeout", options.result_timeout, options.result_timeout);
   private_nh.param("idle_timeout", options.idle_timeout, options.idle_timeout);
+  private_nh.param("rate", options.rate, options.rate);
   if (options.play && options.bag.empty()) {
     ROS_FATAL("replay: ~bag is not set (a bag written by make_bag), and ~play is true");
     return 2;

@@ -7,7 +7,10 @@
 #include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <fstream>
 
 #include "message_conversion.h"
 #include "relocalizer/progress.h"
@@ -37,8 +40,9 @@ ReplayEvaluator::ReplayEvaluator(ros::NodeHandle nh, Options options)
 void ReplayEvaluator::onResult(const ResultMsg::ConstPtr& result) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    results_.emplace(result->header.stamp, *result);
     last_message_ = ros::WallTime::now();
+    if (results_.emplace(result->header.stamp, *result).second)
+      answered_at_.emplace(result->header.stamp, last_message_);
   }
   result_arrived_.notify_all();
 }
@@ -95,6 +99,7 @@ int ReplayEvaluator::play() {
     relocalizer::ProgressBar bar("replaying", frames_view.size());
     rosbag::View view(bag, rosbag::TopicQuery(topics));
     FrameGroup group;
+    ros::WallTime next_slot = ros::WallTime::now();
     // Publishes one frame and waits for its answer; false when shutting down.
     auto flush = [&]() -> bool {
       if (!group.colour && !group.depth && !group.info) return true;
@@ -116,6 +121,20 @@ int ReplayEvaluator::play() {
       colour_pub.publish(group.colour);
       ++published;
       bar.advance();
+      if (options_.rate > 0.0) {
+        // A camera does not wait for the node: the next frame goes out on
+        // schedule (late frames go at once, so the mean rate holds).
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          published_at_[stamp] = ros::WallTime::now();
+        }
+        next_slot += ros::WallDuration(1.0 / options_.rate);
+        const ros::WallDuration wait = next_slot - ros::WallTime::now();
+        if (wait > ros::WallDuration(0)) wait.sleep();
+        if (!ros::ok()) return false;
+        group = {};
+        return true;
+      }
       std::unique_lock<std::mutex> lock(mutex_);
       const bool answered = result_arrived_.wait_for(
           lock, std::chrono::duration<double>(options_.result_timeout),
@@ -150,6 +169,18 @@ int ReplayEvaluator::play() {
       }
     }
     if (!flush()) return 1;
+    if (options_.rate > 0.0) {
+      // The last frames' answers are still on their way; wait for the node
+      // to finish what it took (it drops what it did not).
+      const auto idle = std::chrono::duration<double>(std::min(options_.result_timeout, 5.0));
+      std::unique_lock<std::mutex> lock(mutex_);
+      while (ros::ok()) {
+        const size_t before = results_.size();
+        result_arrived_.wait_for(lock, idle);
+        if (results_.size() == before) break;
+      }
+      for (const auto& sent : published_at_) unanswered += results_.count(sent.first) == 0;
+    }
   } catch (const rosbag::BagException& e) {
     ROS_FATAL("replay: %s: %s", options_.bag.c_str(), e.what());
     return 2;
@@ -165,7 +196,44 @@ int ReplayEvaluator::play() {
   }
   std::printf("replayed %d frames of %s through %s (%d without an answer)\n", published,
               options_.bag.c_str(), result_sub_.getTopic().c_str(), unanswered);
+  if (options_.rate > 0.0) reportLatency(published);
   return report(truths);
+}
+
+void ReplayEvaluator::reportLatency(int published) {
+  std::vector<double> latencies_ms;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [stamp, sent] : published_at_) {
+      const auto answer = answered_at_.find(stamp);
+      if (answer != answered_at_.end()) latencies_ms.push_back((answer->second - sent).toSec() * 1e3);
+    }
+  }
+  std::sort(latencies_ms.begin(), latencies_ms.end());
+  const auto percentile = [&](double q) {
+    if (latencies_ms.empty()) return std::nan("");
+    const size_t index = std::min(latencies_ms.size() - 1,
+                                  static_cast<size_t>(q * static_cast<double>(latencies_ms.size() - 1) + 0.5));
+    return latencies_ms[index];
+  };
+  const double share = published > 0 ? static_cast<double>(latencies_ms.size()) / published : 0.0;
+  std::printf("paced at %.1f Hz: %zu of %d frames answered (%.1f %%); latency from publish to ~result: "
+              "median %.1f ms, 95th percentile %.1f ms, max %.1f ms\n",
+              options_.rate, latencies_ms.size(), published, 100.0 * share, percentile(0.5),
+              percentile(0.95), latencies_ms.empty() ? std::nan("") : latencies_ms.back());
+  if (options_.output.empty()) return;
+  nlohmann::json out;
+  out["rate_hz"] = options_.rate;
+  out["published"] = published;
+  out["answered"] = latencies_ms.size();
+  out["answered_share"] = share;
+  if (!latencies_ms.empty()) {
+    out["latency_ms_median"] = percentile(0.5);
+    out["latency_ms_p95"] = percentile(0.95);
+    out["latency_ms_max"] = latencies_ms.back();
+  }
+  std::filesystem::create_directories(options_.output);
+  std::ofstream(options_.output + "/latency.json") << out.dump(2) << "\n";
 }
 
 int ReplayEvaluator::collect() {

@@ -8,7 +8,11 @@
 // waits for the node's result for that stamp, then publishes the next. The
 // replay is therefore exact (no frame is dropped, whatever the machine's speed)
 // and as fast as the node, which with the node's process_all makes its
-// accuracy that of `evaluate` on the same frames. In collect mode it only
+// accuracy that of `evaluate` on the same frames. With `rate` > 0 it is a
+// camera instead: it publishes on a fixed schedule (rate Hz) without waiting,
+// so a busy node drops frames as it would live, and it measures each answer's
+// latency, from publishing the frame to receiving its ~result (stamp to
+// publish, plus one local hop), and the share of frames answered. In collect mode it only
 // listens, for use with `rosbag play` or a live camera, and finishes after
 // idle_timeout seconds without messages.
 
@@ -42,6 +46,7 @@ class ReplayEvaluator {
     double node_timeout = 60.0;    // seconds to wait for the node to subscribe
     double result_timeout = 60.0;  // seconds to wait for the answer to one frame
     double idle_timeout = 10.0;    // collect mode: seconds without messages that end it
+    double rate = 0.0;             // play mode: > 0 paces frames at this many Hz (no waiting)
   };
 
   ReplayEvaluator(ros::NodeHandle nh, Options options);
@@ -62,6 +67,9 @@ class ReplayEvaluator {
   int play();
   int collect();
   int report(const std::vector<Truth>& truths);
+  // Paced mode: answered share and latency percentiles, printed and (with
+  // an output folder) written to latency.json.
+  void reportLatency(int published);
   void onResult(const ResultMsg::ConstPtr& result);
   void onTruth(const geometry_msgs::PoseStamped::ConstPtr& truth);
 
@@ -72,6 +80,8 @@ class ReplayEvaluator {
   std::mutex mutex_;
   std::condition_variable result_arrived_;
   std::map<ros::Time, ResultMsg> results_;  // first answer per frame stamp
+  std::map<ros::Time, ros::WallTime> answered_at_;  // when that answer arrived
+  std::map<ros::Time, ros::WallTime> published_at_;  // paced mode: when the frame went out
   std::vector<Truth> collected_truths_;     // collect mode
   nlohmann::json dataset_info_;             // from make_bag, when present
   ros::WallTime last_message_;
