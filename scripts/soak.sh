@@ -114,7 +114,7 @@ while :; do
   [ "$next" -ge "$total" ] && break
   next=$((next + interval))
   # Sleep to the next multiple of the interval from the start.
-  wait_s=$(awk -v s="$start" -v n="$next" -v t="$(date +%s.%N)" 'BEGIN { d = s + n - t; printf "%.2f", d > 0 ? d : 0 }')
+  wait_s=$(awk -v s="$start" -v n="$next" -v t="$(date +%s.%N)" 'BEGIN { d = s + n - t; printf "%.2f", (d > 0 ? d : 0) }')
   sleep "$wait_s"
 done
 kill -0 "$play_pid" 2>/dev/null || echo "soak: warning: rosbag play is no longer running (see $out/play.log)"
