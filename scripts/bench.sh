@@ -54,7 +54,7 @@ per_tree = re.findall(r"^\s+(points|lines)\s.*per tree (.*)$", log, re.M)
 size_mb = os.path.getsize(os.path.join(out, "bench.model")) / 1e6
 print()
 print(f"CPU: {stages['cpu']}; {os.cpu_count()} cores; {stages['frames']} frames")
-print(f"{'figure':44s} {'value':>28s}")
+print(f"{'figure':56s} {'value':>28s}")
 names = [("sampling_points", "sampling, random pixels"), ("sampling_lines", "sampling, LSD lines"),
          ("forest_points", "point forest (descriptors + prediction)"),
          ("forest_lines", "line forest (descriptors + prediction)"), ("ransac", "preemptive RANSAC"),
@@ -62,22 +62,22 @@ names = [("sampling_points", "sampling, random pixels"), ("sampling_lines", "sam
 for t in sorted(stages["threads"], key=int):
     for key, label in names:
         s = stages["threads"][t][key]
-        print(f"{label + ', ' + t + ' thread(s)':44s} {s['median_ms']:10.1f} ms median {s['p95_ms']:7.1f} p95")
-print(f"{'training, ' + threads + ' threads, wall':44s} {float(train_s):10.1f} s")
+        print(f"{label + ', ' + t + ' thread(s)':56s} {s['median_ms']:10.1f} ms median {s['p95_ms']:7.1f} p95")
+print(f"{'training, ' + threads + ' threads, wall':56s} {float(train_s):10.1f} s")
 for kind, times in per_tree:
-    print(f"{'  per tree, ' + kind:44s} {times:>28s}")
-print(f"{'train peak RSS':44s} {int(train_kb) / 1024:10.0f} MiB")
-print(f"{'evaluate peak RSS':44s} {int(eval_kb) / 1024:10.0f} MiB")
-print(f"{'model file':44s} {size_mb:10.1f} MB")
-print(f"{'accuracy, within 5 cm / 5 deg':44s} {100 * summary['within_5cm_5deg']:10.1f} %")
+    print(f"{'  per tree, ' + kind:56s} {times:>28s}")
+print(f"{'train peak RSS':56s} {int(train_kb) / 1024:10.0f} MiB")
+print(f"{'evaluate peak RSS':56s} {int(eval_kb) / 1024:10.0f} MiB")
+print(f"{'model file':56s} {size_mb:10.1f} MB")
+print(f"{'accuracy, within 5 cm / 5 deg':56s} {100 * summary['within_5cm_5deg']:10.1f} %")
 node = os.path.join(out, "node.json")
 if os.path.exists(node):
     n = json.load(open(node))
     label = f"node, 30 Hz replay, {n['node_threads']} thread(s)"
     if "latency_ms_median" in n:
-        print(f"{label + ', stamp to ~result':44s} {n['latency_ms_median']:10.1f} ms median {n['latency_ms_p95']:7.1f} p95")
-    print(f"{label + ', frames answered':44s} {100 * n['answered_share']:10.1f} % of {n['published']}")
-    print(f"{'node peak RSS':44s} {n['node_peak_rss_mb']:10.0f} MiB")
+        print(f"{label + ', stamp to ~result':56s} {n['latency_ms_median']:10.1f} ms median {n['latency_ms_p95']:7.1f} p95")
+    print(f"{label + ', frames answered':56s} {100 * n['answered_share']:10.1f} % of {n['published']}")
+    print(f"{'node peak RSS':56s} {n['node_peak_rss_mb']:10.0f} MiB")
 else:
-    print(f"{'node replay':44s} {'not measured':>28s}")
+    print(f"{'node replay':56s} {'not measured':>28s}")
 PY

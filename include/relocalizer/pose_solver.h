@@ -28,7 +28,7 @@ namespace relocalizer {
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 struct PoseSolverParams {
-  int hypotheses = 1024;          // initial hypotheses
+  int hypotheses = 256;           // initial hypotheses
   int batch_size = 500;           // samples scored per preemptive round
   int max_sampling_attempts = 20; // minimal sets tried per hypothesis before giving up
   float min_point_distance = 0.05f;  // metres between the three camera points

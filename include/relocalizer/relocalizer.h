@@ -14,8 +14,8 @@
 namespace relocalizer {
 
 struct RelocalizerParams {
-  int point_samples = 2000;  // random pixels with depth per frame
-  int line_samples = 1000;   // line samples per frame (at most)
+  int point_samples = 500;   // random pixels with depth per frame (speed-accuracy sweep, docs/benchmarks.md)
+  int line_samples = 250;    // line samples per frame (at most)
   int max_leaves = 8;        // backtracking leaves per tree
   bool use_points = true;    // use the point forest
   bool use_lines = true;     // use the line forest
