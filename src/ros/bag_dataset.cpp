@@ -760,7 +760,14 @@ Expected<std::unique_ptr<BagDataset>> BagDataset::open(const std::string& path,
     try {
       impl->bag->open(path, rosbag::bagmode::Read);
     } catch (const rosbag::BagException& e) {
-      return makeError(path + ": cannot be opened as a rosbag: " + e.what());
+      // A recording that was killed has no index at its end: rosbag's reason
+      // is a short read, which says nothing about the cure.
+      const std::string why = e.what();
+      const bool short_read = why.find("Error reading from file") != std::string::npos;
+      return makeError(path + ": cannot be opened as a rosbag: " + why +
+                       (short_read ? " (truncated, e.g. an interrupted recording? `rosbag reindex` "
+                                     "rebuilds the index of what was written)"
+                                   : ""));
     }
     if (auto ok = impl->scan(); !ok) return makeError(ok.error());
   } catch (const rosbag::BagException& e) {

@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <functional>
 #include <sstream>
 
@@ -439,6 +440,22 @@ TEST(BagDataset, BadBagsSayWhichTopicOrFrame) {
   EXPECT_NE(error.find("text.bag: cannot be opened as a rosbag"), std::string::npos) << error;
   error = openError(bag_path("missing"));
   EXPECT_NE(error.find("missing.bag: no such file"), std::string::npos) << error;
+
+  // A recording cut short (no index at its end): the cure is named.
+  {
+    rosbag::Bag bag(bag_path("whole"), rosbag::bagmode::Write);
+    writeTinyFrame(bag, at(1.5));
+    good_tf(bag);
+  }
+  {
+    std::ifstream in(bag_path("whole"), std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_GT(bytes.size(), 200u);
+    std::ofstream(bag_path("truncated"), std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  error = openError(bag_path("truncated"));
+  EXPECT_NE(error.find("truncated.bag: cannot be opened as a rosbag: "), std::string::npos) << error;
+  EXPECT_NE(error.find("`rosbag reindex`"), std::string::npos) << error;
 
   // Poses that never cover the images: the spans say why.
   {
