@@ -24,6 +24,9 @@ struct RelocalizerParams {
   PoseSolverParams solver;
 };
 
+// With two or more threads the line branch (LSD, line samples, line forest)
+// runs beside the point forest, so the stages can add up to more than `total`;
+// `sampling_and_forests` is their wall time.
 struct StageTimings {  // seconds
   double sampling = 0.0;         // sampling_points + sampling_lines
   double sampling_points = 0.0;  // random pixels
@@ -31,6 +34,7 @@ struct StageTimings {  // seconds
   double forest = 0.0;           // forest_points + forest_lines
   double forest_points = 0.0;    // descriptors and point-forest prediction
   double forest_lines = 0.0;     // descriptors and line-forest prediction
+  double sampling_and_forests = 0.0;  // wall time of the sampling and forest stages
   double ransac = 0.0;           // hypotheses and preemptive scoring
   double refinement = 0.0;       // Ceres LM, inside the loop and final
   double total = 0.0;            // the whole call
