@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "dataset_internal.h"
+#include "relocalizer/stamp_association.h"
 
 namespace relocalizer::detail {
 namespace {
@@ -59,41 +60,17 @@ Expected<std::vector<ListEntry>> readImageList(const fs::path& file) {
   return entries;
 }
 
-// Pairs (rgb index, depth index) as TUM's associate.py: every pair closer than
-// the gap is a candidate, candidates are taken smallest gap first, each image
-// at most once; result ordered by colour stamp. Both lists are sorted, so
-// candidates come from a sliding window instead of all pairs.
+// Pairs (rgb index, depth index) as TUM's associate.py, whose test is strict
+// (a gap below kMaxAssociationGap, not equal to it).
 std::vector<std::pair<size_t, size_t>> associate(const std::vector<ListEntry>& rgb,
                                                  const std::vector<ListEntry>& depth) {
-  struct Candidate {
-    double gap;
-    size_t rgb, depth;
+  const auto stamps = [](const std::vector<ListEntry>& list) {
+    std::vector<double> out;
+    out.reserve(list.size());
+    for (const ListEntry& e : list) out.push_back(e.stamp);
+    return out;
   };
-  std::vector<Candidate> candidates;
-  size_t first = 0;
-  for (size_t r = 0; r < rgb.size(); ++r) {
-    while (first < depth.size() && depth[first].stamp <= rgb[r].stamp - kMaxAssociationGap)
-      ++first;
-    for (size_t d = first; d < depth.size() && depth[d].stamp < rgb[r].stamp + kMaxAssociationGap;
-         ++d) {
-      const double gap = std::abs(rgb[r].stamp - depth[d].stamp);
-      if (gap < kMaxAssociationGap) candidates.push_back({gap, r, d});
-    }
-  }
-  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-    if (a.gap != b.gap) return a.gap < b.gap;
-    if (a.rgb != b.rgb) return a.rgb < b.rgb;
-    return a.depth < b.depth;
-  });
-  std::vector<bool> rgb_used(rgb.size(), false), depth_used(depth.size(), false);
-  std::vector<std::pair<size_t, size_t>> matches;
-  for (const Candidate& c : candidates) {
-    if (rgb_used[c.rgb] || depth_used[c.depth]) continue;
-    rgb_used[c.rgb] = depth_used[c.depth] = true;
-    matches.emplace_back(c.rgb, c.depth);
-  }
-  std::sort(matches.begin(), matches.end());
-  return matches;
+  return associateByStamp(stamps(rgb), stamps(depth), std::nextafter(kMaxAssociationGap, 0.0));
 }
 
 struct GroundTruthSample {

@@ -295,11 +295,6 @@ void scoreBlock(Hypothesis* block, int count, const std::vector<BatchEntry>& bat
   }
 }
 
-inline float mahalanobis(const Eigen::Vector3f& d, const std::array<float, 6>& s) {
-  return s[0] * d.x() * d.x() + s[3] * d.y() * d.y() + s[5] * d.z() * d.z() +
-         2.0f * (s[1] * d.x() * d.y() + s[2] * d.x() * d.z() + s[4] * d.y() * d.z());
-}
-
 // Index of the candidate mode that best explains `world`, and its distance.
 inline int bestMode(const Prediction& prediction, const Eigen::Vector3f& world, float& best) {
   int chosen = -1;

@@ -25,6 +25,7 @@
 
 #include "message_conversion.h"
 #include "relocalizer/frame_selection.h"
+#include "relocalizer/stamp_association.h"
 
 namespace relocalizer_ros {
 
@@ -387,34 +388,19 @@ relocalizer::Status BagDataset::Impl::synchronize() {
   std::stable_sort(depth.begin(), depth.end(), by_stamp);
   std::stable_sort(infos.begin(), infos.end(),
                    [](const auto& a, const auto& b) { return a.header.stamp < b.header.stamp; });
-  const ros::Duration tolerance(options.sync_tolerance);
 
-  // Colour-depth pairs within the tolerance, nearest first, each image used once.
-  struct Candidate {
-    double gap;
-    size_t c, d;
+  // Colour-depth pairs within the tolerance, nearest first, each image used
+  // once, as the TUM reader pairs its lists.
+  const auto seconds_of = [](const std::vector<ImageEntry>& images) {
+    std::vector<double> out;
+    out.reserve(images.size());
+    for (const ImageEntry& e : images) out.push_back(e.stamp.toSec());
+    return out;
   };
-  std::vector<Candidate> candidates;
-  for (size_t c = 0; c < colour.size(); ++c) {
-    const ros::Time t = colour[c].stamp;
-    const ros::Time lo = t.toSec() > options.sync_tolerance ? t - tolerance : ros::Time(0, 0);
-    auto it = std::lower_bound(depth.begin(), depth.end(), lo,
-                               [](const ImageEntry& e, const ros::Time& x) { return e.stamp < x; });
-    for (; it != depth.end() && it->stamp <= t + tolerance; ++it)
-      candidates.push_back(
-          {std::abs((it->stamp - t).toSec()), c, static_cast<size_t>(it - depth.begin())});
-  }
-  std::stable_sort(
-      candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-        return a.gap < b.gap || (a.gap == b.gap && (a.c < b.c || (a.c == b.c && a.d < b.d)));
-      });
   std::vector<long> depth_of(colour.size(), -1);
-  std::vector<bool> depth_used(depth.size(), false);
-  for (const Candidate& k : candidates)
-    if (depth_of[k.c] < 0 && !depth_used[k.d]) {
-      depth_of[k.c] = static_cast<long>(k.d);
-      depth_used[k.d] = true;
-    }
+  for (const auto& [c, d] :
+       relocalizer::associateByStamp(seconds_of(colour), seconds_of(depth), options.sync_tolerance))
+    depth_of[c] = static_cast<long>(d);
 
   for (size_t c = 0; c < colour.size(); ++c) {
     if (depth_of[c] < 0) {

@@ -8,8 +8,7 @@
 #include <fstream>
 #include <vector>
 
-#include "cli_support.h"
-#include "relocalizer/dataset.h"
+#include "dataset_arguments.h"
 #include "relocalizer/depth_alignment.h"
 
 using namespace relocalizer;
@@ -20,13 +19,11 @@ int main(int argc, char** argv) {
       "ICP from the ground-truth motion) and reports the pairs whose ground-truth motion "
       "disagrees with the depth images. Exit code 0 either way; flagged pairs are listed.",
       "check_ground_truth"};
-  std::string dataset_path, format_name = "auto", frames, split = "all", output;
+  cli::DatasetArguments arguments;
+  std::string output;
   int threads = 0;
   MotionCheckThresholds thresholds;
-  app.add_option("-d,--dataset", dataset_path, "Dataset folder")->required();
-  app.add_option("--format", format_name, "auto | 7scenes | 12scenes | tum")->capture_default_str();
-  app.add_option("--frames", frames, "Frame ids, e.g. 100-199 (default: all)");
-  app.add_option("--split", split, "train | test | all (7-Scenes scenes)")->capture_default_str();
+  arguments.add(app, "Dataset folder", "Frame ids, e.g. 100-199 (default: all)");
   app.add_option("-o,--output", output, "CSV file with every pair");
   app.add_option("--max-translation", thresholds.translation,
                  "Flag pairs whose motions differ by more (metres)")
@@ -41,14 +38,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1024));
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
 
-  auto format = parseDatasetFormat(format_name);
-  if (!format) return cli::fail(app, format.error());
-  DatasetOptions options;
-  options.format = *format;
-  options.frames = frames;
-  options.split = split;
-  options.register_colour = false;  // depth only
-  auto dataset = openDataset(dataset_path, options);
+  auto dataset = arguments.open(/*register_colour=*/false);  // depth only
   if (!dataset) return cli::fail(app, dataset.error());
   const Dataset& data = **dataset;
 

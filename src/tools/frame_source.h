@@ -8,8 +8,7 @@
 #include <string>
 
 #include "../ros/bag_dataset.h"
-#include "cli_support.h"
-#include "relocalizer/dataset.h"
+#include "dataset_arguments.h"
 #include "relocalizer/frame_selection.h"
 
 namespace relocalizer::cli {
@@ -153,13 +152,7 @@ struct SourceOptions {
       if (!opened) return makeError(opened.error());
       return std::unique_ptr<FrameSource>(new BagSource(std::move(*opened)));
     }
-    auto parsed_format = parseDatasetFormat(format);
-    if (!parsed_format) return makeError(parsed_format.error());
-    DatasetOptions options;
-    options.format = *parsed_format;
-    options.frames = frames;
-    options.split = split;
-    auto opened = openDataset(dataset, options);
+    auto opened = DatasetArguments{dataset, format, frames, split}.open();
     if (!opened) return makeError(opened.error());
     return std::unique_ptr<FrameSource>(new DatasetSource(std::move(*opened), dataset));
   }

@@ -16,8 +16,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "cli_support.h"
-#include "relocalizer/dataset.h"
+#include "dataset_arguments.h"
 #include "relocalizer/progress.h"
 #include "relocalizer/version.h"
 
@@ -98,15 +97,12 @@ int main(int argc, char** argv) {
       "or synthesized at --rate (7-Scenes and 12-Scenes stamps are frame numbers, so they are "
       "synthesized at 30 Hz unless --rate says otherwise).",
       "make_bag"};
-  std::string dataset_path, format_name = "auto", frames, split = "all", output,
-                            depth_encoding = "16UC1", frame_id = "camera_rgb_optical_frame",
-                            compression = "lz4";
+  cli::DatasetArguments arguments;
+  std::string output, depth_encoding = "16UC1", frame_id = "camera_rgb_optical_frame",
+                      compression = "lz4";
   double rate = 0.0;
-  app.add_option("-d,--dataset", dataset_path, "Dataset folder (7-Scenes, 12-Scenes, TUM, synthetic)")
-      ->required();
-  app.add_option("--format", format_name, "auto | 7scenes | 12scenes | tum")->capture_default_str();
-  app.add_option("--frames", frames, "Frame ids to write, e.g. 100-199,300-399 (default: all)");
-  app.add_option("--split", split, "train | test | all (7-Scenes scenes)")->capture_default_str();
+  arguments.add(app, "Dataset folder (7-Scenes, 12-Scenes, TUM, synthetic)",
+                "Frame ids to write, e.g. 100-199,300-399 (default: all)");
   app.add_option("-o,--output", output, "Bag file to write (replaced if it exists)")->required();
   auto* rate_option = app.add_option("--rate", rate, "Synthesize stamps at this many frames per second")
                           ->check(CLI::Range(0.001, 10000.0));
@@ -122,13 +118,7 @@ int main(int argc, char** argv) {
   if (frame_id.empty() || frame_id[0] == '/')
     return cli::fail(app, "--frame-id must be a non-empty tf2 frame id without a leading slash");
 
-  auto format = parseDatasetFormat(format_name);
-  if (!format) return cli::fail(app, format.error());
-  DatasetOptions options;
-  options.format = *format;
-  options.frames = frames;
-  options.split = split;
-  auto opened = openDataset(dataset_path, options);
+  auto opened = arguments.open();
   if (!opened) return cli::fail(app, opened.error());
   const Dataset& data = **opened;
 
@@ -147,10 +137,10 @@ int main(int argc, char** argv) {
     if (compression == "lz4") bag.setCompression(rosbag::compression::LZ4);
     if (compression == "bz2") bag.setCompression(rosbag::compression::BZ2);
 
-    nlohmann::json info = {{"dataset", dataset_path},
+    nlohmann::json info = {{"dataset", arguments.path},
                            {"format", formatName(data.format())},
-                           {"frames", frames},
-                           {"split", split},
+                           {"frames", arguments.frames},
+                           {"split", arguments.split},
                            {"frame_count", data.size()},
                            {"stamps", synthesize ? "synthesized" : "dataset"},
                            {"rate", synthesize ? rate : 0.0},
