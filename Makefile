@@ -6,11 +6,16 @@ export PATH := /usr/bin:/bin:$(PATH)
 export ROS_LOG_DIR ?= $(CURDIR)/build/ros_log
 
 BUILD_DIR := build
+# The catkin devel space sits outside build/: rosrun skips every path under
+# <package>/build/, so a devel space there hides the tools from `rosrun`.
+DEVEL_DIR := devel
+export RELOCALIZER_DEVEL := $(CURDIR)/$(DEVEL_DIR)
 JOBS ?= $(shell nproc)
 BUILD_TYPE ?= RelWithDebInfo
 # Unit tests under AddressSanitizer + UndefinedBehaviorSanitizer, and the
 # libFuzzer targets (docs/reliability.md); each in its own build folder.
-ASAN_BUILD_DIR := build-asan
+# Under build/, so rosrun never sees their tools beside the devel space.
+ASAN_BUILD_DIR := build/asan
 # -O1 and line tables only: sanitizer reports keep file:line, and the build
 # takes half the time of -O3 -g. NDEBUG as in `build`, so the same code runs.
 ASAN_CXX_FLAGS := -O1 -g1 -DNDEBUG
@@ -26,7 +31,7 @@ deps:
 $(BUILD_DIR)/CMakeCache.txt: CMakeLists.txt package.xml
 	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) \
 	  -DPYTHON_EXECUTABLE=/usr/bin/python3 \
-	  -DCATKIN_DEVEL_PREFIX=$(CURDIR)/$(BUILD_DIR)/devel \
+	  -DCATKIN_DEVEL_PREFIX=$(CURDIR)/$(DEVEL_DIR) \
 	  -DCATKIN_ENABLE_TESTING=ON
 
 build: deps $(BUILD_DIR)/CMakeCache.txt
@@ -57,4 +62,4 @@ bench: build
 	@./scripts/bench.sh $(BUILD_DIR)
 
 clean:
-	rm -rf $(BUILD_DIR)
+	rm -rf $(BUILD_DIR) $(DEVEL_DIR)

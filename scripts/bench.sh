@@ -6,7 +6,8 @@
 set -euo pipefail
 build_dir=${1:-build}
 export PATH=/usr/bin:/bin:$PATH
-tools="$PWD/$build_dir/devel/lib/relocalizer"
+devel=${RELOCALIZER_DEVEL:-$PWD/devel}
+tools="$devel/lib/relocalizer"
 out="$PWD/$build_dir/bench"
 mkdir -p "$out"
 threads=$(nproc)
@@ -39,7 +40,7 @@ if [ "${SWEEP:-0}" = 1 ]; then sweep=(--sweep "$out/sweep"); fi
 node_json="$out/node.json"
 rm -f "$node_json"
 echo "bench: node replay at 30 Hz, continuous mode"
-./scripts/bench_node.sh "$build_dir" "$out/bench.model" "${test_args[1]}" "${test_args[3]:-}" "$node_json" \
+./scripts/bench_node.sh "$devel" "$out/bench.model" "${test_args[1]}" "${test_args[3]:-}" "$node_json" \
   > "$out/node.log" 2>&1 || echo "bench: node replay failed (see $out/node.log)"
 
 /usr/bin/python3 - "$out" "$threads" <<'PY'

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Node latency benchmark, run by `make bench`:
-#   scripts/bench_node.sh BUILD_DIR MODEL DATASET FRAMES OUTPUT_JSON
+#   scripts/bench_node.sh DEVEL_DIR MODEL DATASET FRAMES OUTPUT_JSON
 # Writes DATASET's FRAMES (an id range, "" for all) as a 30 Hz bag, starts a
 # private ROS master and relocalizer_node in continuous mode (process_all
 # false, max_rate 0: it always takes the newest frame and drops what it cannot
@@ -17,21 +17,21 @@ if [ $# -lt 5 ] || [ "$1" = "-h" ] || [ "$1" = "--help" ]; then
 fi
 export PATH=/usr/bin:/bin:$PATH
 here=$(cd "$(dirname "$0")/.." && pwd)
-build=$1
-[[ "$build" = /* ]] || build="$here/$build"
+devel=$1
+[[ "$devel" = /* ]] || devel="$here/$devel"
 model=$(realpath "$2")
 dataset=$(realpath "$3")
 frames=$4
 json_out=$5
 rate=${BENCH_NODE_RATE:-30}
-tools="$build/devel/lib/relocalizer"
+tools="$devel/lib/relocalizer"
 [ -f "$model" ] || { echo "bench_node: error: $model: no such model file" >&2; exit 2; }
 [ -x "$tools/relocalizer_node" ] || { echo "bench_node: error: $tools/relocalizer_node missing; build first" >&2; exit 2; }
 work=$(dirname "$(realpath -m "$json_out")")/node_replay
 mkdir -p "$work"
 set +u
 # shellcheck disable=SC1091
-source "$build/devel/setup.bash"
+source "$devel/setup.bash"
 set -u
 
 frame_args=()

@@ -6,7 +6,7 @@
 set -euo pipefail
 build_dir=${1:-build}
 export PATH=/usr/bin:/bin:$PATH
-tools="$build_dir/devel/lib/relocalizer"
+tools="${RELOCALIZER_DEVEL:-$PWD/devel}/lib/relocalizer"
 out="$build_dir/demo"
 mkdir -p "$out"
 

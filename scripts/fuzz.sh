@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets of test/fuzz/ with clang into build-fuzz/ and runs
+# Builds the libFuzzer targets of test/fuzz/ with clang into build/fuzz/ and runs
 # each for FUZZ_SECONDS, then prints one summary line per target (executions,
 # coverage, corpus, crashes) and exits non-zero if any target crashed, leaked,
 # timed out or did not build. See docs/reliability.md.
@@ -8,21 +8,21 @@
 #   FUZZ_SECONDS   seconds per target, libFuzzer -max_total_time (default 60)
 #   FUZZ_PARALLEL  targets run at once (default 1; CI uses 2 on its 2 cores)
 #   FUZZ_TARGETS   space-separated subset of targets (default: all)
-#   FUZZ_BUILD_DIR build folder (default build-fuzz)
+#   FUZZ_BUILD_DIR build folder (default build/fuzz)
 #   JOBS           parallel compile jobs (default: nproc)
 #   CXX_FUZZ       clang++ to use (default: clang++, else clang++-14)
 #
-# Inputs each target found interesting are kept in build-fuzz/corpus/<target>/
+# Inputs each target found interesting are kept in build/fuzz/corpus/<target>/
 # (so repeated runs on one machine build on each other); the committed seeds
 # in test/fuzz/corpus/<target>/ are only read. A crashing input is written to
-# build-fuzz/artifacts/<target>/ and the command to replay it is printed.
+# build/fuzz/artifacts/<target>/ and the command to replay it is printed.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 export PATH=/usr/bin:/bin:$PATH
 
 seconds=${FUZZ_SECONDS:-60}
 parallel=${FUZZ_PARALLEL:-1}
-build_dir=${FUZZ_BUILD_DIR:-build-fuzz}
+build_dir=${FUZZ_BUILD_DIR:-build/fuzz}
 jobs=${JOBS:-$(nproc)}
 all_targets=(fuzz_model fuzz_frame_selection fuzz_config fuzz_seven_scenes fuzz_twelve_scenes fuzz_tum)
 read -r -a targets <<< "${FUZZ_TARGETS:-${all_targets[*]}}"

@@ -1,24 +1,22 @@
 #!/usr/bin/env bash
-# Installs the Debian bookworm packages the package builds, tests and runs with.
-# Idempotent: asks apt only for what dpkg does not already have.
+# Installs the Debian bookworm packages that relocalizer builds, tests and runs
+# with: every package named in scripts/debian-dependencies.txt, the one table of
+# the package's dependencies (a unit test keeps it in step with package.xml and
+# CMakeLists.txt). Idempotent: asks apt only for what dpkg does not already have.
+#   scripts/install_deps.sh           install what is missing (apt-get, via sudo when not root)
+#   scripts/install_deps.sh --list    print the packages, one per line, and exit
 set -euo pipefail
+table="$(cd "$(dirname "$0")" && pwd)/debian-dependencies.txt"
+[ -r "$table" ] || { echo "deps: error: $table: cannot read the dependency table" >&2; exit 1; }
 
-packages=(
-  build-essential cmake pkg-config
-  catkin ros-message-generation ros-message-runtime
-  libroscpp-dev librosbag-dev libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev
-  libcv-bridge-dev libmessage-filters-dev libimage-transport-dev libnodelet-dev
-  libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev libstd-srvs-dev ros-std-srvs
-  librostest-dev python3-rostest python3-roslaunch python3-rosmaster python3-rosnode
-  python3-rostopic python3-rosservice python3-rosbag rosout rosbash
-  python3-catkin-pkg python3-rospkg python3-empy python3-nose
-  libopencv-dev libopencv-contrib-dev libceres-dev libeigen3-dev libtbb-dev
-  libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
-  libgtest-dev libgmock-dev googletest libbenchmark-dev
-  # make fuzz: clang with libFuzzer and the sanitizer runtimes; llvm-symbolizer
-  # (llvm) turns sanitizer reports into file:line stacks for make test-asan too.
-  clang libclang-rt-14-dev llvm
-)
+# Columns 3 and 4 (build, run) of every row: comma-separated, "-" for none.
+mapfile -t packages < <(awk '!/^[[:space:]]*(#|$)/ { print $3 "," $4 }' "$table" |
+  tr ',' '\n' | grep -v -e '^-$' -e '^$' | sort -u)
+
+if [ "${1:-}" = "--list" ]; then
+  printf '%s\n' "${packages[@]}"
+  exit 0
+fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -36,4 +34,6 @@ if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
 echo "deps: installing ${#missing[@]} missing Debian packages: ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 "${sudo_cmd[@]}" apt-get update -qq
+# Without recommends: the table names everything needed, so what it forgets
+# fails here and in the fresh-machine check instead of hiding behind a recommend.
 "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"

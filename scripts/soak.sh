@@ -10,7 +10,7 @@
 # and its RSS grew less than 5 % from the 1-minute sample to the last one.
 # Not part of CI (`make test`).
 #
-# Environment: SOAK_BUILD_DIR (catkin build folder, default build),
+# Environment: SOAK_DEVEL_DIR (catkin devel space, default devel),
 # SOAK_OUTPUT (folder for soak.csv, summary.txt, node.log; default
 # ./soak_output), SOAK_RATE (max_rate, default 30), SOAK_THREADS (node
 # threads, default from config/default.yaml), SOAK_INTERVAL (s, default 10),
@@ -22,8 +22,8 @@ if [ $# -lt 2 ] || [ "$1" = "-h" ] || [ "$1" = "--help" ]; then
 fi
 export PATH=/usr/bin:/bin:$PATH
 here=$(cd "$(dirname "$0")/.." && pwd)
-build=${SOAK_BUILD_DIR:-build}
-[[ "$build" = /* ]] || build="$here/$build"
+devel=${SOAK_DEVEL_DIR:-devel}
+[[ "$devel" = /* ]] || devel="$here/$devel"
 model=$(realpath "$1")
 bag=$(realpath "$2")
 minutes=${3:-10}
@@ -31,16 +31,16 @@ rate=${SOAK_RATE:-30}
 interval=${SOAK_INTERVAL:-10}
 max_growth=${SOAK_MAX_GROWTH:-5}
 out=${SOAK_OUTPUT:-$PWD/soak_output}
-node_bin="$build/devel/lib/relocalizer/relocalizer_node"
+node_bin="$devel/lib/relocalizer/relocalizer_node"
 [ -f "$model" ] || { echo "soak: error: $model: no such model file" >&2; exit 2; }
 [ -f "$bag" ] || { echo "soak: error: $bag: no such bag" >&2; exit 2; }
-[ -x "$node_bin" ] || { echo "soak: error: $node_bin missing; build first (SOAK_BUILD_DIR=$build)" >&2; exit 2; }
+[ -x "$node_bin" ] || { echo "soak: error: $node_bin missing; build first (SOAK_DEVEL_DIR=$devel)" >&2; exit 2; }
 [[ "$minutes" =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "soak: error: MINUTES must be a number, got '$minutes'" >&2; exit 2; }
 mkdir -p "$out"
 out=$(realpath "$out")
 set +u
 # shellcheck disable=SC1091
-source "$build/devel/setup.bash"
+source "$devel/setup.bash"
 set -u
 
 port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the unit-test binaries (test/unit/test_*.cpp) with AddressSanitizer and
 # UndefinedBehaviorSanitizer (RELOCALIZER_SANITIZE=ON, configured by
-# `make test-asan` into build-asan/) and runs each one under them with leak
+# `make test-asan` into build/asan/) and runs each one under them with leak
 # detection, then prints one line, `N passed, N failed[, N skipped]`, counted
 # from the gtest XML files, and exits non-zero on any failure.
 #
@@ -18,7 +18,7 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 export PATH=/usr/bin:/bin:$PATH
-build_dir=${1:-build-asan}
+build_dir=${1:-build/asan}
 jobs=${JOBS:-$(nproc)}
 timeout_s=${ASAN_TEST_TIMEOUT:-1200}
 export ROS_LOG_DIR=${ROS_LOG_DIR:-$PWD/$build_dir/ros_log}

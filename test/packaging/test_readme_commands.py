@@ -1,0 +1,271 @@
+"""The README's commands, typed as a user types them.
+
+Each command runs in a fresh bash that has only sourced the devel space the README
+names (`source devel/setup.bash`), from a scratch folder holding the files the
+README's lines refer to (model.bin and place.model are the rostest fixture's
+model; test.bag is written by `rosrun relocalizer make_bag`). The lines are read
+from README.md itself:
+
+- every `roslaunch relocalizer relocalizer.launch ...` line is launched verbatim and
+  answered with the README's own `rosservice call` line (on-demand mode) or
+  `rostopic echo` line (continuous mode), while `rosbag play` plays the fixture
+  frames; the pose must be within 5 cm / 5 degrees of a ground-truth pose;
+- every `roslaunch relocalizer replay.launch ...` line is run verbatim;
+- every tool named by a `rosrun relocalizer <tool>` line answers `--help` through
+  rosrun, and `rosrun relocalizer train --help` is run exactly as written.
+
+A private ROS master (ROS_MASTER_URI on a free port) keeps the test away from any
+master that runs on this machine.
+"""
+import math
+import os
+import pathlib
+import re
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+import unittest
+
+import yaml
+
+SOURCE = pathlib.Path(__file__).resolve().parents[2]
+README = SOURCE / "README.md"
+DEVEL = pathlib.Path(os.environ.get("RELOCALIZER_DEVEL", SOURCE / "devel"))
+FIXTURE = pathlib.Path(os.environ.get("RELOCALIZER_FIXTURE", SOURCE / "build" / "rostest_fixture"))
+COMMAND_PREFIXES = ("rosrun relocalizer ", "roslaunch relocalizer ", "rosservice call /relocalizer",
+                    "rostopic echo /relocalizer")
+
+
+def readme_commands():
+    """The lines of README.md's shell blocks that call this package, continuations joined."""
+    commands = []
+    in_block = False
+    pending = ""
+    for line in README.read_text().splitlines():
+        if line.startswith("```"):
+            in_block = line.strip() in ("```sh", "```bash")
+            pending = ""
+            continue
+        if not in_block:
+            continue
+        line = pending + line.strip()
+        if line.endswith("\\"):
+            pending = line[:-1].rstrip() + " "
+            continue
+        pending = ""
+        line = re.sub(r"\s+#.*$", "", line).strip()
+        if line.startswith(COMMAND_PREFIXES):
+            commands.append(line)
+    return commands
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        return s.getsockname()[1]
+
+
+def ground_truth_poses():
+    """(rotation rows, translation) of every fixture test frame (camera to world)."""
+    poses = []
+    for path in sorted((FIXTURE / "scene" / "test").glob("frame-*.pose.txt")):
+        m = [[float(v) for v in row.split()] for row in path.read_text().split("\n") if row.strip()]
+        poses.append(([row[:3] for row in m[:3]], [row[3] for row in m[:3]]))
+    return poses
+
+
+def quaternion_matrix(q):
+    x, y, z, w = q
+    return [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+
+
+class UserShell:
+    """Runs command lines in bash as a user would after `source devel/setup.bash`."""
+
+    def __init__(self, work):
+        self.work = work
+        self.port = free_port()
+        self.background = []
+        home = work / "home"
+        home.mkdir()
+        self.env = {"HOME": str(home), "PATH": "/usr/local/bin:/usr/bin:/bin", "LANG": "C.UTF-8",
+                    "ROS_MASTER_URI": f"http://localhost:{self.port}",
+                    "ROS_LOG_DIR": str(work / "ros_log")}
+
+    def _script(self, line):
+        return f'source "{DEVEL}/setup.bash" && cd "{self.work}" && {line}'
+
+    def run(self, line, timeout=120):
+        return subprocess.run(["bash", "-c", self._script(line)], env=self.env, cwd=self.work,
+                              capture_output=True, text=True, timeout=timeout)
+
+    def start(self, line, log_name):
+        log = open(self.work / log_name, "w")
+        process = subprocess.Popen(["bash", "-c", self._script("exec " + line)], env=self.env,
+                                   cwd=self.work, stdout=log, stderr=subprocess.STDOUT,
+                                   start_new_session=True)
+        self.background.append((process, log))
+        return process
+
+    def stop_all(self):
+        for process, _ in reversed(self.background):
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGINT)
+        for process, log in reversed(self.background):
+            try:
+                process.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.wait()
+            log.close()
+        self.background = []
+
+    def wait_until(self, line, what, timeout=60):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            result = self.run(line, timeout=30)
+            if result.returncode == 0 and what in result.stdout:
+                return
+            time.sleep(0.5)
+        raise AssertionError(f"gave up after {timeout} s waiting for '{what}' from `{line}`; "
+                             f"logs in {self.work}")
+
+
+class ReadmeCommandsTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        if not (DEVEL / "setup.bash").is_file():
+            raise AssertionError(f"{DEVEL}/setup.bash is missing: build first (make build)")
+        if not (FIXTURE / "model.bin").is_file():
+            raise AssertionError(f"{FIXTURE}/model.bin is missing: the rostest fixture is built "
+                                 "with the tests (make test)")
+        cls.commands = readme_commands()
+        cls.scratch = tempfile.TemporaryDirectory(prefix="readme_commands_")
+        cls.work = pathlib.Path(cls.scratch.name)
+        for name in ("model.bin", "place.model"):
+            (cls.work / name).symlink_to(FIXTURE / "model.bin")
+        shell = UserShell(cls.work)
+        made = shell.run(f'rosrun relocalizer make_bag --dataset "{FIXTURE}/scene/test" '
+                         "--output test.bag")
+        if made.returncode != 0:
+            raise AssertionError(f"rosrun relocalizer make_bag failed:\n{made.stdout}{made.stderr}")
+        cls.truth = ground_truth_poses()
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.scratch.cleanup()
+
+    def setUp(self):
+        self.shell = UserShell(pathlib.Path(tempfile.mkdtemp(dir=self.work)))
+        for name in ("model.bin", "place.model", "test.bag"):
+            (self.shell.work / name).symlink_to(self.work / name)
+
+    def tearDown(self):
+        self.shell.stop_all()
+
+    def readme_lines(self, prefix):
+        lines = [c for c in self.commands if c.startswith(prefix)]
+        self.assertTrue(lines, f"README.md has no `{prefix}...` line")
+        return lines
+
+    def assert_near_ground_truth(self, position, orientation, line):
+        rotation = quaternion_matrix(orientation)
+        best = None
+        for truth_rotation, truth_translation in self.truth:
+            translation_error = math.dist(truth_translation, position)
+            # trace(truth^T rotation) = sum of the element-wise product
+            trace = sum(a * b for ra, rb in zip(truth_rotation, rotation) for a, b in zip(ra, rb))
+            cosine = (trace - 1) / 2
+            angle = math.degrees(math.acos(max(-1.0, min(1.0, cosine))))
+            if best is None or translation_error < best[0]:
+                best = (translation_error, angle)
+        self.assertLess(best[0], 0.05, f"`{line}`: pose is {best[0]:.3f} m from the nearest "
+                        "ground-truth pose of the frames played")
+        self.assertLess(best[1], 5.0, f"`{line}`: pose is {best[1]:.2f} deg off")
+
+    def play_fixture_frames(self, odom_frame):
+        # roslaunch brings up the master; rostopic and rosbag give up without one.
+        self.shell.wait_until("rosnode list", "/relocalizer")
+        if odom_frame:
+            # What a SLAM stack would publish: odom -> camera (here fixed, so static).
+            self.shell.start(
+                "rostopic pub -l /tf_static tf2_msgs/TFMessage \"transforms: [{header: "
+                f"{{frame_id: {odom_frame}}}, child_frame_id: camera_rgb_optical_frame, "
+                "transform: {rotation: {w: 1.0}}}]\"", "tf_static.log")
+            self.shell.wait_until("rostopic echo -n 1 /tf_static", f"frame_id: \"{odom_frame}\"")
+        self.shell.start("rosbag play --loop --quiet test.bag", "rosbag_play.log")
+        self.shell.wait_until("rostopic echo -n 1 /camera/rgb/camera_info", "header")
+
+    def test_rosrun_train_help_exactly_as_written(self):
+        line = "rosrun relocalizer train --help"
+        self.assertIn(line, self.commands, "README.md should show how to get the tools' help")
+        result = self.shell.run(line)
+        self.assertEqual(result.returncode, 0, result.stdout + result.stderr)
+        self.assertIn("--dataset", result.stdout)
+        self.assertIn("--output", result.stdout)
+
+    def test_every_readme_tool_answers_help_through_rosrun(self):
+        tools = sorted({c.split()[2] for c in self.readme_lines("rosrun relocalizer ")})
+        for tool in tools:
+            with self.subTest(tool=tool):
+                result = self.shell.run(f"rosrun relocalizer {tool} --help")
+                self.assertEqual(result.returncode, 0,
+                                 f"rosrun relocalizer {tool} --help:\n{result.stdout}{result.stderr}")
+                self.assertRegex(result.stdout, r"(?i)usage|--help")
+
+    def test_relocalizer_launch_lines_answer_the_readme_service_call(self):
+        calls = self.readme_lines("rosservice call /relocalizer/relocalize")
+        launches = [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
+                    if "mode:=continuous" not in c]
+        self.assertTrue(launches, "README.md has no on-demand relocalizer.launch line")
+        for launch in launches:
+            with self.subTest(launch=launch):
+                self.shell.start(launch, "roslaunch.log")
+                odom = re.search(r"odom_frame:=(\S+)", launch)
+                self.play_fixture_frames(odom.group(1) if odom else "")
+                for call in sorted(set(calls)):
+                    result = self.shell.run(call, timeout=60)
+                    self.assertEqual(result.returncode, 0, f"`{call}`:\n{result.stdout}{result.stderr}")
+                    answer = yaml.safe_load(result.stdout)
+                    self.assertTrue(answer["success"], f"`{call}` after `{launch}`: {answer['message']}")
+                    pose = answer["pose"]["pose"]["pose"]
+                    p, q = pose["position"], pose["orientation"]
+                    self.assert_near_ground_truth([p["x"], p["y"], p["z"]],
+                                                  [q["x"], q["y"], q["z"], q["w"]], call)
+                self.shell.stop_all()
+
+    def test_continuous_launch_line_publishes_what_the_readme_echoes(self):
+        echo = self.readme_lines("rostopic echo /relocalizer/pose")[0]
+        for launch in [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
+                       if "mode:=continuous" in c]:
+            with self.subTest(launch=launch):
+                self.shell.start(launch, "roslaunch.log")
+                self.play_fixture_frames("")
+                # The README's echo runs until interrupted; its first message is enough.
+                result = self.shell.run(echo.replace("rostopic echo ", "rostopic echo -n 1 ", 1),
+                                        timeout=60)
+                self.assertEqual(result.returncode, 0, result.stdout + result.stderr)
+                message = yaml.safe_load(result.stdout.split("---")[0])
+                pose = message["pose"]["pose"]
+                p, q = pose["position"], pose["orientation"]
+                self.assert_near_ground_truth([p["x"], p["y"], p["z"]],
+                                              [q["x"], q["y"], q["z"], q["w"]], echo)
+                self.shell.stop_all()
+
+    def test_replay_launch_line_prints_the_evaluation(self):
+        for launch in self.readme_lines("roslaunch relocalizer replay.launch"):
+            with self.subTest(launch=launch):
+                result = self.shell.run(launch, timeout=300)
+                self.assertEqual(result.returncode, 0, result.stdout[-3000:] + result.stderr[-3000:])
+                self.assertIn("within 5 cm / 5", result.stdout)
+                output = re.search(r"output:=\$PWD/(\S+)", launch)
+                if output:
+                    self.assertTrue((self.shell.work / output.group(1) / "summary.json").is_file())
+
+
+if __name__ == "__main__":
+    unittest.main()
