@@ -33,7 +33,9 @@ sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
 echo "deps: installing ${#missing[@]} missing Debian packages: ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
+start=$(date +%s)
 "${sudo_cmd[@]}" apt-get update -qq
 # Without recommends: the table names everything needed, so what it forgets
 # fails here and in the fresh-machine check instead of hiding behind a recommend.
 "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
+echo "deps: installed ${#missing[@]} packages in $(( $(date +%s) - start )) s"

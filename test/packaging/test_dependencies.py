@@ -27,6 +27,8 @@ COMMANDS = {
     "/usr/bin/rosrun": "rosbash",
     "/usr/bin/rospack": "rosbash",
     "/usr/bin/roslaunch": "roslaunch",
+    "/usr/bin/roscore": "roslaunch",      # make bench, scripts/soak.sh
+    "/usr/bin/rosparam": "roslaunch",     # make bench, scripts/soak.sh
     "/usr/bin/rosmaster": "roslaunch",
     "/usr/lib/rosout/rosout": "roslaunch",
     "/usr/bin/rosservice": "rosservice",

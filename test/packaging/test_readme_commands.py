@@ -124,15 +124,25 @@ class UserShell:
             log.close()
         self.background = []
 
+    def logs(self):
+        """The last lines of every background command's output, for failure messages."""
+        text = ""
+        for path in sorted(self.work.glob("*.log")):
+            lines = path.read_text(errors="replace").splitlines()[-25:]
+            text += f"\n--- {path.name} (last {len(lines)} lines)\n" + "\n".join(lines)
+        return text
+
     def wait_until(self, line, what, timeout=60):
         deadline = time.monotonic() + timeout
+        result = None
         while time.monotonic() < deadline:
             result = self.run(line, timeout=30)
             if result.returncode == 0 and what in result.stdout:
                 return
             time.sleep(0.5)
-        raise AssertionError(f"gave up after {timeout} s waiting for '{what}' from `{line}`; "
-                             f"logs in {self.work}")
+        raise AssertionError(f"gave up after {timeout} s waiting for '{what}' from `{line}` "
+                             f"(last exit {result.returncode}: {result.stderr.strip()[-500:]})"
+                             + self.logs())
 
 
 class ReadmeCommandsTest(unittest.TestCase):
@@ -188,8 +198,9 @@ class ReadmeCommandsTest(unittest.TestCase):
         self.assertLess(best[1], 5.0, f"`{line}`: pose is {best[1]:.2f} deg off")
 
     def play_fixture_frames(self, odom_frame):
-        # roslaunch brings up the master; rostopic and rosbag give up without one.
-        self.shell.wait_until("rosnode list", "/relocalizer")
+        # roslaunch brings up the master and the node, which advertises ~result at
+        # start; rostopic and rosbag give up without a master.
+        self.shell.wait_until("rostopic list", "/relocalizer/result")
         if odom_frame:
             # What a SLAM stack would publish: odom -> camera (here fixed, so static).
             self.shell.start(
