@@ -7,9 +7,9 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "relocalizer/camera.h"
-#include "relocalizer/expected.h"
-#include "relocalizer/pose.h"
+#include "relocalizer/core/camera.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/pose.h"
 
 namespace relocalizer {
 
@@ -29,9 +29,10 @@ struct RgbdFrame {
 //  - CV_32FC1 in metres; non-finite and non-positive values are invalid.
 Expected<cv::Mat> depthToMetres(const cv::Mat& raw, double units_per_metre = 1000.0);
 
-// Colour as 8-bit BGR from 8-bit BGR, RGB, BGRA or mono; `encoding` follows
-// sensor_msgs/image_encodings names ("bgr8", "rgb8", "bgra8", "rgba8", "mono8").
-Expected<cv::Mat> colourToBgr8(const cv::Mat& raw, const std::string& encoding);
+// Metres (CV_32FC1, NaN = invalid) to 16-bit millimetres (0 = invalid): the
+// 7-Scenes depth file format and REP 118's 16UC1. Rounded to the nearest
+// millimetre; depths that round outside 1-65534 mm are invalid.
+cv::Mat depthToMillimetres(const cv::Mat& metres);
 
 // Empty when the frame can be relocalized, otherwise the reason: wrong types,
 // colour/depth/intrinsics size mismatch, unusable intrinsics.

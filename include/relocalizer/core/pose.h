@@ -5,11 +5,13 @@
 
 #include <Eigen/Geometry>
 
-#include "relocalizer/expected.h"
+#include "relocalizer/core/expected.h"
 
 namespace relocalizer {
 
 using Pose = Eigen::Isometry3d;
+// Pose covariances: (x, y, z, rotation about x, y, z), as geometry_msgs orders them.
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 // Nearest rotation (Frobenius norm) to a 3x3 matrix, via SVD. Ground-truth
 // rotations from KinectFusion have column norms of about 0.9999; measuring
