@@ -1,4 +1,4 @@
-#include "relocalizer/features.h"
+#include "relocalizer/forest/features.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "relocalizer/forest.h"
+#include "relocalizer/forest/forest.h"
 
 #include <Eigen/LU>
 #include <algorithm>

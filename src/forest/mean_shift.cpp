@@ -1,4 +1,4 @@
-#include "relocalizer/mean_shift.h"
+#include "relocalizer/forest/mean_shift.h"
 
 #include <algorithm>
 #include <cmath>

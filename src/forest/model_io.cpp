@@ -1,6 +1,6 @@
-#include "relocalizer/model_io.h"
+#include "relocalizer/forest/model_io.h"
 
-#include "json_fields.h"
+#include "relocalizer/core/json_fields.h"
 
 #include <zlib.h>
 

@@ -1,4 +1,4 @@
-#include "relocalizer/sampling.h"
+#include "relocalizer/forest/sampling.h"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>

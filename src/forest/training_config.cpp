@@ -1,84 +1,12 @@
-#include "relocalizer/config.h"
+#include "relocalizer/forest/training_config.h"
 
-#include <yaml-cpp/yaml.h>
-
-#include <cmath>
 #include <fstream>
-#include <limits>
-#include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "relocalizer/model_io.h"
+#include "relocalizer/core/config.h"
+#include "relocalizer/forest/model_io.h"
 
 namespace relocalizer {
-
-namespace {
-
-using nlohmann::json;
-
-// Overlays `node` onto `target`, which holds the defaults and so defines which
-// keys and types are allowed.
-std::string overlay(const YAML::Node& node, json& target, const std::string& path) {
-  if (target.is_object()) {
-    if (node.IsNull()) return {};
-    if (!node.IsMap()) return "'" + path + "' must be a mapping";
-    for (const auto& entry : node) {
-      // A null, list or mapping key ("? [a, b]: 1") has no parameter name.
-      if (!entry.first.IsScalar())
-        return "'" + (path.empty() ? std::string("(top level)") : path) +
-               "' has a key that is not a plain name";
-      const std::string key = entry.first.Scalar();
-      const std::string child = path.empty() ? key : path + "." + key;
-      if (!target.contains(key)) return "unknown parameter '" + child + "'";
-      const std::string why = overlay(entry.second, target[key], child);
-      if (!why.empty()) return why;
-    }
-    return {};
-  }
-  if (!node.IsScalar()) return "'" + path + "' must be a single value";
-  try {
-    if (target.is_boolean()) {
-      target = node.as<bool>();
-    } else if (target.is_number_unsigned()) {
-      const long long v = node.as<long long>();
-      if (v < 0) return "'" + path + "' must not be negative";
-      target = static_cast<unsigned long long>(v);
-    } else if (target.is_number_integer()) {
-      target = node.as<long long>();
-    } else if (target.is_number_float()) {
-      // .nan and .inf, or a value beyond float range, cannot be a parameter and
-      // would not survive the JSON a model header stores them in.
-      const double v = node.as<double>();
-      if (!std::isfinite(v) || std::abs(v) > std::numeric_limits<float>::max())
-        return "'" + path + "' must be a finite number (got '" + node.Scalar() + "')";
-      target = v;
-    } else if (target.is_string()) {
-      target = node.as<std::string>();
-    } else {
-      return "'" + path + "' has an unsupported type";
-    }
-  } catch (const YAML::Exception&) {
-    return "'" + path + "' has the wrong type (got '" + node.Scalar() + "', expected " +
-           std::string(target.type_name()) + ")";
-  }
-  return {};
-}
-
-}  // namespace
-
-Expected<std::string> mergeYamlOntoJson(const std::string& yaml_text, const std::string& defaults_json,
-                                        const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    return makeError(source + ": not valid YAML: " + e.what());
-  }
-  json merged = json::parse(defaults_json);
-  const std::string why = overlay(root, merged, "");
-  if (!why.empty()) return makeError(source + ": " + why);
-  return merged.dump();
-}
 
 Expected<TrainingParams> parseTrainingParams(const std::string& yaml_text, const std::string& source,
                                              const TrainingParams& defaults) {

@@ -1,4 +1,4 @@
-#include "relocalizer/relocalizer.h"
+#include "relocalizer/pose/relocalizer.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -9,8 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "json_fields.h"
-#include "relocalizer/config.h"
+#include "relocalizer/core/config.h"
+#include "relocalizer/core/json_fields.h"
 
 namespace relocalizer {
 

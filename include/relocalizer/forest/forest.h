@@ -11,8 +11,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "relocalizer/features.h"
-#include "relocalizer/sampling.h"
+#include "relocalizer/forest/features.h"
+#include "relocalizer/forest/sampling.h"
 
 namespace relocalizer {
 

@@ -20,9 +20,9 @@
 #include <string>
 #include <vector>
 
-#include "relocalizer/expected.h"
-#include "relocalizer/forest.h"
-#include "relocalizer/training.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/forest/forest.h"
+#include "relocalizer/forest/training.h"
 
 namespace relocalizer {
 

@@ -10,7 +10,7 @@
 #include <random>
 #include <vector>
 
-#include "relocalizer/frame.h"
+#include "relocalizer/core/frame.h"
 
 namespace relocalizer {
 

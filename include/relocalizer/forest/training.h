@@ -17,10 +17,10 @@
 #include <string>
 #include <vector>
 
-#include "relocalizer/forest.h"
-#include "relocalizer/frame.h"
-#include "relocalizer/mean_shift.h"
-#include "relocalizer/sampling.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/forest/forest.h"
+#include "relocalizer/forest/mean_shift.h"
+#include "relocalizer/forest/sampling.h"
 
 namespace relocalizer {
 

@@ -1,12 +1,11 @@
 #pragma once
-// YAML configuration files (config/*.yaml) merged onto the compiled defaults.
-// A key the program does not know, or a value of the wrong type, is an error
-// naming the file and the key: a typo must not silently leave a default.
+// Training parameters from a YAML file shaped like config/forest.yaml, merged
+// onto the compiled defaults (core/config.h says how).
 
 #include <string>
 
-#include "relocalizer/expected.h"
-#include "relocalizer/training.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/forest/training.h"
 
 namespace relocalizer {
 
@@ -18,10 +17,5 @@ Expected<TrainingParams> loadTrainingParams(const std::string& path,
 // The same, from YAML text (`source` names it in errors).
 Expected<TrainingParams> parseTrainingParams(const std::string& yaml_text, const std::string& source,
                                              const TrainingParams& defaults = {});
-
-// Merges a YAML document onto a JSON object of defaults, key by key, checking
-// that every key exists and its type matches. Shared by every config reader.
-Expected<std::string> mergeYamlOntoJson(const std::string& yaml_text, const std::string& defaults_json,
-                                        const std::string& source);
 
 }  // namespace relocalizer

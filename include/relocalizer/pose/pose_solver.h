@@ -10,22 +10,20 @@
 // explains its transformed camera point is within `inlier_chi2` in Mahalanobis
 // distance. The better half survives and is refined on its inliers: weighted
 // Kabsch while many hypotheses remain, Ceres LM once at most
-// `lm_hypotheses` remain (the paper refines inside the loop). The winner is
-// refined once more on all samples, and is rejected unless the evidence
-// (inlier count and share) clears the configured thresholds.
+// `lm_hypotheses` remain (the paper refines inside the loop; refinement.h). The
+// winner is refined once more on all samples, and is rejected unless the
+// evidence (inlier count and share) clears the configured thresholds.
 
 #include <Eigen/Core>
 #include <random>
 #include <string>
 #include <vector>
 
-#include "relocalizer/forest.h"
-#include "relocalizer/pose.h"
-#include "relocalizer/sampling.h"
+#include "relocalizer/core/pose.h"
+#include "relocalizer/forest/forest.h"
+#include "relocalizer/forest/sampling.h"
 
 namespace relocalizer {
-
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 struct PoseSolverParams {
   int hypotheses = 256;           // initial hypotheses
@@ -74,42 +72,5 @@ struct PoseSolution {
 PoseSolution solvePose(const std::vector<SolverSample>& points,
                        const std::vector<SolverSample>& lines, const PoseSolverParams& params,
                        std::mt19937& rng);
-
-// Least-squares rigid transform with world ~ pose * camera (Kabsch / Umeyama
-// without scale). Returns false for fewer than 3 points or a degenerate set.
-bool kabsch(const Eigen::Vector3d* camera, const Eigen::Vector3d* world, const double* weights,
-            int count, Pose& pose);
-
-// One matched sample for refinement: the chosen mode of a sample.
-struct RefinementTerm {
-  Eigen::Vector3d camera_point;
-  Eigen::Vector3d mode_mean;          // world
-  Eigen::Matrix3d information;        // inverse mode covariance, world frame
-  bool on_line = false;
-  Eigen::Vector3d line_point = Eigen::Vector3d::Zero();          // camera frame
-  Eigen::Vector3d line_direction = Eigen::Vector3d::UnitZ();     // camera frame, unit
-};
-
-// Levenberg-Marquardt (Ceres) on E_p + E_l from `initial`; returns the refined
-// pose and, if asked, its covariance (see PoseSolution::covariance) from all
-// terms. At most params.max_refinement_terms terms enter the solve;
-// `max_iterations` <= 0 means params.lm_iterations.
-Pose refinePose(const Pose& initial, const std::vector<RefinementTerm>& terms,
-                const PoseSolverParams& params, Matrix6d* covariance = nullptr,
-                int max_iterations = 0);
-
-// The residual values of the two energies at a pose, whitened so that their
-// squared norm is the Mahalanobis distance (exposed for tests).
-Eigen::Vector3d pointResidual(const Pose& pose, const RefinementTerm& term);
-Eigen::Vector3d lineResidual(const Pose& pose, const RefinementTerm& term);
-
-// The refinement uses hand-derived Jacobians; this evaluates them beside the
-// autodiff reference at perturbation `delta` (v, w) of `base` (for tests).
-struct ResidualJacobians {
-  Eigen::Vector3d residual;  // autodiff reference
-  double residual_difference = 0.0;
-  Eigen::Matrix<double, 3, 6, Eigen::RowMajor> analytic, autodiff;
-};
-ResidualJacobians residualJacobians(const Pose& base, const RefinementTerm& term, const double* delta);
 
 }  // namespace relocalizer

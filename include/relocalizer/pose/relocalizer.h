@@ -6,10 +6,10 @@
 #include <memory>
 #include <string>
 
-#include "relocalizer/expected.h"
-#include "relocalizer/frame.h"
-#include "relocalizer/model_io.h"
-#include "relocalizer/pose_solver.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/forest/model_io.h"
+#include "relocalizer/pose/pose_solver.h"
 
 namespace relocalizer {
 
