@@ -1,7 +1,7 @@
 // Format handling, opening and frame loading shared by every dataset layout;
 // the layout-specific list and pose readers are in dataset_*.cpp.
 
-#include "relocalizer/dataset.h"
+#include "relocalizer/data/dataset.h"
 
 #include <algorithm>
 #include <cctype>

@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
-#include "relocalizer/camera.h"
-#include "relocalizer/dataset.h"
-#include "relocalizer/registration.h"
-#include "relocalizer/expected.h"
-#include "relocalizer/frame_selection.h"
-#include "relocalizer/pose.h"
+#include "relocalizer/core/camera.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/pose.h"
+#include "relocalizer/data/dataset.h"
+#include "relocalizer/data/frame_selection.h"
+#include "relocalizer/data/registration.h"
 
 namespace relocalizer::detail {
 

@@ -8,7 +8,7 @@
 #include <sstream>
 
 #include "dataset_internal.h"
-#include "relocalizer/stamp_association.h"
+#include "relocalizer/data/stamp_association.h"
 
 namespace relocalizer::detail {
 namespace {

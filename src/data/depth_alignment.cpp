@@ -1,4 +1,4 @@
-#include "relocalizer/depth_alignment.h"
+#include "relocalizer/data/depth_alignment.h"
 
 #include <Eigen/Cholesky>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "relocalizer/frame_selection.h"
+#include "relocalizer/data/frame_selection.h"
 
 #include <algorithm>
 #include <cctype>

@@ -1,4 +1,4 @@
-#include "relocalizer/registration.h"
+#include "relocalizer/data/registration.h"
 
 #include <cmath>
 #include <opencv2/imgproc.hpp>

@@ -1,4 +1,4 @@
-#include "relocalizer/stamp_association.h"
+#include "relocalizer/data/stamp_association.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "relocalizer/evaluation.h"
+#include "relocalizer/eval/evaluation.h"
 
 #include <cmath>
 #include <cstdio>
@@ -7,7 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "relocalizer/plot.h"
+#include "relocalizer/core/statistics.h"
+#include "relocalizer/eval/plot.h"
 
 namespace relocalizer {
 

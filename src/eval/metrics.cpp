@@ -1,10 +1,12 @@
-#include "relocalizer/metrics.h"
+#include "relocalizer/eval/metrics.h"
 
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+
+#include "relocalizer/core/rigid_alignment.h"
+#include "relocalizer/core/statistics.h"
 
 namespace relocalizer {
 
@@ -22,40 +24,15 @@ FrameError frameError(int id, const std::optional<Pose>& estimate, const Pose& t
   return e;
 }
 
-double median(std::vector<double> values) { return percentile(std::move(values), 50.0); }
-
-double percentile(std::vector<double> values, double percent) {
-  if (values.empty()) return kNaN;
-  std::sort(values.begin(), values.end());
-  const double position = std::clamp(percent, 0.0, 100.0) / 100.0 * (values.size() - 1);
-  const size_t below = static_cast<size_t>(std::floor(position));
-  const size_t above = std::min(below + 1, values.size() - 1);
-  const double fraction = position - below;
-  if (fraction == 0.0 || values[below] == values[above]) return values[below];
-  return values[below] + fraction * (values[above] - values[below]);
-}
-
 Pose hornAlignment(const std::vector<Eigen::Vector3d>& source,
                    const std::vector<Eigen::Vector3d>& target) {
   if (source.size() != target.size() || source.size() < 3)
     throw std::invalid_argument("hornAlignment needs at least 3 matched point pairs");
-  Eigen::Vector3d mean_source = Eigen::Vector3d::Zero(), mean_target = Eigen::Vector3d::Zero();
-  for (size_t i = 0; i < source.size(); ++i) {
-    mean_source += source[i];
-    mean_target += target[i];
-  }
-  mean_source /= source.size();
-  mean_target /= target.size();
-  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
-  for (size_t i = 0; i < source.size(); ++i)
-    cross += (target[i] - mean_target) * (source[i] - mean_source).transpose();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
-  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) d(2, 2) = -1;
-  Pose t = Pose::Identity();
-  t.linear() = svd.matrixU() * d * svd.matrixV().transpose();
-  t.translation() = mean_target - t.linear() * mean_source;
-  return t;
+  Pose alignment = Pose::Identity();
+  // A collinear trajectory leaves the rotation about its line free; any of the
+  // equally good alignments gives the same residuals, which is all the ATE needs.
+  kabsch(source.data(), target.data(), static_cast<int>(source.size()), alignment);
+  return alignment;
 }
 
 AccuracySummary summarizeAccuracy(const std::vector<FrameError>& errors,

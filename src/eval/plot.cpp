@@ -1,4 +1,4 @@
-#include "relocalizer/plot.h"
+#include "relocalizer/eval/plot.h"
 
 #include <algorithm>
 #include <cmath>

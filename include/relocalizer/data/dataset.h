@@ -28,10 +28,10 @@
 #include <optional>
 #include <string>
 
-#include "relocalizer/camera.h"
-#include "relocalizer/expected.h"
-#include "relocalizer/frame.h"
-#include "relocalizer/pose.h"
+#include "relocalizer/core/camera.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/core/pose.h"
 
 namespace relocalizer {
 

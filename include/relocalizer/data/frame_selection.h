@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "relocalizer/expected.h"
+#include "relocalizer/core/expected.h"
 
 namespace relocalizer {
 

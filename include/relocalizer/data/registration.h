@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "relocalizer/camera.h"
-#include "relocalizer/pose.h"
+#include "relocalizer/core/camera.h"
+#include "relocalizer/core/pose.h"
 
 namespace relocalizer {
 

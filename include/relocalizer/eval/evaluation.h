@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "relocalizer/expected.h"
-#include "relocalizer/metrics.h"
-#include "relocalizer/relocalizer.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/eval/metrics.h"
+#include "relocalizer/pose/relocalizer.h"
 
 namespace relocalizer {
 

@@ -4,7 +4,7 @@
 #include <optional>
 #include <vector>
 
-#include "relocalizer/pose.h"
+#include "relocalizer/core/pose.h"
 
 namespace relocalizer {
 
@@ -39,14 +39,10 @@ AccuracySummary summarizeAccuracy(const std::vector<FrameError>& errors,
                                   const std::vector<std::optional<Pose>>& estimates,
                                   const std::vector<Pose>& truths);
 
-// Rigid transform T minimising sum |T source_i - target_i|^2 (Horn 1987, via
-// the SVD form of Umeyama without scale). Needs at least 3 non-collinear pairs.
+// Rigid transform T minimising sum |T source_i - target_i|^2: Horn's (1987)
+// closed form, computed by the one Kabsch (core/rigid_alignment.h). Needs at
+// least 3 pairs (std::invalid_argument otherwise).
 Pose hornAlignment(const std::vector<Eigen::Vector3d>& source,
                    const std::vector<Eigen::Vector3d>& target);
-
-// Median of a copy; NaN when empty.
-double median(std::vector<double> values);
-// Linear-interpolated percentile in [0, 100]; NaN when empty.
-double percentile(std::vector<double> values, double percent);
 
 }  // namespace relocalizer
