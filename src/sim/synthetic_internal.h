@@ -2,9 +2,10 @@
 // Internals of the synthetic room shared by its source files: deterministic
 // randomness, materials, boxes and the room data. Not installed, not API.
 //
-// synthetic_layout.cpp builds a room from its seed, synthetic_textures.cpp
-// colours its surfaces, synthetic_room.cpp ray casts, renders and plans camera
-// paths, synthetic_scene.cpp writes datasets.
+// room_layout.cpp builds a room from its seed (with room_builder.h: materials
+// and boxes, furniture, wall features; room_bvh.cpp the BVH),
+// synthetic_textures.cpp colours its surfaces, synthetic_room.cpp ray casts,
+// renders and plans camera paths, synthetic_scene.cpp writes datasets.
 
 #include <algorithm>
 #include <array>
@@ -13,7 +14,7 @@
 #include <limits>
 #include <vector>
 
-#include "relocalizer/synthetic_scene.h"
+#include "relocalizer/sim/synthetic_scene.h"
 
 namespace relocalizer {
 namespace synthetic {

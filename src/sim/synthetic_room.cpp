@@ -528,19 +528,4 @@ std::vector<Pose> motionBlurPoses(const std::vector<Pose>& path, size_t index, i
   return poses;
 }
 
-cv::Mat depthToMillimetres(const cv::Mat& metres) {
-  CV_Assert(metres.type() == CV_32FC1);
-  cv::Mat out(metres.size(), CV_16UC1);
-  for (int v = 0; v < metres.rows; ++v) {
-    const float* in = metres.ptr<float>(v);
-    uint16_t* o = out.ptr<uint16_t>(v);
-    for (int u = 0; u < metres.cols; ++u) {
-      const double mm =
-          std::isfinite(in[u]) ? std::round(static_cast<double>(in[u]) * 1000.0) : 0.0;
-      o[u] = (mm >= 1.0 && mm <= 65534.0) ? static_cast<uint16_t>(mm) : 0;
-    }
-  }
-  return out;
-}
-
 }  // namespace relocalizer

@@ -1,6 +1,6 @@
 // Writing a synthetic room out as a 7-Scenes style dataset.
 
-#include "relocalizer/synthetic_scene.h"
+#include "relocalizer/sim/synthetic_scene.h"
 
 #include <tbb/parallel_for.h>
 
@@ -11,7 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "relocalizer/progress.h"
+#include "relocalizer/core/progress.h"
 
 namespace relocalizer {
 namespace {

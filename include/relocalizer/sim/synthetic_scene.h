@@ -16,10 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "relocalizer/camera.h"
-#include "relocalizer/expected.h"
-#include "relocalizer/frame.h"
-#include "relocalizer/pose.h"
+#include "relocalizer/core/camera.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/core/pose.h"
 
 namespace relocalizer {
 
@@ -139,10 +139,6 @@ class SyntheticRoom {
 // along the path (linear in position, slerp in rotation).
 std::vector<Pose> motionBlurPoses(const std::vector<Pose>& path, size_t index, int samples = 5,
                                   double exposure = 0.5);
-
-// Metres (NaN = invalid) to 16-bit millimetres (0 = invalid), the 7-Scenes
-// depth file format; depths beyond 65.534 m are invalid.
-cv::Mat depthToMillimetres(const cv::Mat& metres);
 
 // Writes a synthetic dataset in the 7-Scenes layout:
 //   output_dir/train/ and output_dir/test/ with frame-XXXXXX.color.png (8-bit
