@@ -1,14 +1,10 @@
-#include "relocalizer/config.h"
+#include "relocalizer/core/config.h"
 
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <sstream>
-
-#include "relocalizer/model_io.h"
 
 namespace relocalizer {
 
@@ -78,23 +74,6 @@ Expected<std::string> mergeYamlOntoJson(const std::string& yaml_text, const std:
   const std::string why = overlay(root, merged, "");
   if (!why.empty()) return makeError(source + ": " + why);
   return merged.dump();
-}
-
-Expected<TrainingParams> parseTrainingParams(const std::string& yaml_text, const std::string& source,
-                                             const TrainingParams& defaults) {
-  auto merged = mergeYamlOntoJson(yaml_text, trainingParamsToJson(defaults), source);
-  if (!merged) return makeError(merged.error());
-  auto params = trainingParamsFromJson(*merged);
-  if (!params) return makeError(source + ": " + params.error());
-  return params;
-}
-
-Expected<TrainingParams> loadTrainingParams(const std::string& path, const TrainingParams& defaults) {
-  std::ifstream in(path);
-  if (!in) return makeError(path + ": cannot open configuration file");
-  std::stringstream text;
-  text << in.rdbuf();
-  return parseTrainingParams(text.str(), path, defaults);
 }
 
 }  // namespace relocalizer

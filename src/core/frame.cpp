@@ -1,8 +1,7 @@
-#include "relocalizer/frame.h"
+#include "relocalizer/core/frame.h"
 
 #include <cmath>
 #include <limits>
-#include <opencv2/imgproc.hpp>
 
 namespace relocalizer {
 
@@ -34,25 +33,17 @@ Expected<cv::Mat> depthToMetres(const cv::Mat& raw, double units_per_metre) {
                    std::to_string(raw.channels()) + " channels");
 }
 
-Expected<cv::Mat> colourToBgr8(const cv::Mat& raw, const std::string& encoding) {
-  if (raw.empty()) return makeError("colour image is empty");
-  if (raw.depth() != CV_8U)
-    return makeError("colour must have 8-bit channels (encoding '" + encoding + "')");
-  cv::Mat out;
-  const int channels = raw.channels();
-  if (encoding == "bgr8" && channels == 3) return raw.clone();
-  if (encoding == "rgb8" && channels == 3) {
-    cv::cvtColor(raw, out, cv::COLOR_RGB2BGR);
-  } else if (encoding == "bgra8" && channels == 4) {
-    cv::cvtColor(raw, out, cv::COLOR_BGRA2BGR);
-  } else if (encoding == "rgba8" && channels == 4) {
-    cv::cvtColor(raw, out, cv::COLOR_RGBA2BGR);
-  } else if ((encoding == "mono8" || encoding == "8UC1") && channels == 1) {
-    cv::cvtColor(raw, out, cv::COLOR_GRAY2BGR);
-  } else {
-    return makeError("unsupported colour encoding '" + encoding + "' with " +
-                     std::to_string(channels) +
-                     " channels; expected bgr8, rgb8, bgra8, rgba8 or mono8");
+cv::Mat depthToMillimetres(const cv::Mat& metres) {
+  CV_Assert(metres.type() == CV_32FC1);
+  cv::Mat out(metres.size(), CV_16UC1);
+  for (int v = 0; v < metres.rows; ++v) {
+    const float* in = metres.ptr<float>(v);
+    uint16_t* o = out.ptr<uint16_t>(v);
+    for (int u = 0; u < metres.cols; ++u) {
+      const double mm =
+          std::isfinite(in[u]) ? std::round(static_cast<double>(in[u]) * 1000.0) : 0.0;
+      o[u] = (mm >= 1.0 && mm <= 65534.0) ? static_cast<uint16_t>(mm) : 0;
+    }
   }
   return out;
 }

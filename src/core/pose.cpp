@@ -1,4 +1,4 @@
-#include "relocalizer/pose.h"
+#include "relocalizer/core/pose.h"
 
 #include <Eigen/SVD>
 #include <algorithm>

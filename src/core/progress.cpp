@@ -1,4 +1,4 @@
-#include "relocalizer/progress.h"
+#include "relocalizer/core/progress.h"
 
 #include <unistd.h>
 

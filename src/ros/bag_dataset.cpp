@@ -9,9 +9,6 @@
 #include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
-#include <sensor_msgs/image_encodings.h>
-#include <tf2/buffer_core.h>
-#include <tf2/exceptions.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <algorithm>
@@ -23,52 +20,23 @@
 #include <set>
 #include <sstream>
 
+#include "bag_poses.h"
+#include "bag_text.h"
+#include "key_frames.h"
 #include "message_conversion.h"
-#include "relocalizer/frame_selection.h"
-#include "relocalizer/stamp_association.h"
+#include "relocalizer/data/frame_selection.h"
+#include "relocalizer/data/stamp_association.h"
+#include "stamp_search.h"
 
 namespace relocalizer_ros {
 
 namespace {
 
-namespace enc = sensor_msgs::image_encodings;
 using relocalizer::FrameSelection;
 using relocalizer::makeError;
 
 constexpr const char* kTf = "/tf";
 constexpr const char* kTfStatic = "/tf_static";
-
-// Topic names compare without regard to a leading slash: "camera/rgb/image_raw"
-// on the command line names "/camera/rgb/image_raw" in the bag.
-std::string normalTopic(const std::string& topic) {
-  return topic.empty() || topic[0] == '/' ? topic : "/" + topic;
-}
-
-std::string seconds(const ros::Time& t) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6f", t.toSec());
-  return buffer;
-}
-
-std::string number(double value, const char* format = "%g") {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, format, value);
-  return buffer;
-}
-
-// The encodings frameFromMessages converts (message_conversion.cpp), checked per
-// message at open time so a bad recording fails before any work.
-bool colourEncodingSupported(const std::string& e) {
-  return e == enc::BGR8 || e == enc::RGB8 || e == enc::BGRA8 || e == enc::RGBA8 || e == enc::MONO8;
-}
-bool depthEncodingSupported(const std::string& e) {
-  return e == enc::TYPE_16UC1 || e == enc::MONO16 || e == enc::TYPE_32FC1;
-}
-
-template <typename T>
-bool hasType(const rosbag::ConnectionInfo& c) {
-  return c.md5sum == ros::message_traits::MD5Sum<T>::value();
-}
 
 template <typename T>
 std::string typeName() {
@@ -83,84 +51,7 @@ struct ImageEntry {
   size_t message = 0;  // index into Impl::messages
 };
 
-struct PoseSample {
-  ros::Time stamp;
-  Pose pose;
-};
-
-// One TF edge: child -> parent, with the stamps of its samples (dynamic edges).
-struct TfEdge {
-  std::string parent;
-  bool is_static = true;
-  std::vector<ros::Time> stamps;  // sorted, unique
-};
-
-// Index of the last stamp <= t and of the first >= t, or -1.
-template <typename Stamps, typename Get>
-std::pair<long, long> bracket(const Stamps& items, const ros::Time& t, Get get) {
-  const auto it =
-      std::lower_bound(items.begin(), items.end(), t,
-                       [&](const auto& item, const ros::Time& x) { return get(item) < x; });
-  long after = it == items.end() ? -1 : static_cast<long>(it - items.begin());
-  long before = -1;
-  if (after >= 0 && get(items[after]) == t)
-    before = after;
-  else if (it != items.begin())
-    before = static_cast<long>(it - items.begin()) - 1;
-  return {before, after};
-}
-
-// Whether samples at most `tolerance` s before (or at) and after (or at) t exist.
-template <typename Stamps, typename Get>
-bool inTime(const Stamps& items, const ros::Time& t, double tolerance, Get get,
-            long* before_out = nullptr, long* after_out = nullptr) {
-  const auto [before, after] = bracket(items, t, get);
-  if (before < 0 || after < 0) return false;
-  if ((t - get(items[before])).toSec() > tolerance || (get(items[after]) - t).toSec() > tolerance)
-    return false;
-  if (before_out) *before_out = before;
-  if (after_out) *after_out = after;
-  return true;
-}
-
-// ", one every 0.1 s (median)" for a hint at the tolerance a stream needs.
-std::string medianSpacing(const std::vector<ros::Time>& stamps) {
-  if (stamps.size() < 2) return {};
-  std::vector<double> gaps;
-  for (size_t i = 1; i < stamps.size(); ++i) gaps.push_back((stamps[i] - stamps[i - 1]).toSec());
-  std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
-  return ", one every " + number(gaps[gaps.size() / 2], "%.3g") + " s (median)";
-}
-
 }  // namespace
-
-Expected<std::pair<double, double>> parseMinMotion(const std::string& text) {
-  const auto bad = [&](const std::string& why) {
-    return makeError("bad --min-motion '" + text + "': " + why +
-                     " (expected METRES,DEGREES such as 0.05,5; 0 turns selection off)");
-  };
-  std::vector<double> values;
-  if (!text.empty() && text.back() == ',') return bad("empty item");
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    item.erase(0, item.find_first_not_of(" \t"));
-    item.erase(item.find_last_not_of(" \t") + 1);
-    if (item.empty()) return bad("empty item");
-    size_t used = 0;
-    double value = 0;
-    try {
-      value = std::stod(item, &used);
-    } catch (const std::exception&) {
-      return bad("'" + item + "' is not a number");
-    }
-    if (used != item.size()) return bad("'" + item + "' is not a number");
-    if (!std::isfinite(value) || value < 0) return bad("'" + item + "' must be finite and >= 0");
-    values.push_back(value);
-  }
-  if (values.empty() || values.size() > 2) return bad("expected one or two numbers");
-  return std::pair<double, double>(values[0], values.size() > 1 ? values[1] : 0.0);
-}
 
 struct BagDataset::Impl {
   std::string path;
@@ -181,11 +72,8 @@ struct BagDataset::Impl {
   };
   std::vector<Frame> synced;  // all synchronized frames, by colour stamp; id = index
   std::vector<size_t> kept;   // into synced
-  std::string pose_source;
-  std::string pose_detail;         // for the summary: what the pose source held
-  std::string no_pose_hint;        // why the first frame without a pose had none
-  std::string pose_child;          // Odometry / TransformStamped child_frame_id on the pose topic
-  ros::Time pose_begin, pose_end;  // time span of the pose samples
+  PoseReport poses;
+  std::string pose_child;  // Odometry / TransformStamped child_frame_id on the pose topic
   BagCounts counts;
   CameraIntrinsics camera;
   bool distorted = false;  // some kept frame's camera_info has non-zero D
@@ -199,12 +87,29 @@ struct BagDataset::Impl {
     return text.empty() ? "none" : text;
   }
 
+  // What the pose source gave while reading the bag.
+  struct PoseInputs {
+    std::vector<geometry_msgs::TransformStamped> transforms;  // /tf and /tf_static
+    std::vector<bool> is_static;                              // per transform
+    std::vector<PoseSample> samples;                          // the pose topic
+    std::string pose_type;                                    // the pose topic's message type
+  };
+
+  // Reads the bag: checkTopics, readMessages, synchronize, poses, select.
   relocalizer::Status scan();
+  // The topics exist with the right types (from the index, no message read).
+  relocalizer::Status checkTopics(std::string& pose_type);
+  // One pass in bag order: image headers, camera_infos and the pose source.
+  relocalizer::Status readMessages(PoseInputs& inputs);
+  relocalizer::Status readPoseMessage(const rosbag::MessageInstance& m, const std::string& topic,
+                                      std::vector<PoseSample>& samples,
+                                      std::string& pose_frame_error);
+  // Colour, depth and camera_info paired by nearest stamps.
   relocalizer::Status synchronize();
-  relocalizer::Status posesFromTf(const std::vector<geometry_msgs::TransformStamped>& tf,
-                                  const std::vector<bool>& is_static);
-  relocalizer::Status posesFromTopic(const std::vector<PoseSample>& samples,
-                                     const std::string& type);
+  // The synchronized frames as pose queries, and their answers back.
+  std::vector<PoseQuery> poseQueries() const;
+  void takePoses(const std::vector<PoseQuery>& queries);
+  // The frame selection, frames with a pose, key frames.
   relocalizer::Status select();
   std::string cameraFrameOf(const Frame& f) const {
     return options.camera_frame.empty() ? stripLeadingSlashes(colour[f.colour].frame_id)
@@ -213,6 +118,27 @@ struct BagDataset::Impl {
 };
 
 relocalizer::Status BagDataset::Impl::scan() {
+  PoseInputs inputs;
+  if (auto ok = checkTopics(inputs.pose_type); !ok) return ok;
+  if (auto ok = readMessages(inputs); !ok) return ok;
+  counts.colour_images = static_cast<int>(colour.size());
+  counts.depth_images = static_cast<int>(depth.size());
+  counts.camera_infos = static_cast<int>(infos.size());
+
+  if (auto synced_ok = synchronize(); !synced_ok) return synced_ok;
+  std::vector<PoseQuery> queries = poseQueries();
+  const relocalizer::Status posed =
+      options.pose_topic.empty()
+          ? posesFromTf(inputs.transforms, inputs.is_static, options, where(), queries, poses,
+                        counts)
+          : posesFromTopic(std::move(inputs.samples), inputs.pose_type, pose_child, options,
+                           where(), queries, poses, counts);
+  if (!posed) return posed;
+  takePoses(queries);
+  return select();
+}
+
+relocalizer::Status BagDataset::Impl::checkTopics(std::string& pose_type) {
   const std::string rgb_topic = normalTopic(options.rgb_topic);
   const std::string depth_topic = normalTopic(options.depth_topic);
   const std::string info_topic = normalTopic(options.camera_info_topic);
@@ -254,9 +180,7 @@ relocalizer::Status BagDataset::Impl::scan() {
   if (rgb_topic == depth_topic)
     return makeError(where() + "--rgb-topic and --depth-topic are both '" + rgb_topic + "'");
 
-  const bool use_tf = options.pose_topic.empty();
-  std::string pose_type;
-  if (use_tf) {
+  if (options.pose_topic.empty()) {
     if (!topics.count(kTf) && !topics.count(kTfStatic))
       return makeError(where() +
                        "no poses: the bag has no /tf or /tf_static (and no --pose-topic " +
@@ -276,7 +200,15 @@ relocalizer::Status BagDataset::Impl::scan() {
       return makeError(why);
     pose_type = topics.at(pose_topic).first;
   }
+  return relocalizer::okStatus();
+}
 
+relocalizer::Status BagDataset::Impl::readMessages(PoseInputs& inputs) {
+  const std::string rgb_topic = normalTopic(options.rgb_topic);
+  const std::string depth_topic = normalTopic(options.depth_topic);
+  const std::string info_topic = normalTopic(options.camera_info_topic);
+  const std::string pose_topic = normalTopic(options.pose_topic);
+  const bool use_tf = options.pose_topic.empty();
   // One pass in bag order over every topic used; images keep only their headers.
   std::vector<std::string> wanted = {rgb_topic, depth_topic, info_topic};
   if (use_tf) {
@@ -289,9 +221,6 @@ relocalizer::Status BagDataset::Impl::scan() {
   rosbag::View view(*bag, [&](const rosbag::ConnectionInfo* c) {
     return wanted_set.count(normalTopic(c->topic)) > 0;
   });
-  std::vector<geometry_msgs::TransformStamped> transforms;
-  std::vector<bool> transform_static;
-  std::vector<PoseSample> samples;
   std::string pose_frame_error;
   for (const rosbag::MessageInstance& m : view) {
     const std::string topic = normalTopic(m.getTopic());
@@ -300,6 +229,7 @@ relocalizer::Status BagDataset::Impl::scan() {
       auto image = m.instantiate<sensor_msgs::Image>();
       if (!image)
         return makeError(where() + "topic '" + topic + "': a message is not a sensor_msgs/Image");
+      // Checked per message at open time, so a bad recording fails before any work.
       if (is_colour ? !colourEncodingSupported(image->encoding)
                     : !depthEncodingSupported(image->encoding))
         return makeError(
@@ -324,62 +254,80 @@ relocalizer::Status BagDataset::Impl::scan() {
       if (!tf)
         return makeError(where() + "topic '" + topic + "': a message is not a tf2_msgs/TFMessage");
       for (const auto& t : tf->transforms) {
-        transforms.push_back(t);
-        transform_static.push_back(topic == kTfStatic);
+        inputs.transforms.push_back(t);
+        inputs.is_static.push_back(topic == kTfStatic);
       }
     } else if (topic == pose_topic) {
-      std_msgs::Header header;
-      Pose pose;
-      std::string child;
-      if (auto p = m.instantiate<geometry_msgs::PoseStamped>()) {
-        header = p->header;
-        pose = fromPoseMsg(p->pose);
-      } else if (auto pc = m.instantiate<geometry_msgs::PoseWithCovarianceStamped>()) {
-        header = pc->header;
-        pose = fromPoseMsg(pc->pose.pose);
-      } else if (auto o = m.instantiate<nav_msgs::Odometry>()) {
-        header = o->header;
-        pose = fromPoseMsg(o->pose.pose);
-        child = o->child_frame_id;
-      } else if (auto ts = m.instantiate<geometry_msgs::TransformStamped>()) {
-        header = ts->header;
-        pose = fromTransformMsg(ts->transform);
-        child = ts->child_frame_id;
-      } else {
-        return makeError(where() + "topic '" + topic + "': a message is not a pose (" +
-                         m.getDataType() + ")");
-      }
-      const std::string frame = stripLeadingSlashes(header.frame_id);
-      if (!frame.empty() && frame != stripLeadingSlashes(options.map_frame) &&
-          pose_frame_error.empty())
-        pose_frame_error = where() + "poses on '" + topic + "' are in frame '" + frame +
-                           "', not the map frame '" + stripLeadingSlashes(options.map_frame) +
-                           "' (pass --map-frame " + frame + ")";
-      child = stripLeadingSlashes(child);
-      if (!child.empty() && pose_child.empty()) pose_child = child;
-      if (!child.empty() && child != pose_child && pose_frame_error.empty())
-        pose_frame_error = where() + "poses on '" + topic + "' are of frames '" + pose_child +
-                           "' and '" + child + "'; a pose topic must give the camera's own pose";
-      if (!pose.matrix().allFinite()) {
-        ++counts.pose_samples_ignored;
-        continue;
-      }
-      samples.push_back({header.stamp, pose});
-      ++counts.pose_samples;
+      if (auto ok = readPoseMessage(m, topic, inputs.samples, pose_frame_error); !ok) return ok;
     }
   }
   if (!pose_frame_error.empty()) return makeError(pose_frame_error);
-  counts.colour_images = static_cast<int>(colour.size());
-  counts.depth_images = static_cast<int>(depth.size());
-  counts.camera_infos = static_cast<int>(infos.size());
+  return relocalizer::okStatus();
+}
 
-  if (auto synced_ok = synchronize(); !synced_ok) return synced_ok;
-  if (use_tf) {
-    if (auto ok = posesFromTf(transforms, transform_static); !ok) return ok;
+// One message of the pose topic as a sample. A pose in another frame than the
+// map frame, or of another child frame than the earlier ones, is remembered in
+// `pose_frame_error` (the first such) and reported after the pass.
+relocalizer::Status BagDataset::Impl::readPoseMessage(const rosbag::MessageInstance& m,
+                                                      const std::string& topic,
+                                                      std::vector<PoseSample>& samples,
+                                                      std::string& pose_frame_error) {
+  std_msgs::Header header;
+  Pose pose;
+  std::string child;
+  if (auto p = m.instantiate<geometry_msgs::PoseStamped>()) {
+    header = p->header;
+    pose = fromPoseMsg(p->pose);
+  } else if (auto pc = m.instantiate<geometry_msgs::PoseWithCovarianceStamped>()) {
+    header = pc->header;
+    pose = fromPoseMsg(pc->pose.pose);
+  } else if (auto o = m.instantiate<nav_msgs::Odometry>()) {
+    header = o->header;
+    pose = fromPoseMsg(o->pose.pose);
+    child = o->child_frame_id;
+  } else if (auto ts = m.instantiate<geometry_msgs::TransformStamped>()) {
+    header = ts->header;
+    pose = fromTransformMsg(ts->transform);
+    child = ts->child_frame_id;
   } else {
-    if (auto ok = posesFromTopic(samples, pose_type); !ok) return ok;
+    return makeError(where() + "topic '" + topic + "': a message is not a pose (" +
+                     m.getDataType() + ")");
   }
-  return select();
+  const std::string frame = stripLeadingSlashes(header.frame_id);
+  if (!frame.empty() && frame != stripLeadingSlashes(options.map_frame) &&
+      pose_frame_error.empty())
+    pose_frame_error = where() + "poses on '" + topic + "' are in frame '" + frame +
+                       "', not the map frame '" + stripLeadingSlashes(options.map_frame) +
+                       "' (pass --map-frame " + frame + ")";
+  child = stripLeadingSlashes(child);
+  if (!child.empty() && pose_child.empty()) pose_child = child;
+  if (!child.empty() && child != pose_child && pose_frame_error.empty())
+    pose_frame_error = where() + "poses on '" + topic + "' are of frames '" + pose_child +
+                       "' and '" + child + "'; a pose topic must give the camera's own pose";
+  if (!pose.matrix().allFinite()) {
+    ++counts.pose_samples_ignored;
+    return relocalizer::okStatus();
+  }
+  samples.push_back({header.stamp, pose});
+  ++counts.pose_samples;
+  return relocalizer::okStatus();
+}
+
+std::vector<PoseQuery> BagDataset::Impl::poseQueries() const {
+  std::vector<PoseQuery> queries;
+  queries.reserve(synced.size());
+  for (const Frame& f : synced) {
+    PoseQuery q;
+    q.id = f.id;
+    q.camera_frame = cameraFrameOf(f);
+    q.stamp = colour[f.colour].stamp;
+    queries.push_back(std::move(q));
+  }
+  return queries;
+}
+
+void BagDataset::Impl::takePoses(const std::vector<PoseQuery>& queries) {
+  for (size_t i = 0; i < synced.size(); ++i) synced[i].pose = queries[i].pose;
 }
 
 relocalizer::Status BagDataset::Impl::synchronize() {
@@ -468,219 +416,10 @@ relocalizer::Status BagDataset::Impl::synchronize() {
   return relocalizer::okStatus();
 }
 
-relocalizer::Status BagDataset::Impl::posesFromTf(
-    const std::vector<geometry_msgs::TransformStamped>& transforms,
-    const std::vector<bool>& is_static) {
-  // Edges and their sample stamps, cleaned of what tf2 would reject with a log
-  // line per message: empty or self frames, non-finite values, repeated stamps.
-  std::map<std::string, TfEdge> edges;
-  std::vector<size_t> usable;
-  std::set<std::pair<std::string, ros::Time>> seen;
-  ros::Time first, last;
-  for (size_t i = 0; i < transforms.size(); ++i) {
-    ++counts.tf_transforms;
-    const auto& t = transforms[i];
-    const std::string parent = stripLeadingSlashes(t.header.frame_id);
-    const std::string child = stripLeadingSlashes(t.child_frame_id);
-    const auto& q = t.transform.rotation;
-    const auto& v = t.transform.translation;
-    const bool finite = std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z) &&
-                        std::isfinite(q.w) && std::isfinite(v.x) && std::isfinite(v.y) &&
-                        std::isfinite(v.z) &&
-                        (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w) > 1e-12;
-    if (parent.empty() || child.empty() || parent == child || !finite ||
-        (!is_static[i] && !seen.insert({child, t.header.stamp}).second)) {
-      ++counts.tf_ignored;
-      continue;
-    }
-    TfEdge& edge = edges[child];
-    edge.parent = parent;
-    if (!is_static[i]) {
-      edge.is_static = false;
-      edge.stamps.push_back(t.header.stamp);
-      if (first.isZero() || t.header.stamp < first) first = t.header.stamp;
-      if (last.isZero() || t.header.stamp > last) last = t.header.stamp;
-    }
-    usable.push_back(i);
-  }
-  for (auto& [child, edge] : edges) std::sort(edge.stamps.begin(), edge.stamps.end());
-
-  // The cache must hold the whole recording, or lookups early in the bag
-  // would fail once later transforms are inserted.
-  const double span = last.isZero() ? 0.0 : (last - first).toSec();
-  tf2::BufferCore buffer(ros::Duration(span + 10.0));
-  for (size_t i : usable) {
-    geometry_msgs::TransformStamped t = transforms[i];
-    t.header.frame_id = stripLeadingSlashes(t.header.frame_id);
-    t.child_frame_id = stripLeadingSlashes(t.child_frame_id);
-    buffer.setTransform(t, "bag", is_static[i]);
-  }
-  pose_begin = first;
-  pose_end = last;
-
-  // The frames present, for messages that must say what the bag does have.
-  std::set<std::string> frames;
-  for (const auto& [child, edge] : edges) {
-    frames.insert(child);
-    frames.insert(edge.parent);
-  }
-  const auto frame_list = [&] {
-    std::string text;
-    for (const std::string& f : frames) {
-      const auto it = edges.find(f);
-      text += (text.empty() ? "" : ", ") + f +
-              (it == edges.end() ? " (root)"
-                                 : " (child of " + it->second.parent +
-                                       (it->second.is_static ? ", static)" : ")"));
-    }
-    return text.empty() ? std::string("none") : text;
-  };
-  // Path to the root, the frame itself first (cycles cut).
-  const auto ancestors = [&](const std::string& frame) {
-    std::vector<std::string> chain{frame};
-    std::set<std::string> visited{frame};
-    for (auto it = edges.find(frame); it != edges.end(); it = edges.find(chain.back())) {
-      if (!visited.insert(it->second.parent).second) break;
-      chain.push_back(it->second.parent);
-    }
-    return chain;
-  };
-
-  const std::string map_frame = stripLeadingSlashes(options.map_frame);
-  // Per camera frame: the dynamic edges between it and the map frame.
-  std::map<std::string, std::vector<const TfEdge*>> paths;
-  for (const Frame& f : synced) {
-    const std::string camera_frame = cameraFrameOf(f);
-    if (paths.count(camera_frame)) continue;
-    if (camera_frame.empty())
-      return makeError(where() + "colour images on '" + normalTopic(options.rgb_topic) +
-                       "' have an empty header frame_id; pass --camera-frame");
-    const auto up_camera = ancestors(camera_frame);
-    const auto up_map = ancestors(map_frame);
-    auto common = up_camera.end();
-    for (auto it = up_camera.begin(); it != up_camera.end() && common == up_camera.end(); ++it)
-      if (std::find(up_map.begin(), up_map.end(), *it) != up_map.end()) common = it;
-    if (common == up_camera.end()) {
-      std::string missing;
-      for (const std::string& name : {map_frame, camera_frame})
-        if (!frames.count(name)) missing += "; '" + name + "' is not in /tf or /tf_static";
-      return makeError(where() + "no TF path from the map frame '" + map_frame +
-                       "' (--map-frame) to the camera frame '" + camera_frame + "' (" +
-                       (options.camera_frame.empty() ? "the colour images' frame_id; --camera-frame"
-                                                     : "--camera-frame") +
-                       ")" + missing + "; TF frames in the bag: " + frame_list());
-    }
-    std::vector<const TfEdge*> dynamic;
-    const auto collect = [&](const std::vector<std::string>& chain, const std::string& stop) {
-      for (const std::string& frame : chain) {
-        if (frame == stop) break;
-        const TfEdge& edge = edges.at(frame);
-        if (!edge.is_static) dynamic.push_back(&edge);
-      }
-    };
-    collect(up_camera, *common);
-    collect(up_map, *common);
-    paths[camera_frame] = dynamic;
-  }
-
-  for (Frame& f : synced) {
-    const std::string camera_frame = cameraFrameOf(f);
-    const ros::Time t = colour[f.colour].stamp;
-    bool in_time = true;
-    for (const TfEdge* edge : paths.at(camera_frame))
-      if (!inTime(edge->stamps, t, options.pose_tolerance, [](const ros::Time& s) { return s; })) {
-        in_time = false;
-        if (no_pose_hint.empty()) {
-          std::string child;
-          for (const auto& [name, e] : edges)
-            if (&e == edge) child = name;
-          no_pose_hint = "e.g. frame " + std::to_string(f.id) + " at " + seconds(t) + ": TF " +
-                         edge->parent + " -> " + child + " has no samples within " +
-                         number(options.pose_tolerance) + " s on both sides (its samples span " +
-                         (edge->stamps.empty() ? std::string("nothing")
-                                               : seconds(edge->stamps.front()) + " - " +
-                                                     seconds(edge->stamps.back())) +
-                         medianSpacing(edge->stamps) + ")";
-        }
-        break;
-      }
-    if (!in_time) continue;
-    try {
-      f.pose = fromTransformMsg(buffer.lookupTransform(map_frame, camera_frame, t).transform);
-    } catch (const tf2::TransformException& e) {
-      if (no_pose_hint.empty())
-        no_pose_hint = "e.g. frame " + std::to_string(f.id) + " at " + seconds(t) + ": " + e.what();
-    }
-  }
-  pose_source =
-      "TF " + map_frame + " -> " +
-      (options.camera_frame.empty() ? "image frame_id" : stripLeadingSlashes(options.camera_frame));
-  if (options.camera_frame.empty() && paths.size() == 1)
-    pose_source = "TF " + map_frame + " -> " + paths.begin()->first;
-  pose_detail = std::to_string(counts.tf_transforms) + " transforms on /tf + /tf_static" +
-                (counts.tf_ignored ? " (" + std::to_string(counts.tf_ignored) +
-                                         " ignored: repeated stamps, NaN, empty or self frames)"
-                                   : std::string());
-  return relocalizer::okStatus();
-}
-
-relocalizer::Status BagDataset::Impl::posesFromTopic(const std::vector<PoseSample>& unsorted,
-                                                     const std::string& type) {
-  // Odometry and TransformStamped name the frame they locate: it must be the camera's.
-  if (!pose_child.empty())
-    for (const Frame& f : synced)
-      if (cameraFrameOf(f) != pose_child)
-        return makeError(
-            where() + "poses on '" + normalTopic(options.pose_topic) + "' are of frame '" +
-            pose_child + "', not the camera frame '" + cameraFrameOf(f) + "' (" +
-            (options.camera_frame.empty() ? "the colour images' frame_id" : "--camera-frame") +
-            "); a pose topic must give the camera's own pose (or use TF)");
-  std::vector<PoseSample> samples = unsorted;
-  std::stable_sort(samples.begin(), samples.end(),
-                   [](const PoseSample& a, const PoseSample& b) { return a.stamp < b.stamp; });
-  if (!samples.empty()) {
-    pose_begin = samples.front().stamp;
-    pose_end = samples.back().stamp;
-  }
-  const auto stamp_of = [](const PoseSample& s) { return s.stamp; };
-  for (Frame& f : synced) {
-    const ros::Time t = colour[f.colour].stamp;
-    long before = -1, after = -1;
-    if (!inTime(samples, t, options.pose_tolerance, stamp_of, &before, &after)) {
-      if (no_pose_hint.empty())
-        no_pose_hint = "e.g. frame " + std::to_string(f.id) + " at " + seconds(t) +
-                       " has no pose sample within " + number(options.pose_tolerance) +
-                       " s on both sides";
-      continue;
-    }
-    const PoseSample& a = samples[before];
-    const PoseSample& b = samples[after];
-    if (a.stamp == t || b.stamp == a.stamp) {
-      f.pose = a.stamp == t ? a.pose : b.pose;
-      continue;
-    }
-    const double r = (t - a.stamp).toSec() / (b.stamp - a.stamp).toSec();
-    Pose pose = Pose::Identity();
-    pose.translation() = (1.0 - r) * a.pose.translation() + r * b.pose.translation();
-    pose.linear() = Eigen::Quaterniond(a.pose.linear())
-                        .slerp(r, Eigen::Quaterniond(b.pose.linear()))
-                        .normalized()
-                        .toRotationMatrix();
-    f.pose = pose;
-  }
-  pose_source = "topic " + normalTopic(options.pose_topic) + " (" + type + ")";
-  pose_detail = std::to_string(samples.size()) + " samples" +
-                (counts.pose_samples_ignored
-                     ? " (" + std::to_string(counts.pose_samples_ignored) + " non-finite ignored)"
-                     : std::string());
-  return relocalizer::okStatus();
-}
-
 relocalizer::Status BagDataset::Impl::select() {
   auto selection = FrameSelection::parse(options.frames);
   if (!selection) return makeError(selection.error());
-  const bool key_frames = options.min_translation > 0 || options.min_rotation_degrees > 0;
-  const Pose* last = nullptr;
+  KeyFrameSelector key_frames(options.min_translation, options.min_rotation_degrees);
   for (size_t i = 0; i < synced.size(); ++i) {
     const Frame& f = synced[i];
     if (!selection->contains(f.id)) continue;
@@ -690,16 +429,7 @@ relocalizer::Status BagDataset::Impl::select() {
       continue;
     }
     ++counts.with_pose;
-    if (key_frames && last) {
-      const bool moved = options.min_translation > 0 &&
-                         relocalizer::translationError(*f.pose, *last) >= options.min_translation;
-      const bool turned =
-          options.min_rotation_degrees > 0 &&
-          relocalizer::rotationErrorDegrees(*f.pose, *last) >= options.min_rotation_degrees;
-      if (!moved && !turned) continue;
-    }
-    kept.push_back(i);
-    last = &*f.pose;
+    if (key_frames.keep(*f.pose)) kept.push_back(i);
   }
   counts.key_frames = static_cast<int>(kept.size());
   if (counts.selected == 0)
@@ -710,12 +440,12 @@ relocalizer::Status BagDataset::Impl::select() {
     return makeError(
         where() + "none of the " + std::to_string(counts.selected) +
         " selected frames (colour stamps " + seconds(colour[synced.front().colour].stamp) + " - " +
-        seconds(colour[synced.back().colour].stamp) + ") has a pose from " + pose_source +
+        seconds(colour[synced.back().colour].stamp) + ") has a pose from " + poses.source +
         " within " + number(options.pose_tolerance) + " s (--pose-tolerance); pose samples span " +
-        (pose_begin.isZero() && pose_end.isZero()
+        (poses.begin.isZero() && poses.end.isZero()
              ? std::string("nothing (static only)")
-             : seconds(pose_begin) + " - " + seconds(pose_end)) +
-        (no_pose_hint.empty() ? std::string() : "; " + no_pose_hint));
+             : seconds(poses.begin) + " - " + seconds(poses.end)) +
+        (poses.no_pose_hint.empty() ? std::string() : "; " + poses.no_pose_hint));
   for (size_t k : kept)
     for (double coefficient : infos[synced[k].info].D) distorted = distorted || coefficient != 0.0;
   camera = cameraFromInfo(infos[synced[kept.front()].info]);
@@ -776,7 +506,7 @@ const std::optional<Pose>& BagDataset::groundTruth(size_t i) const {
 }
 const CameraIntrinsics& BagDataset::camera() const { return impl_->camera; }
 const std::string& BagDataset::path() const { return impl_->path; }
-const std::string& BagDataset::poseSource() const { return impl_->pose_source; }
+const std::string& BagDataset::poseSource() const { return impl_->poses.source; }
 const BagCounts& BagDataset::counts() const { return impl_->counts; }
 
 Expected<RgbdFrame> BagDataset::load(size_t i) const {
@@ -832,11 +562,11 @@ std::string BagDataset::summary() const {
       << seconds(d.colour[d.synced.back().colour].stamp) << "\n";
   if (n.selected != n.synchronized)
     out << "selected:     " << n.selected << " by '" << d.options.frames << "'\n";
-  out << "poses:        " << d.pose_source << ", " << d.pose_detail << "; tolerance "
+  out << "poses:        " << d.poses.source << ", " << d.poses.detail << "; tolerance "
       << number(d.options.pose_tolerance) << " s: " << n.with_pose << " with a pose, "
       << n.without_pose << " skipped without a pose in time\n";
-  if (n.without_pose > 0 && !d.no_pose_hint.empty())
-    out << "              " << d.no_pose_hint << "\n";
+  if (n.without_pose > 0 && !d.poses.no_pose_hint.empty())
+    out << "              " << d.poses.no_pose_hint << "\n";
   std::vector<int> ids;
   for (size_t i = 0; i < size(); ++i) ids.push_back(id(i));
   out << "key frames:   ";
@@ -857,7 +587,8 @@ std::string BagDataset::summary() const {
   out << "frames:       " << size() << " kept, ids " << id_list << "\n";
   out << "image size:   " << d.camera.width << "x" << d.camera.height << "\n";
   out << "intrinsics:   fx " << number(d.camera.fx) << " fy " << number(d.camera.fy) << " cx "
-      << number(d.camera.cx) << " cy " << number(d.camera.cy) << " (camera_info K"
+      << number(d.camera.cx) << " cy " << number(d.camera.cy) << " (camera_info "
+      << intrinsicsMatrixName(d.infos[d.synced[d.kept.front()].info])
       << (d.distorted ? "; its distortion D is not zero and is ignored, as the node does: "
                         "rectified images train better"
                       : "")

@@ -41,10 +41,10 @@
 #include <utility>
 #include <vector>
 
-#include "relocalizer/camera.h"
-#include "relocalizer/expected.h"
-#include "relocalizer/frame.h"
-#include "relocalizer/pose.h"
+#include "relocalizer/core/camera.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/core/pose.h"
 
 namespace relocalizer_ros {
 
@@ -76,9 +76,6 @@ struct BagOptions {
   double min_translation = 0.0;       // metres
   double min_rotation_degrees = 0.0;  // degrees
 };
-
-// "0.05,5" -> (0.05 m, 5 degrees); "0" or "0,0" turns selection off.
-Expected<std::pair<double, double>> parseMinMotion(const std::string& text);
 
 // What open() found, for summaries and tests.
 struct BagCounts {

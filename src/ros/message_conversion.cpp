@@ -1,8 +1,11 @@
 #include "message_conversion.h"
 
+#include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
+#include <tf2_eigen/tf2_eigen.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <opencv2/core.hpp>
@@ -72,11 +75,19 @@ std::string checkBuffer(const sensor_msgs::Image& image, const PixelLayout& layo
   return {};
 }
 
-// A view of the message's pixels; valid while the message lives. The sizes were
-// checked by checkBuffer, so no conversion library needs to re-derive them.
-cv::Mat wrap(const sensor_msgs::Image& image, int cv_type) {
-  return cv::Mat(static_cast<int>(image.height), static_cast<int>(image.width), cv_type,
-                 const_cast<uint8_t*>(image.data.data()), image.step);
+std::string checkColour(const sensor_msgs::Image& colour) {
+  const PixelLayout layout = colourLayout(colour.encoding);
+  if (layout.cv_type < 0)
+    return "unsupported colour encoding '" + colour.encoding +
+           "' (expected bgr8, rgb8, bgra8, rgba8 or mono8)";
+  return checkBuffer(colour, layout, "colour");
+}
+
+// P is what image_geometry::PinholeCameraModel projects with: the camera matrix
+// of the rectified image, which for registered depth is the colour camera's.
+// An all-zero P is a camera_info that only fills K (hand-written publishers).
+bool usesProjectionMatrix(const sensor_msgs::CameraInfo& info) {
+  return std::any_of(info.P.begin(), info.P.end(), [](double v) { return v != 0.0; });
 }
 
 // Why no depth pixel is usable, by kind of invalid value: "76800 zero",
@@ -117,15 +128,33 @@ std::string describeInvalidDepth(const cv::Mat& raw) {
 
 }  // namespace
 
+bool colourEncodingSupported(const std::string& encoding) {
+  return colourLayout(encoding).cv_type >= 0;
+}
+bool depthEncodingSupported(const std::string& encoding) {
+  return depthLayout(encoding).cv_type >= 0;
+}
+
 relocalizer::CameraIntrinsics cameraFromInfo(const sensor_msgs::CameraInfo& info) {
   relocalizer::CameraIntrinsics camera;
-  camera.fx = info.K[0];
-  camera.fy = info.K[4];
-  camera.cx = info.K[2];
-  camera.cy = info.K[5];
+  if (usesProjectionMatrix(info)) {
+    camera.fx = info.P[0];
+    camera.fy = info.P[5];
+    camera.cx = info.P[2];
+    camera.cy = info.P[6];
+  } else {
+    camera.fx = info.K[0];
+    camera.fy = info.K[4];
+    camera.cx = info.K[2];
+    camera.cy = info.K[5];
+  }
   camera.width = static_cast<int>(info.width);
   camera.height = static_cast<int>(info.height);
   return camera;
+}
+
+const char* intrinsicsMatrixName(const sensor_msgs::CameraInfo& info) {
+  return usesProjectionMatrix(info) ? "P" : "K";
 }
 
 std::string stripLeadingSlashes(const std::string& frame_id) {
@@ -135,16 +164,13 @@ std::string stripLeadingSlashes(const std::string& frame_id) {
 
 std::string checkFrameMessages(const sensor_msgs::Image& colour, const sensor_msgs::Image& depth,
                                const sensor_msgs::CameraInfo& info) {
-  const PixelLayout colour_layout = colourLayout(colour.encoding);
-  if (colour_layout.cv_type < 0)
-    return "unsupported colour encoding '" + colour.encoding +
-           "' (expected bgr8, rgb8, bgra8, rgba8 or mono8)";
+  if (colourLayout(colour.encoding).cv_type < 0) return checkColour(colour);
   const PixelLayout depth_layout = depthLayout(depth.encoding);
   if (depth_layout.cv_type < 0)
     return "unsupported depth encoding '" + depth.encoding +
            "' (expected 16UC1 millimetres or 32FC1 metres, REP 118)" +
            (colourLayout(depth.encoding).cv_type >= 0 ? "; a colour image on the depth topic?" : "");
-  if (std::string why = checkBuffer(colour, colour_layout, "colour"); !why.empty()) return why;
+  if (std::string why = checkColour(colour); !why.empty()) return why;
   if (std::string why = checkBuffer(depth, depth_layout, "depth"); !why.empty()) return why;
   if (colour.width != depth.width || colour.height != depth.height)
     return "colour (" + size(colour.width, colour.height) + ") and depth (" +
@@ -159,8 +185,18 @@ std::string checkFrameMessages(const sensor_msgs::Image& colour, const sensor_ms
            "'; depth must be registered to colour";
   const relocalizer::CameraIntrinsics camera = cameraFromInfo(info);
   if (std::string why = camera.validationError(); !why.empty())
-    return "camera_info K is unusable: " + why;
+    return std::string("camera_info ") + intrinsicsMatrixName(info) + " is unusable: " + why;
   return {};
+}
+
+Expected<cv::Mat> colourToBgr8(const sensor_msgs::Image& colour) {
+  if (std::string why = checkColour(colour); !why.empty()) return relocalizer::makeError(why);
+  try {
+    return cv_bridge::toCvCopy(colour, enc::BGR8)->image;
+  } catch (const cv_bridge::Exception& e) {
+    return relocalizer::makeError("colour '" + colour.encoding +
+                                  "' cannot be converted to bgr8: " + e.what());
+  }
 }
 
 Expected<RgbdFrame> frameFromMessages(const sensor_msgs::Image& colour,
@@ -169,11 +205,16 @@ Expected<RgbdFrame> frameFromMessages(const sensor_msgs::Image& colour,
   if (std::string why = checkFrameMessages(colour, depth, info); !why.empty())
     return relocalizer::makeError(why);
   RgbdFrame frame;
-  auto bgr = relocalizer::colourToBgr8(wrap(colour, colourLayout(colour.encoding).cv_type),
-                                       colour.encoding);
+  auto bgr = colourToBgr8(colour);
   if (!bgr) return relocalizer::makeError(bgr.error());
+  // The pixels in place (no copy): depthToMetres writes a new image anyway.
+  cv::Mat raw_depth;
+  try {
+    raw_depth = cv_bridge::toCvShare(depth, nullptr)->image;
+  } catch (const cv_bridge::Exception& e) {
+    return relocalizer::makeError("depth '" + depth.encoding + "' cannot be read: " + e.what());
+  }
   // REP 118: 16-bit depth is millimetres.
-  const cv::Mat raw_depth = wrap(depth, depthLayout(depth.encoding).cv_type);
   auto metres = relocalizer::depthToMetres(raw_depth, 1000.0);
   if (!metres) return relocalizer::makeError(metres.error());
   // The core would say "too little valid depth: 0 pixels"; which invalid
@@ -192,50 +233,45 @@ Expected<RgbdFrame> frameFromMessages(const sensor_msgs::Image& colour,
   return frame;
 }
 
-geometry_msgs::Pose toPoseMsg(const Pose& pose) {
-  geometry_msgs::Pose msg;
-  const Eigen::Vector3d t = pose.translation();
-  const Eigen::Quaterniond q(relocalizer::nearestRotation(pose.linear()));
-  msg.position.x = t.x();
-  msg.position.y = t.y();
-  msg.position.z = t.z();
-  msg.orientation.x = q.x();
-  msg.orientation.y = q.y();
-  msg.orientation.z = q.z();
-  msg.orientation.w = q.w();
-  return msg;
+namespace {
+// The pose with its rotation block projected onto the nearest rotation, so a
+// quaternion taken from it is well defined even after drift in composition.
+Pose orthonormalised(const Pose& pose) {
+  Pose out = pose;
+  out.linear() = relocalizer::nearestRotation(pose.linear());
+  return out;
 }
+}  // namespace
+
+geometry_msgs::Pose toPoseMsg(const Pose& pose) { return tf2::toMsg(orthonormalised(pose)); }
 
 geometry_msgs::Transform toTransformMsg(const Pose& pose) {
-  const geometry_msgs::Pose p = toPoseMsg(pose);
-  geometry_msgs::Transform msg;
-  msg.translation.x = p.position.x;
-  msg.translation.y = p.position.y;
-  msg.translation.z = p.position.z;
-  msg.rotation = p.orientation;
-  return msg;
+  return tf2::eigenToTransform(orthonormalised(pose)).transform;
 }
 
+// Quaternions from messages are normalised (poseFromTranslationQuaternion):
+// hand-written and recorded ones are often a little off unit length.
 Pose fromTransformMsg(const geometry_msgs::Transform& transform) {
-  return relocalizer::poseFromTranslationQuaternion(
-      {transform.translation.x, transform.translation.y, transform.translation.z},
-      Eigen::Quaterniond(transform.rotation.w, transform.rotation.x, transform.rotation.y,
-                         transform.rotation.z));
+  Eigen::Vector3d translation;
+  Eigen::Quaterniond rotation;
+  tf2::fromMsg(transform.translation, translation);
+  tf2::fromMsg(transform.rotation, rotation);
+  return relocalizer::poseFromTranslationQuaternion(translation, rotation);
 }
 
 Pose fromPoseMsg(const geometry_msgs::Pose& pose) {
-  return relocalizer::poseFromTranslationQuaternion(
-      {pose.position.x, pose.position.y, pose.position.z},
-      Eigen::Quaterniond(pose.orientation.w, pose.orientation.x, pose.orientation.y,
-                         pose.orientation.z));
+  Eigen::Vector3d position;
+  Eigen::Quaterniond rotation;
+  tf2::fromMsg(pose.position, position);
+  tf2::fromMsg(pose.orientation, rotation);
+  return relocalizer::poseFromTranslationQuaternion(position, rotation);
 }
 
 geometry_msgs::PoseWithCovariance toPoseWithCovarianceMsg(const Pose& pose,
                                                           const Matrix6d& covariance) {
   geometry_msgs::PoseWithCovariance msg;
   msg.pose = toPoseMsg(pose);
-  for (int r = 0; r < 6; ++r)
-    for (int c = 0; c < 6; ++c) msg.covariance[r * 6 + c] = covariance(r, c);
+  Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(msg.covariance.data()) = covariance;
   return msg;
 }
 

@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "message_conversion.h"
-#include "relocalizer/config.h"
+#include "relocalizer/core/config.h"
 
 namespace relocalizer_ros {
 

@@ -7,8 +7,8 @@
 
 #include <string>
 
-#include "relocalizer/expected.h"
-#include "relocalizer/relocalizer.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/pose/relocalizer.h"
 
 namespace relocalizer_ros {
 

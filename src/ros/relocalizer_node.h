@@ -38,7 +38,7 @@
 
 #include "frame_buffer.h"
 #include "node_params.h"
-#include "relocalizer/relocalizer.h"
+#include "relocalizer/pose/relocalizer.h"
 #include <relocalizer/RelocalizationResult.h>
 #include "throttled_log.h"
 #include "transform_publisher.h"

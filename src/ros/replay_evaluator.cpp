@@ -13,8 +13,9 @@
 #include <fstream>
 
 #include "message_conversion.h"
-#include "relocalizer/progress.h"
-#include "relocalizer/version.h"
+#include "relocalizer/core/progress.h"
+#include "relocalizer/core/statistics.h"
+#include "relocalizer/core/version.h"
 
 namespace relocalizer_ros {
 
@@ -209,18 +210,15 @@ void ReplayEvaluator::reportLatency(int published) {
       if (answer != answered_at_.end()) latencies_ms.push_back((answer->second - sent).toSec() * 1e3);
     }
   }
-  std::sort(latencies_ms.begin(), latencies_ms.end());
-  const auto percentile = [&](double q) {
-    if (latencies_ms.empty()) return std::nan("");
-    const size_t index = std::min(latencies_ms.size() - 1,
-                                  static_cast<size_t>(q * static_cast<double>(latencies_ms.size() - 1) + 0.5));
-    return latencies_ms[index];
-  };
+  const double median_ms = relocalizer::median(latencies_ms);
+  const double p95_ms = relocalizer::percentile(latencies_ms, 95.0);
+  const double max_ms = latencies_ms.empty()
+                            ? std::nan("")
+                            : *std::max_element(latencies_ms.begin(), latencies_ms.end());
   const double share = published > 0 ? static_cast<double>(latencies_ms.size()) / published : 0.0;
   std::printf("paced at %.1f Hz: %zu of %d frames answered (%.1f %%); latency from publish to ~result: "
               "median %.1f ms, 95th percentile %.1f ms, max %.1f ms\n",
-              options_.rate, latencies_ms.size(), published, 100.0 * share, percentile(0.5),
-              percentile(0.95), latencies_ms.empty() ? std::nan("") : latencies_ms.back());
+              options_.rate, latencies_ms.size(), published, 100.0 * share, median_ms, p95_ms, max_ms);
   if (options_.output.empty()) return;
   nlohmann::json out;
   out["rate_hz"] = options_.rate;
@@ -228,9 +226,9 @@ void ReplayEvaluator::reportLatency(int published) {
   out["answered"] = latencies_ms.size();
   out["answered_share"] = share;
   if (!latencies_ms.empty()) {
-    out["latency_ms_median"] = percentile(0.5);
-    out["latency_ms_p95"] = percentile(0.95);
-    out["latency_ms_max"] = latencies_ms.back();
+    out["latency_ms_median"] = median_ms;
+    out["latency_ms_p95"] = p95_ms;
+    out["latency_ms_max"] = max_ms;
   }
   std::filesystem::create_directories(options_.output);
   std::ofstream(options_.output + "/latency.json") << out.dump(2) << "\n";

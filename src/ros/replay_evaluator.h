@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "relocalizer/evaluation.h"
+#include "relocalizer/eval/evaluation.h"
 #include <relocalizer/RelocalizationResult.h>
 
 namespace relocalizer_ros {

@@ -22,8 +22,8 @@
 #include <optional>
 #include <string>
 
-#include "relocalizer/expected.h"
-#include "relocalizer/pose.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/pose.h"
 
 namespace relocalizer_ros {
 

@@ -9,7 +9,8 @@
 #include <vector>
 
 #include "dataset_arguments.h"
-#include "relocalizer/depth_alignment.h"
+#include "relocalizer/core/statistics.h"
+#include "relocalizer/data/depth_alignment.h"
 
 using namespace relocalizer;
 
@@ -102,11 +103,6 @@ int main(int argc, char** argv) {
         c.depth_motion.rotation_deg, 1000 * c.disagreement.translation, c.disagreement.rotation_deg,
         1000 * c.rms_at_ground_truth, 1000 * c.rms_aligned);
   }
-  auto median = [](std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
-  };
   std::printf(
       "%zu pairs checked, %d flagged (> %.1f mm or > %.2f deg), %d not aligned; median "
       "disagreement %.1f mm / %.2f deg\n",

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "cli_support.h"
-#include "relocalizer/dataset.h"
+#include "relocalizer/data/dataset.h"
 
 namespace relocalizer::cli {
 

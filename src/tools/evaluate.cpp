@@ -7,10 +7,11 @@
 
 #include "cli_support.h"
 #include "frame_source.h"
-#include "relocalizer/evaluation.h"
-#include "relocalizer/progress.h"
-#include "relocalizer/relocalizer.h"
-#include "relocalizer/version.h"
+#include "relocalizer/core/progress.h"
+#include "relocalizer/core/statistics.h"
+#include "relocalizer/core/version.h"
+#include "relocalizer/eval/evaluation.h"
+#include "relocalizer/pose/relocalizer.h"
 
 using namespace relocalizer;
 

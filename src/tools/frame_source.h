@@ -8,8 +8,9 @@
 #include <string>
 
 #include "../ros/bag_dataset.h"
+#include "../ros/key_frames.h"
 #include "dataset_arguments.h"
-#include "relocalizer/frame_selection.h"
+#include "relocalizer/data/frame_selection.h"
 
 namespace relocalizer::cli {
 

@@ -2,6 +2,7 @@
 // recorded, with the ground truth beside it, so the node can be replayed and
 // evaluated on any dataset the core can read.
 
+#include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <rosbag/bag.h>
 #include <rosbag/exceptions.h>
@@ -11,14 +12,13 @@
 #include <std_msgs/String.h>
 
 #include <chrono>
-#include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "../ros/message_conversion.h"
 #include "dataset_arguments.h"
-#include "relocalizer/progress.h"
-#include "relocalizer/version.h"
+#include "relocalizer/core/progress.h"
+#include "relocalizer/core/version.h"
 
 using namespace relocalizer;
 
@@ -27,36 +27,6 @@ namespace {
 // Synthesized stamps start here rather than at 0, which ROS reads as "no time"
 // (and tf2 as "latest").
 constexpr double kSynthesizedStart = 1.0;
-
-sensor_msgs::Image imageMsg(const cv::Mat& mat, const std::string& encoding,
-                            const std_msgs::Header& header) {
-  sensor_msgs::Image msg;
-  msg.header = header;
-  msg.height = static_cast<uint32_t>(mat.rows);
-  msg.width = static_cast<uint32_t>(mat.cols);
-  msg.encoding = encoding;
-  msg.is_bigendian = 0;
-  msg.step = static_cast<uint32_t>(mat.cols * mat.elemSize());
-  msg.data.resize(static_cast<size_t>(msg.step) * msg.height);
-  for (int v = 0; v < mat.rows; ++v)
-    std::memcpy(msg.data.data() + static_cast<size_t>(v) * msg.step, mat.ptr(v), msg.step);
-  return msg;
-}
-
-// REP 118: 16UC1 millimetres with 0 for no reading, or 32FC1 metres with NaN.
-cv::Mat encodeDepth(const cv::Mat& metres, bool millimetres) {
-  if (!millimetres) return metres;
-  cv::Mat out(metres.size(), CV_16UC1);
-  for (int v = 0; v < metres.rows; ++v) {
-    const float* in = metres.ptr<float>(v);
-    uint16_t* o = out.ptr<uint16_t>(v);
-    for (int u = 0; u < metres.cols; ++u) {
-      const double mm = std::round(static_cast<double>(in[u]) * 1000.0);
-      o[u] = (std::isfinite(mm) && mm > 0 && mm < 65535) ? static_cast<uint16_t>(mm) : 0;
-    }
-  }
-  return out;
-}
 
 sensor_msgs::CameraInfo cameraInfoMsg(const CameraIntrinsics& camera, const std_msgs::Header& header) {
   sensor_msgs::CameraInfo info;
@@ -74,14 +44,7 @@ sensor_msgs::CameraInfo cameraInfoMsg(const CameraIntrinsics& camera, const std_
 geometry_msgs::PoseStamped poseMsg(const Pose& pose, const std_msgs::Header& header) {
   geometry_msgs::PoseStamped msg;
   msg.header = header;
-  const Eigen::Quaterniond q(nearestRotation(pose.linear()));
-  msg.pose.position.x = pose.translation().x();
-  msg.pose.position.y = pose.translation().y();
-  msg.pose.position.z = pose.translation().z();
-  msg.pose.orientation.x = q.x();
-  msg.pose.orientation.y = q.y();
-  msg.pose.orientation.z = q.z();
-  msg.pose.orientation.w = q.w();
+  msg.pose = relocalizer_ros::toPoseMsg(pose);
   return msg;
 }
 
@@ -170,13 +133,16 @@ int main(int argc, char** argv) {
         ++with_truth;
       }
       bag.write("/camera/rgb/camera_info", header.stamp, cameraInfoMsg(frame->camera, header));
-      bag.write("/camera/depth/image_raw", header.stamp,
-                imageMsg(encodeDepth(frame->depth, millimetres),
-                         millimetres ? sensor_msgs::image_encodings::TYPE_16UC1
-                                     : sensor_msgs::image_encodings::TYPE_32FC1,
-                         header));
+      // REP 118: 16UC1 millimetres with 0 for no reading, or 32FC1 metres with NaN.
+      const cv_bridge::CvImage depth =
+          millimetres ? cv_bridge::CvImage(header, sensor_msgs::image_encodings::TYPE_16UC1,
+                                           depthToMillimetres(frame->depth))
+                      : cv_bridge::CvImage(header, sensor_msgs::image_encodings::TYPE_32FC1,
+                                           frame->depth);
+      bag.write("/camera/depth/image_raw", header.stamp, *depth.toImageMsg());
       bag.write("/camera/rgb/image_raw", header.stamp,
-                imageMsg(frame->colour, sensor_msgs::image_encodings::BGR8, header));
+                *cv_bridge::CvImage(header, sensor_msgs::image_encodings::BGR8, frame->colour)
+                     .toImageMsg());
       ++written;
     }
     bag.close();

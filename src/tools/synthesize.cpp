@@ -9,7 +9,7 @@
 #include <string>
 
 #include "cli_support.h"
-#include "relocalizer/synthetic_scene.h"
+#include "relocalizer/sim/synthetic_scene.h"
 
 using relocalizer::cli::fail;
 

@@ -12,11 +12,11 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_support.h"
-#include "relocalizer/dataset.h"
-#include "relocalizer/metrics.h"
-#include "relocalizer/plot.h"
-#include "relocalizer/progress.h"
-#include "relocalizer/relocalizer.h"
+#include "relocalizer/core/progress.h"
+#include "relocalizer/data/dataset.h"
+#include "relocalizer/eval/metrics.h"
+#include "relocalizer/eval/plot.h"
+#include "relocalizer/pose/relocalizer.h"
 
 using namespace relocalizer;
 

@@ -9,11 +9,11 @@
 
 #include "cli_support.h"
 #include "frame_source.h"
-#include "relocalizer/config.h"
-#include "relocalizer/model_io.h"
-#include "relocalizer/progress.h"
-#include "relocalizer/training.h"
-#include "relocalizer/version.h"
+#include "relocalizer/core/progress.h"
+#include "relocalizer/core/version.h"
+#include "relocalizer/forest/model_io.h"
+#include "relocalizer/forest/training.h"
+#include "relocalizer/forest/training_config.h"
 
 using namespace relocalizer;
 

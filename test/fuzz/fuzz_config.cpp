@@ -7,9 +7,10 @@
 #include <cstdlib>
 #include <string>
 
-#include "relocalizer/config.h"
-#include "relocalizer/model_io.h"
-#include "relocalizer/relocalizer.h"
+#include "relocalizer/core/config.h"
+#include "relocalizer/forest/model_io.h"
+#include "relocalizer/forest/training_config.h"
+#include "relocalizer/pose/relocalizer.h"
 
 using namespace relocalizer;
 

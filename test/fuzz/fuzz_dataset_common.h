@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <string>
 
-#include "relocalizer/dataset.h"
+#include "relocalizer/data/dataset.h"
 
 namespace relocalizer::fuzz {
 

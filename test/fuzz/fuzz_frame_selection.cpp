@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "relocalizer/frame_selection.h"
+#include "relocalizer/data/frame_selection.h"
 
 using relocalizer::FrameSelection;
 

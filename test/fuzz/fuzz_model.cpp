@@ -13,8 +13,8 @@
 #include <cstring>
 #include <vector>
 
-#include "relocalizer/forest.h"
-#include "relocalizer/model_io.h"
+#include "relocalizer/forest/forest.h"
+#include "relocalizer/forest/model_io.h"
 
 using namespace relocalizer;
 

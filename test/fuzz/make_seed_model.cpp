@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <string>
 
-#include "relocalizer/model_io.h"
+#include "relocalizer/forest/model_io.h"
 
 using namespace relocalizer;
 

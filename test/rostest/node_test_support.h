@@ -2,6 +2,7 @@
 // What the node rostests share: the fixture's frames as camera messages, a
 // publisher for them, and listeners that wait for ~result and /rosout lines.
 
+#include <cv_bridge/cv_bridge.h>
 #include <gtest/gtest.h>
 #include <relocalizer/Relocalize.h>
 #include <rosgraph_msgs/Log.h>
@@ -11,7 +12,6 @@
 #include <sensor_msgs/image_encodings.h>
 
 #include <chrono>
-#include <cstring>
 #include <functional>
 #include <mutex>
 #include <string>
@@ -20,8 +20,9 @@
 
 #include "../../src/ros/message_conversion.h"
 #include <relocalizer/RelocalizationResult.h>
-#include "relocalizer/dataset.h"
-#include "relocalizer/pose.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/core/pose.h"
+#include "relocalizer/data/dataset.h"
 
 namespace relocalizer_test {
 
@@ -40,14 +41,7 @@ struct FrameMessages {
 };
 
 inline sensor_msgs::Image imageMessage(const cv::Mat& mat, const std::string& encoding) {
-  sensor_msgs::Image msg;
-  msg.height = mat.rows;
-  msg.width = mat.cols;
-  msg.encoding = encoding;
-  msg.step = static_cast<uint32_t>(mat.cols * mat.elemSize());
-  msg.data.resize(static_cast<size_t>(msg.step) * msg.height);
-  for (int v = 0; v < mat.rows; ++v) std::memcpy(&msg.data[v * msg.step], mat.ptr(v), msg.step);
-  return msg;
+  return *cv_bridge::CvImage(std_msgs::Header(), encoding, mat).toImageMsg();
 }
 
 // The fixture's synthetic test frames (make_fixture.sh), as a camera driver
@@ -63,13 +57,8 @@ inline std::vector<FrameMessages> loadFixtureFrames() {
     if (!frame) throw std::runtime_error(frame.error());
     FrameMessages m;
     m.colour = imageMessage(frame->colour, sensor_msgs::image_encodings::BGR8);
-    cv::Mat millimetres(frame->depth.size(), CV_16UC1);
-    for (int v = 0; v < millimetres.rows; ++v)
-      for (int u = 0; u < millimetres.cols; ++u) {
-        const float d = frame->depth.at<float>(v, u);
-        millimetres.at<uint16_t>(v, u) = std::isfinite(d) ? static_cast<uint16_t>(std::lround(d * 1000)) : 0;
-      }
-    m.depth = imageMessage(millimetres, sensor_msgs::image_encodings::TYPE_16UC1);
+    m.depth = imageMessage(relocalizer::depthToMillimetres(frame->depth),
+                           sensor_msgs::image_encodings::TYPE_16UC1);
     m.colour.header.frame_id = m.depth.header.frame_id = kCameraFrame;
     m.info.header.frame_id = kCameraFrame;
     m.info.width = frame->camera.width;

@@ -3,6 +3,7 @@
 // sources, key frames, the bad bags' errors, and `train --bag` against
 // `train --dataset` on the same frames (same frames kept, same model bytes).
 
+#include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
@@ -16,18 +17,19 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <functional>
 #include <sstream>
 
 #include "../../src/ros/bag_dataset.h"
+#include "../../src/ros/key_frames.h"
 #include "../../src/ros/message_conversion.h"
 #include "../unit/support.h"
-#include "relocalizer/dataset.h"
-#include "relocalizer/frame_selection.h"
-#include "relocalizer/model_io.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/data/dataset.h"
+#include "relocalizer/data/frame_selection.h"
+#include "relocalizer/forest/model_io.h"
 
 using namespace relocalizer_ros;
 using relocalizer::testing::TempDir;
@@ -44,29 +46,10 @@ const std::string kCameraFrame = "camera_rgb_optical_frame";
 
 sensor_msgs::Image imageMsg(const cv::Mat& mat, const std::string& encoding, const ros::Time& stamp,
                             const std::string& frame_id = kCameraFrame) {
-  sensor_msgs::Image msg;
-  msg.header.stamp = stamp;
-  msg.header.frame_id = frame_id;
-  msg.height = static_cast<uint32_t>(mat.rows);
-  msg.width = static_cast<uint32_t>(mat.cols);
-  msg.encoding = encoding;
-  msg.step = static_cast<uint32_t>(mat.cols * mat.elemSize());
-  msg.data.resize(static_cast<size_t>(msg.step) * msg.height);
-  for (int v = 0; v < mat.rows; ++v)
-    std::memcpy(msg.data.data() + static_cast<size_t>(v) * msg.step, mat.ptr(v), msg.step);
-  return msg;
-}
-
-// make_bag's 16UC1: millimetres, 0 for no reading (REP 118).
-cv::Mat millimetres(const cv::Mat& metres) {
-  cv::Mat out(metres.size(), CV_16UC1);
-  for (int v = 0; v < metres.rows; ++v)
-    for (int u = 0; u < metres.cols; ++u) {
-      const double mm = std::round(static_cast<double>(metres.at<float>(v, u)) * 1000.0);
-      out.at<uint16_t>(v, u) =
-          (std::isfinite(mm) && mm > 0 && mm < 65535) ? static_cast<uint16_t>(mm) : 0;
-    }
-  return out;
+  std_msgs::Header header;
+  header.stamp = stamp;
+  header.frame_id = frame_id;
+  return *cv_bridge::CvImage(header, encoding, mat).toImageMsg();
 }
 
 sensor_msgs::CameraInfo infoMsg(const relocalizer::CameraIntrinsics& k, const ros::Time& stamp) {
@@ -532,7 +515,7 @@ void writeSlamBag(const relocalizer::Dataset& data, const std::string& path,
         map_T_odom(t.toSec()).inverse() * *frame->ground_truth * base_T_camera.inverse();
     if (!lost(data.id(i))) writeTf(bag, {transformMsg("odom", "base_link", t, odom_T_base)});
     bag.write(kInfo, t, infoMsg(frame->camera, t));
-    bag.write(kDepth, t, imageMsg(millimetres(frame->depth), enc::TYPE_16UC1, t));
+    bag.write(kDepth, t, imageMsg(relocalizer::depthToMillimetres(frame->depth), enc::TYPE_16UC1, t));
     bag.write(kRgb, t, imageMsg(frame->colour, enc::BGR8, t));
   }
 }

@@ -45,10 +45,11 @@ std::function<void()> sending(FrameMessages frame, bool with_info = true) {
 
 // `frame` with 32FC1 depth in metres where every pixel is `value`.
 FrameMessages withFloatDepth(FrameMessages frame, float value) {
-  frame.depth.encoding = sensor_msgs::image_encodings::TYPE_32FC1;
-  frame.depth.step = frame.depth.width * 4;
-  frame.depth.data.resize(static_cast<size_t>(frame.depth.step) * frame.depth.height);
-  for (size_t i = 0; i < frame.depth.data.size(); i += 4) std::memcpy(&frame.depth.data[i], &value, 4);
+  const cv::Mat metres(static_cast<int>(frame.depth.height), static_cast<int>(frame.depth.width),
+                      CV_32FC1, cv::Scalar(value));
+  frame.depth = *cv_bridge::CvImage(frame.depth.header, sensor_msgs::image_encodings::TYPE_32FC1,
+                                    metres)
+                     .toImageMsg();
   return frame;
 }
 

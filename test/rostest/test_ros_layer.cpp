@@ -71,6 +71,55 @@ TEST(MessageConversion, ConvertsUnitsChannelsAndInvalidDepth) {
   EXPECT_TRUE(std::isnan(frame->depth.at<float>(0, 1)));
 }
 
+// Moved from the core's unit tests when colour encodings became the ROS layer's
+// concern (cv_bridge); the same pixels and the same refusal.
+TEST(MessageConversion, ColourConvertsRgbAndMonoAndRejectsOthers) {
+  auto rgb = image(1, 1, enc::RGB8, 3);
+  rgb.data = {10, 20, 30};
+  auto bgr = colourToBgr8(rgb);
+  ASSERT_TRUE(bgr.ok());
+  EXPECT_EQ(bgr->at<cv::Vec3b>(0, 0), cv::Vec3b(30, 20, 10));
+  auto mono = image(1, 1, enc::MONO8, 1);
+  mono.data = {77};
+  EXPECT_EQ(colourToBgr8(mono)->at<cv::Vec3b>(0, 0), cv::Vec3b(77, 77, 77));
+  auto yuv = rgb;
+  yuv.encoding = "yuv422";
+  auto bad = colourToBgr8(yuv);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("yuv422"), std::string::npos);
+}
+
+// Registered depth (depth_registered topics) is in the colour camera's
+// rectified image, whose camera matrix is P; K is the unrectified sensor's.
+TEST(MessageConversion, IntrinsicsComeFromPWhenItIsSet) {
+  auto k_and_p = info(8, 6);
+  k_and_p.P = {120, 0, 3.5, 0, 0, 130, 2.5, 0, 0, 0, 1, 0};
+  const relocalizer::CameraIntrinsics from_p = cameraFromInfo(k_and_p);
+  EXPECT_EQ(from_p.fx, 120.0);
+  EXPECT_EQ(from_p.fy, 130.0);
+  EXPECT_EQ(from_p.cx, 3.5);
+  EXPECT_EQ(from_p.cy, 2.5);
+  EXPECT_EQ(std::string(intrinsicsMatrixName(k_and_p)), "P");
+
+  auto colour = image(8, 6, enc::BGR8, 3);
+  auto depth = image(8, 6, enc::TYPE_16UC1, 2);
+  for (size_t i = 0; i < depth.data.size(); i += 2) depth.data[i + 1] = 0x03;  // 768 mm
+  auto frame = frameFromMessages(colour, depth, k_and_p);
+  ASSERT_TRUE(frame.ok()) << frame.error();
+  EXPECT_EQ(frame->camera.fx, 120.0);
+  EXPECT_EQ(frame->camera.cy, 2.5);
+
+  // An unusable P is named as such, even when K is fine.
+  auto bad_p = k_and_p;
+  bad_p.P[5] = 0.0;
+  EXPECT_EQ(checkFrameMessages(colour, depth, bad_p).rfind("camera_info P is unusable: focal length", 0), 0u)
+      << checkFrameMessages(colour, depth, bad_p);
+  // A camera_info that fills only K (P all zero) still works, from K.
+  const auto only_k = info(8, 6);
+  EXPECT_EQ(cameraFromInfo(only_k).fx, 100.0);
+  EXPECT_EQ(std::string(intrinsicsMatrixName(only_k)), "K");
+}
+
 TEST(MessageConversion, RowPaddingIsHonoured) {
   auto colour = image(2, 2, enc::MONO8, 1);
   colour.step = 4;  // two bytes of padding per row

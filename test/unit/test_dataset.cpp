@@ -13,8 +13,8 @@
 #include <sstream>
 #include <thread>
 
-#include "relocalizer/dataset.h"
-#include "relocalizer/frame_selection.h"
+#include "relocalizer/data/dataset.h"
+#include "relocalizer/data/frame_selection.h"
 #include "support.h"
 
 using namespace relocalizer;

@@ -1,8 +1,8 @@
 #include <gtest/gtest.h>
 
-#include "relocalizer/dataset.h"
-#include "relocalizer/depth_alignment.h"
-#include "relocalizer/synthetic_scene.h"
+#include "relocalizer/data/dataset.h"
+#include "relocalizer/data/depth_alignment.h"
+#include "relocalizer/sim/synthetic_scene.h"
 #include "support.h"
 
 using namespace relocalizer;

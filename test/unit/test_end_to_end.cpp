@@ -3,10 +3,10 @@
 
 #include <gtest/gtest.h>
 
-#include "relocalizer/metrics.h"
-#include "relocalizer/relocalizer.h"
-#include "relocalizer/synthetic_scene.h"
-#include "relocalizer/training.h"
+#include "relocalizer/eval/metrics.h"
+#include "relocalizer/forest/training.h"
+#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/sim/synthetic_scene.h"
 
 using namespace relocalizer;
 

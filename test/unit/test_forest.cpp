@@ -7,12 +7,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "relocalizer/config.h"
-#include "relocalizer/forest.h"
-#include "relocalizer/mean_shift.h"
-#include "relocalizer/model_io.h"
-#include "relocalizer/sampling.h"
-#include "relocalizer/training.h"
+#include "relocalizer/forest/forest.h"
+#include "relocalizer/forest/mean_shift.h"
+#include "relocalizer/forest/model_io.h"
+#include "relocalizer/forest/sampling.h"
+#include "relocalizer/forest/training.h"
+#include "relocalizer/forest/training_config.h"
 #include "support.h"
 
 using namespace relocalizer;

@@ -13,9 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "relocalizer/config.h"
-#include "relocalizer/model_io.h"
-#include "relocalizer/relocalizer.h"
+#include "relocalizer/core/config.h"
+#include "relocalizer/forest/model_io.h"
+#include "relocalizer/forest/training_config.h"
+#include "relocalizer/pose/relocalizer.h"
 
 namespace relocalizer {
 namespace {

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "relocalizer/relocalizer.h"
+#include "relocalizer/pose/relocalizer.h"
 
 using nlohmann::json;
 

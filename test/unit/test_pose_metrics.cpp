@@ -3,9 +3,10 @@
 #include <cmath>
 #include <random>
 
-#include "relocalizer/frame.h"
-#include "relocalizer/metrics.h"
-#include "relocalizer/pose.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/core/pose.h"
+#include "relocalizer/core/statistics.h"
+#include "relocalizer/eval/metrics.h"
 #include "support.h"
 
 using namespace relocalizer;
@@ -156,18 +157,6 @@ TEST(Depth, RejectsColourImages) {
   auto metres = depthToMetres(colour);
   ASSERT_FALSE(metres.ok());
   EXPECT_NE(metres.error().find("16-bit"), std::string::npos);
-}
-
-TEST(Colour, ConvertsRgbAndMonoAndRejectsOthers) {
-  cv::Mat rgb(1, 1, CV_8UC3, cv::Scalar(10, 20, 30));
-  auto bgr = colourToBgr8(rgb, "rgb8");
-  ASSERT_TRUE(bgr.ok());
-  EXPECT_EQ(bgr->at<cv::Vec3b>(0, 0), cv::Vec3b(30, 20, 10));
-  cv::Mat mono(1, 1, CV_8UC1, cv::Scalar(77));
-  EXPECT_EQ(colourToBgr8(mono, "mono8")->at<cv::Vec3b>(0, 0), cv::Vec3b(77, 77, 77));
-  auto bad = colourToBgr8(rgb, "yuv422");
-  ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().find("yuv422"), std::string::npos);
 }
 
 TEST(Frame, ValidationNamesTheMismatch) {

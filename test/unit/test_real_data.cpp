@@ -8,10 +8,10 @@
 
 #include <tbb/parallel_for.h>
 
-#include "relocalizer/dataset.h"
-#include "relocalizer/metrics.h"
-#include "relocalizer/relocalizer.h"
-#include "relocalizer/training.h"
+#include "relocalizer/data/dataset.h"
+#include "relocalizer/eval/metrics.h"
+#include "relocalizer/forest/training.h"
+#include "relocalizer/pose/relocalizer.h"
 #include "support.h"
 
 using namespace relocalizer;

@@ -3,9 +3,9 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
-#include "relocalizer/dataset.h"
-#include "relocalizer/registration.h"
-#include "relocalizer/synthetic_scene.h"
+#include "relocalizer/data/dataset.h"
+#include "relocalizer/data/registration.h"
+#include "relocalizer/sim/synthetic_scene.h"
 #include "support.h"
 
 using namespace relocalizer;

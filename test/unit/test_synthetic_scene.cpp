@@ -13,10 +13,10 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "relocalizer/dataset.h"
-#include "relocalizer/frame.h"
-#include "relocalizer/pose.h"
-#include "relocalizer/synthetic_scene.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/core/pose.h"
+#include "relocalizer/data/dataset.h"
+#include "relocalizer/sim/synthetic_scene.h"
 #include "support.h"
 
 using namespace relocalizer;

@@ -1,0 +1,66 @@
+#pragma once
+// The model file: one point forest and one line forest, with everything needed
+// to know how they were made.
+//
+// Layout (little-endian):
+//   char[8]   magic "PLFOREST"
+//   uint32    format version (kModelFormatVersion)
+//   uint32    reserved, 0
+//   uint64    body length in bytes
+//   uint32    CRC-32 (zlib) of the body
+//   body:
+//     uint32 + bytes   header JSON: every training parameter and the training
+//                      set summary (human readable with `strings` or `head -c`)
+//     forest points, forest lines, each:
+//       uint32 trees; per tree:
+//         uint32 n + SplitNode[n], uint32 n + LeafRange[n], uint32 n + LeafMode[n]
+// Saving is deterministic: the same model gives the same bytes.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "relocalizer/core/expected.h"
+#include "relocalizer/forest/forest.h"
+#include "relocalizer/forest/training.h"
+
+namespace relocalizer {
+
+constexpr uint32_t kModelFormatVersion = 1;
+
+// What the forests were trained on.
+struct TrainingSummary {
+  std::string dataset;      // path as given
+  std::string format;       // dataset format name
+  std::string frames;       // selection expression, empty = all
+  int images = 0;
+  double seconds = 0.0;     // wall time of training
+  int threads = 0;
+  Eigen::Vector3f scene_min = Eigen::Vector3f::Zero();  // bounds of the camera centres
+  Eigen::Vector3f scene_max = Eigen::Vector3f::Zero();
+  std::string software_version;
+};
+
+struct Model {
+  TrainingParams params;
+  TrainingSummary summary;
+  Forest points;
+  Forest lines;
+};
+
+std::vector<uint8_t> serializeModel(const Model& model);
+// `source` names the bytes' origin in error messages.
+Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::string& source);
+
+Status saveModel(const Model& model, const std::string& path);
+Expected<Model> loadModel(const std::string& path);
+
+// The header JSON of a model (parameters and summary), for tools and logs.
+std::string modelHeaderJson(const Model& model, int indent = 2);
+
+// TrainingParams <-> JSON, shared with the YAML config reader. Reading needs
+// every key present (the config reader merges the file onto the defaults).
+std::string trainingParamsToJson(const TrainingParams& params);
+Expected<TrainingParams> trainingParamsFromJson(const std::string& json_text);
+
+}  // namespace relocalizer

@@ -1,0 +1,70 @@
+#pragma once
+// Which pixels of a frame become forest samples: random pixels with valid depth
+// for the point forest, and pixels spread evenly along LSD line segments for
+// the line forest. Each line sample keeps the 3D line fitted (by RANSAC) to the
+// back-projections of its segment, in camera coordinates; the pose solver's
+// point-on-line energy needs it.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "relocalizer/core/frame.h"
+
+namespace relocalizer {
+
+struct Sample {
+  int16_t u = 0;
+  int16_t v = 0;
+  float depth = 0.0f;               // metres, valid
+  Eigen::Vector3f camera_point;     // back-projection of (u, v, depth)
+  int32_t line = -1;                // index into the frame's lines, or -1
+};
+
+struct Line3D {
+  Eigen::Vector3f point;      // a point on the line, camera frame
+  Eigen::Vector3f direction;  // unit
+  float distance(const Eigen::Vector3f& p) const {
+    return (p - point).cross(direction).norm();
+  }
+};
+
+struct LineSamplingParams {
+  float min_segment_length_px = 20.0f;  // shorter LSD segments carry little structure
+  float spacing_px = 5.0f;              // between samples along a segment
+  // LSD on a downscaled image: far faster, and segments shorter than the
+  // minimum length are dropped anyway. 1 = full resolution.
+  float lsd_scale = 0.5f;
+  // Samples are taken this many pixels off the detected edge, on both sides:
+  // an intensity edge is often a depth edge, where depth is mixed or missing.
+  float edge_offset_px = 0.0f;
+  float ransac_inlier_m = 0.015f;       // point-to-line distance for inliers
+  int ransac_iterations = 32;
+  int min_inliers = 4;                  // per segment, after RANSAC
+  float min_inlier_ratio = 0.5f;        // of the segment's samples with depth
+};
+
+// Up to `count` distinct pixels with valid depth, uniformly at random. Appends.
+void samplePoints(const RgbdFrame& frame, int count, std::mt19937& rng, std::vector<Sample>& out);
+
+struct LineSamples {
+  std::vector<Sample> samples;  // .line indexes `lines`
+  std::vector<Line3D> lines;
+  int segments_detected = 0;    // LSD segments before the length filter
+  int segments_kept = 0;        // segments with a line fit
+};
+
+// LSD segments of at least the minimum length, sampled evenly; samples without
+// depth are dropped, the rest back-projected and a 3D line fitted to each
+// segment's points by RANSAC; only inliers are kept. If `max_samples` > 0 and
+// more samples are found, a random subset of that size is kept.
+LineSamples sampleLines(const RgbdFrame& frame, const LineSamplingParams& params, int max_samples,
+                        std::mt19937& rng);
+
+// RANSAC line fit to 3D points (exposed for tests). On success fills `line`
+// (least-squares refit to the inliers) and `inliers` (indices into points).
+bool fitLineRansac(const std::vector<Eigen::Vector3f>& points, float inlier_threshold,
+                   int iterations, std::mt19937& rng, Line3D& line, std::vector<int>& inliers);
+
+}  // namespace relocalizer

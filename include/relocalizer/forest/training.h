@@ -1,0 +1,130 @@
+#pragma once
+// Growing the point and line forests from posed RGB-D frames.
+//
+// Per tree: a random subset of the training images, a sample of pixels from
+// each (random pixels with depth for the point forest, line samples for the
+// line forest), labelled with their world coordinates. Nodes split greedily on
+// random depth-adaptive pixel comparisons, keeping the candidate that maximises
+// information gain under a full-covariance Gaussian model of the labels. Leaves
+// hold the mean-shift modes of their labels with each mode's mean descriptor.
+//
+// Trees are independent and each has its own random stream derived from the
+// seed, so the result is the same for any thread count.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "relocalizer/core/frame.h"
+#include "relocalizer/forest/forest.h"
+#include "relocalizer/forest/mean_shift.h"
+#include "relocalizer/forest/sampling.h"
+
+namespace relocalizer {
+
+enum class ForestKind { Points = 0, Lines = 1 };
+const char* forestKindName(ForestKind kind);
+
+struct ForestParams {
+  int trees = 5;
+  int max_depth = 25;
+  int min_samples_leaf = 20;       // no split leaves a child with fewer samples
+  int images_per_tree = 500;       // capped by the number of training images
+  int samples_per_image = 5000;    // pixels (or line samples) drawn per image
+  int feature_candidates = 64;     // random features tried per node
+  int threshold_candidates = 16;   // random thresholds tried per feature
+  int split_sample_cap = 1000;     // samples used to score splits at a node
+  float max_offset = 130.0f;       // |delta| per axis, pixel-metres
+  float depth_feature_share = 0.0f;  // share of depth-difference candidates
+  MeanShiftParams mean_shift;
+};
+
+struct TrainingParams {
+  uint64_t seed = 42;
+  ForestParams points;
+  ForestParams lines;
+  LineSamplingParams line_sampling;
+  bool train_points = true;
+  bool train_lines = true;
+};
+
+// Differential-entropy bookkeeping for a set of 3D labels: sufficient
+// statistics, so child statistics come from sums over threshold bins.
+struct LabelStats {
+  double count = 0.0;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  // Upper triangle of sum x x^T: xx xy xz yy yz zz.
+  std::array<double, 6> square{};
+
+  void add(const Eigen::Vector3f& x);
+  void add(const LabelStats& other);
+  Eigen::Matrix3d covariance() const;
+  // 0.5 log((2 pi e)^3 det Sigma) with a tiny diagonal regulariser so that
+  // degenerate sets (all labels equal) stay finite.
+  double entropy() const;
+};
+
+// Closed-form differential entropy of a 3D Gaussian with covariance `sigma`.
+double gaussianEntropy(const Eigen::Matrix3d& sigma);
+
+// One posed training frame, kept in memory for feature evaluation.
+struct TrainingImage {
+  cv::Mat colour;  // CV_8UC3
+  cv::Mat depth;   // CV_32FC1 metres
+  CameraIntrinsics camera;
+  Pose pose;       // camera-to-world
+  FeatureImage view() const { return FeatureImage::of(colour, depth); }
+};
+
+struct TrainingProgress {
+  // Called once per forest with the number of samples its trees will grow on.
+  std::function<void(size_t)> samples_drawn;
+  // Called from worker threads with the number of samples that reached a leaf.
+  std::function<void(size_t)> samples_done;
+  // Called when a tree is complete, with its forest, index and wall time.
+  std::function<void(ForestKind, int, double)> tree_done;
+};
+
+// Samples each tree of `kind` trains on (exposed for tests and the progress total).
+struct TreeSamples {
+  struct Item {
+    int32_t image;
+    int16_t u, v;
+    float depth;
+    Eigen::Vector3f world;
+  };
+  std::vector<Item> items;
+};
+
+// Draws the training samples of every tree of one forest. Line samples of each
+// image are detected once and subsampled per tree.
+std::vector<TreeSamples> drawTreeSamples(const std::vector<TrainingImage>& images, ForestKind kind,
+                                         const TrainingParams& params);
+
+// Grows one tree from its samples (consumed: reordered in place).
+Tree growTree(const std::vector<TrainingImage>& images, TreeSamples& samples,
+              const ForestParams& params, uint64_t seed, const TrainingProgress& progress = {});
+
+// Grows all trees of one forest, in parallel over trees (TBB, bounded by the
+// caller's tbb::global_control).
+Forest trainForest(const std::vector<TrainingImage>& images, ForestKind kind,
+                   const TrainingParams& params, const TrainingProgress& progress = {});
+
+// Derived per-tree seed: independent streams for every (seed, forest, tree).
+uint64_t treeSeed(uint64_t seed, ForestKind kind, int tree);
+
+}  // namespace relocalizer
+
+namespace relocalizer {
+
+// A posed frame as training keeps it; false (and nothing appended) when the
+// frame has no ground truth.
+bool appendTrainingImage(const RgbdFrame& frame, std::vector<TrainingImage>& images);
+
+// Grows the point and line forests (those enabled in `params`) concurrently.
+void trainForests(const std::vector<TrainingImage>& images, const TrainingParams& params,
+                  Forest& points, Forest& lines, const TrainingProgress& progress = {});
+
+}  // namespace relocalizer

@@ -1,0 +1,76 @@
+#pragma once
+// Camera pose from forest predictions: preemptive RANSAC over Kabsch
+// hypotheses, refined by Levenberg-Marquardt (Ceres) on point-to-point and
+// point-on-line Mahalanobis energies.
+//
+// Hypotheses come from minimal sets of three point-forest correspondences
+// (a random candidate mode each), screened for degeneracy and rigidity before
+// Kabsch. Each round scores the surviving hypotheses on a fresh batch of
+// samples (points and lines): a sample is an inlier when the mode that best
+// explains its transformed camera point is within `inlier_chi2` in Mahalanobis
+// distance. The better half survives and is refined on its inliers: weighted
+// Kabsch while many hypotheses remain, Ceres LM once at most
+// `lm_hypotheses` remain (the paper refines inside the loop; refinement.h). The
+// winner is refined once more on all samples, and is rejected unless the
+// evidence (inlier count and share) clears the configured thresholds.
+
+#include <Eigen/Core>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "relocalizer/core/pose.h"
+#include "relocalizer/forest/forest.h"
+#include "relocalizer/forest/sampling.h"
+
+namespace relocalizer {
+
+struct PoseSolverParams {
+  int hypotheses = 256;           // initial hypotheses
+  int batch_size = 500;           // samples scored per preemptive round
+  int max_sampling_attempts = 20; // minimal sets tried per hypothesis before giving up
+  float min_point_distance = 0.05f;  // metres between the three camera points
+  float rigidity_tolerance = 0.05f;  // |camera distance - world distance|, metres, and
+  float rigidity_ratio = 0.1f;       // as a share of the distance (the larger bound applies)
+  float inlier_chi2 = 9.0f;       // Mahalanobis^2 below which a sample is an inlier
+  int lm_hypotheses = 8;          // refine with Ceres LM once this few remain
+  int lm_loop_iterations = 5;     // LM iterations per hypothesis inside the loop
+  int lm_iterations = 10;         // LM iterations of the final refinement
+  int max_refinement_terms = 800; // terms per LM solve (an even subset of the inliers)
+  float robust_scale = 3.0f;      // Cauchy loss scale, in Mahalanobis units
+  bool use_lines_in_refinement = true;
+  // Evidence needed to answer with a pose (on all samples, after refinement).
+  int min_inliers = 30;
+  float min_inlier_ratio = 0.15f;
+};
+
+// One sample as the solver sees it: a camera point and its candidate modes.
+// Line samples also carry their 3D line in camera coordinates.
+struct SolverSample {
+  Eigen::Vector3f camera_point;
+  const Prediction* prediction = nullptr;
+  const Line3D* line = nullptr;  // null for point samples
+};
+
+struct PoseSolution {
+  bool success = false;
+  std::string message;  // why not, when !success
+  Pose pose = Pose::Identity();  // camera-to-world
+  // Covariance of (x, y, z, rotation about world x, y, z), the order of
+  // geometry_msgs/PoseWithCovariance, for perturbations applied on the left.
+  Matrix6d covariance = Matrix6d::Identity();
+  int point_inliers = 0;
+  int line_inliers = 0;
+  int samples = 0;
+  float score = 0.0f;  // inlier share of all samples
+  int valid_hypotheses = 0;
+  double ransac_seconds = 0.0;
+  double refinement_seconds = 0.0;
+};
+
+// `points` seed hypotheses and are scored; `lines` are scored and used in refinement.
+PoseSolution solvePose(const std::vector<SolverSample>& points,
+                       const std::vector<SolverSample>& lines, const PoseSolverParams& params,
+                       std::mt19937& rng);
+
+}  // namespace relocalizer

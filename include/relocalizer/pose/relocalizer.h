@@ -1,0 +1,97 @@
+#pragma once
+// The facade: a trained model and one RGB-D frame in, a camera pose (or an
+// explicit "no pose" with its reason) out. The node and every tool go through
+// this class; nothing outside the core reaches into forests or RANSAC.
+
+#include <memory>
+#include <string>
+
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/forest/model_io.h"
+#include "relocalizer/pose/pose_solver.h"
+
+namespace relocalizer {
+
+struct RelocalizerParams {
+  int point_samples = 500;   // random pixels with depth per frame (speed-accuracy sweep, docs/benchmarks.md)
+  int line_samples = 250;    // line samples per frame (at most)
+  int max_leaves = 8;        // backtracking leaves per tree
+  bool use_points = true;    // use the point forest
+  bool use_lines = true;     // use the line forest
+  int min_valid_depth = 1000;  // frames with fewer valid depth pixels are refused
+  uint32_t seed = 1;         // each call restarts from it: same frame, same answer
+  PoseSolverParams solver;
+};
+
+// With two or more threads the line branch (LSD, line samples, line forest)
+// runs beside the point forest, so the stages can add up to more than `total`;
+// `sampling_and_forests` is their wall time.
+struct StageTimings {  // seconds
+  double sampling = 0.0;         // sampling_points + sampling_lines
+  double sampling_points = 0.0;  // random pixels
+  double sampling_lines = 0.0;   // LSD, segment sampling, 3D line fits
+  double forest = 0.0;           // forest_points + forest_lines
+  double forest_points = 0.0;    // descriptors and point-forest prediction
+  double forest_lines = 0.0;     // descriptors and line-forest prediction
+  double sampling_and_forests = 0.0;  // wall time of the sampling and forest stages
+  double ransac = 0.0;           // hypotheses and preemptive scoring
+  double refinement = 0.0;       // Ceres LM, inside the loop and final
+  double total = 0.0;            // the whole call
+};
+
+struct Relocalization {
+  bool success = false;
+  std::string message;           // the reason, when !success
+  Pose pose = Pose::Identity();  // camera-to-world (valid when success)
+  Matrix6d covariance = Matrix6d::Identity();  // x y z rx ry rz, world frame
+  int point_inliers = 0;
+  int line_inliers = 0;
+  int point_samples = 0;
+  int line_samples = 0;
+  float score = 0.0f;  // inlier share of the samples
+  StageTimings timings;
+};
+
+// How good the forests' world-coordinate predictions are on a frame with
+// ground truth: the measure of forest quality independent of the pose solver.
+struct PredictionQuality {
+  int samples = 0;
+  int chosen_within = 0;  // nearest-descriptor candidate within the radius of the truth
+  int any_within = 0;     // some candidate within the radius
+  std::vector<float> chosen_errors;  // metres, per sample
+};
+
+class Relocalizer {
+ public:
+  Relocalizer(Model model, RelocalizerParams params = {});
+  static Expected<std::unique_ptr<Relocalizer>> fromFile(const std::string& model_path,
+                                                        const RelocalizerParams& params = {});
+
+  // Thread-safe; concurrent calls do not share scratch memory.
+  Relocalization relocalize(const RgbdFrame& frame) const;
+
+  // Samples the frame as relocalize() does and compares each sample's
+  // predictions with its true world coordinate. Needs frame.ground_truth.
+  Expected<PredictionQuality> measurePredictions(const RgbdFrame& frame, bool line_forest,
+                                                 float radius = 0.1f) const;
+
+  const Model& model() const { return model_; }
+  const RelocalizerParams& params() const { return params_; }
+  // Empty if the parameters can be used with this model, else why not.
+  std::string validationError() const;
+
+ private:
+  Model model_;
+  RelocalizerParams params_;
+};
+
+// RelocalizerParams <-> JSON, for config files (the `relocalizer:` section of
+// config/default.yaml) and result summaries.
+std::string relocalizerParamsToJson(const RelocalizerParams& params);
+Expected<RelocalizerParams> relocalizerParamsFromJson(const std::string& json_text);
+// Reads the `relocalizer:` section of a YAML file (absent keys keep `defaults`).
+Expected<RelocalizerParams> loadRelocalizerParams(const std::string& path,
+                                                  const RelocalizerParams& defaults = {});
+
+}  // namespace relocalizer

@@ -1,0 +1,221 @@
+#include "relocalizer/eval/evaluation.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "relocalizer/core/statistics.h"
+#include "relocalizer/eval/plot.h"
+
+namespace relocalizer {
+
+namespace {
+
+LatencySummary latency(const std::vector<EvaluationRecord>& records,
+                       double StageTimings::*stage) {
+  std::vector<double> ms;
+  for (const auto& r : records) ms.push_back(1000.0 * (r.timings.*stage));
+  return {median(ms), percentile(ms, 95.0)};
+}
+
+std::string number(double value, const char* format) {
+  if (std::isnan(value)) return "n/a";
+  if (std::isinf(value)) return "inf";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, format, value);
+  return buffer;
+}
+
+nlohmann::json jsonNumber(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& records) {
+  std::vector<FrameError> errors;
+  std::vector<std::optional<Pose>> estimates;
+  std::vector<Pose> truths;
+  for (const auto& r : records) {
+    errors.push_back(frameError(r.id, r.estimate, r.truth));
+    estimates.push_back(r.estimate);
+    truths.push_back(r.truth);
+  }
+  EvaluationSummary s;
+  s.accuracy = summarizeAccuracy(errors, estimates, truths);
+  s.total = latency(records, &StageTimings::total);
+  s.sampling = latency(records, &StageTimings::sampling);
+  s.forest = latency(records, &StageTimings::forest);
+  s.ransac = latency(records, &StageTimings::ransac);
+  s.refinement = latency(records, &StageTimings::refinement);
+  return s;
+}
+
+std::string formatEvaluationTable(const EvaluationSummary& s, const std::string& title) {
+  const AccuracySummary& a = s.accuracy;
+  std::ostringstream out;
+  out << title << "\n";
+  out << "  frames                     " << a.frames << "\n";
+  out << "  within 5 cm / 5 deg        " << number(100.0 * a.within_5cm_5deg, "%.1f %%") << "\n";
+  out << "  within 2 cm / 2 deg        " << number(100.0 * a.within_2cm_2deg, "%.1f %%") << "\n";
+  out << "  median error               " << number(100.0 * a.median_translation_m, "%.2f cm")
+      << " / " << number(a.median_rotation_deg, "%.2f deg") << "\n";
+  out << "  ATE RMSE (Horn-aligned)    " << number(100.0 * a.ate_rmse_m, "%.2f cm") << "\n";
+  out << "  frames with no pose        " << (a.frames - a.frames_with_pose) << "\n";
+  out << "  latency, median / p95 (ms)\n";
+  const auto row = [&](const char* name, const LatencySummary& l) {
+    out << "    " << name << number(l.median_ms, "%8.1f") << " / " << number(l.p95_ms, "%.1f") << "\n";
+  };
+  row("whole call   ", s.total);
+  row("sampling     ", s.sampling);
+  row("forests      ", s.forest);
+  row("RANSAC       ", s.ransac);
+  row("refinement   ", s.refinement);
+  return out.str();
+}
+
+Status writeEvaluationOutputs(const std::string& folder, const std::vector<EvaluationRecord>& records,
+                              const EvaluationSummary& summary,
+                              const EvaluationOutputOptions& options) {
+  std::error_code ec;
+  std::filesystem::create_directories(folder, ec);
+  if (ec) return makeError(folder + ": cannot create output folder: " + ec.message());
+
+  {
+    std::ofstream poses(folder + "/poses.txt");
+    if (!poses) return makeError(folder + "/poses.txt: cannot open for writing");
+    poses << "# timestamp tx ty tz qx qy qz qw (camera-to-world; frames without a pose left out)\n";
+    for (const auto& r : records) {
+      if (!r.estimate) continue;
+      const Eigen::Quaterniond q(r.estimate->linear());
+      const Eigen::Vector3d t = r.estimate->translation();
+      char line[256];
+      if (options.integer_stamps)
+        std::snprintf(line, sizeof line, "%d", r.id);
+      else
+        std::snprintf(line, sizeof line, "%.6f", r.stamp);
+      poses << line;
+      std::snprintf(line, sizeof line, " %.6f %.6f %.6f %.7f %.7f %.7f %.7f\n", t.x(), t.y(), t.z(),
+                    q.x(), q.y(), q.z(), q.w());
+      poses << line;
+    }
+  }
+  {
+    std::ofstream csv(folder + "/errors.csv");
+    if (!csv) return makeError(folder + "/errors.csv: cannot open for writing");
+    csv << "id,stamp,has_pose,translation_error_m,rotation_error_deg,point_inliers,line_inliers,"
+           "score,total_ms,sampling_ms,forest_ms,ransac_ms,refinement_ms,message\n";
+    for (const auto& r : records) {
+      const FrameError e = frameError(r.id, r.estimate, r.truth);
+      std::string message = r.message;
+      for (char& c : message)
+        if (c == '"') c = '\'';
+      char line[512];
+      std::snprintf(line, sizeof line, "%d,%.6f,%d,%s,%s,%d,%d,%.4f,%.2f,%.2f,%.2f,%.2f,%.2f,\"%s\"\n",
+                    r.id, r.stamp, e.has_pose ? 1 : 0,
+                    e.has_pose ? number(e.translation_m, "%.5f").c_str() : "",
+                    e.has_pose ? number(e.rotation_deg, "%.4f").c_str() : "", r.point_inliers,
+                    r.line_inliers, r.score, 1000 * r.timings.total, 1000 * r.timings.sampling,
+                    1000 * r.timings.forest, 1000 * r.timings.ransac, 1000 * r.timings.refinement,
+                    message.c_str());
+      csv << line;
+    }
+  }
+  {
+    const AccuracySummary& a = summary.accuracy;
+    nlohmann::json j;
+    j["title"] = options.title;
+    j["frames"] = a.frames;
+    j["frames_with_pose"] = a.frames_with_pose;
+    j["frames_without_pose"] = a.frames - a.frames_with_pose;
+    j["within_5cm_5deg"] = jsonNumber(a.within_5cm_5deg);
+    j["within_2cm_2deg"] = jsonNumber(a.within_2cm_2deg);
+    j["median_translation_cm"] = jsonNumber(100.0 * a.median_translation_m);
+    j["median_rotation_deg"] = jsonNumber(a.median_rotation_deg);
+    j["ate_rmse_cm"] = jsonNumber(100.0 * a.ate_rmse_m);
+    const auto lat = [](const LatencySummary& l) {
+      return nlohmann::json{{"median_ms", jsonNumber(l.median_ms)}, {"p95_ms", jsonNumber(l.p95_ms)}};
+    };
+    j["latency"] = {{"total", lat(summary.total)},   {"sampling", lat(summary.sampling)},
+                    {"forest", lat(summary.forest)}, {"ransac", lat(summary.ransac)},
+                    {"refinement", lat(summary.refinement)}};
+    if (!options.extra_json.empty()) {
+      try {
+        j.update(nlohmann::json::parse(options.extra_json));
+      } catch (const std::exception& e) {
+        return makeError(std::string("summary.json extra fields are not valid JSON: ") + e.what());
+      }
+    }
+    std::ofstream out(folder + "/summary.json");
+    if (!out) return makeError(folder + "/summary.json: cannot open for writing");
+    out << j.dump(2) << "\n";
+  }
+
+  // Top view: the plane of the two largest ground-truth extents (7-Scenes'
+  // vertical axis is not fixed, so pick it from the data).
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = -lo;
+  for (const auto& r : records) {
+    lo = lo.cwiseMin(r.truth.translation());
+    hi = hi.cwiseMax(r.truth.translation());
+  }
+  const Eigen::Vector3d extent = hi - lo;
+  int up = 0;
+  extent.minCoeff(&up);
+  const int ax = up == 0 ? 1 : 0, ay = up == 2 ? 1 : 2;
+  const char* names = "xyz";
+  Plot top;
+  top.title = options.title + ": top view (ground truth, estimates, frames without a pose)";
+  top.x_label = std::string(1, names[ax]) + " (m)";
+  top.y_label = std::string(1, names[ay]) + " (m)";
+  top.equal_axes = true;
+  auto truth = PlotSeries::styled("ground truth", cv::Scalar(60, 60, 60), true, 0, 2);
+  auto good = PlotSeries::styled("estimate within 5 cm / 5 deg", plotColour(2), false, 1, 1);
+  auto bad = PlotSeries::styled("estimate outside", plotColour(3), false, 2, 1);
+  auto none = PlotSeries::styled("no pose (at ground truth)", plotColour(4), false, 3, 1);
+  for (const auto& r : records) {
+    truth.x.push_back(r.truth.translation()[ax]);
+    truth.y.push_back(r.truth.translation()[ay]);
+    if (!r.estimate) {
+      none.x.push_back(r.truth.translation()[ax]);
+      none.y.push_back(r.truth.translation()[ay]);
+      continue;
+    }
+    const FrameError e = frameError(r.id, r.estimate, r.truth);
+    PlotSeries& target = (e.translation_m <= 0.05 && e.rotation_deg <= 5.0) ? good : bad;
+    // Estimates far off the map would squash the picture; clamp them to its edge.
+    Eigen::Vector3d p = r.estimate->translation();
+    const Eigen::Vector3d margin = Eigen::Vector3d::Constant(std::max(0.5, extent.maxCoeff() * 0.5));
+    p = p.cwiseMax(lo - margin).cwiseMin(hi + margin);
+    target.x.push_back(p[ax]);
+    target.y.push_back(p[ay]);
+  }
+  top.series = {truth, good, bad, none};
+  if (!top.save(folder + "/trajectory.png", 900, 800))
+    return makeError(folder + "/trajectory.png: cannot write");
+
+  Plot errors;
+  errors.title = options.title + ": error per frame (no pose = gap)";
+  errors.x_label = "frame";
+  errors.y_label = "translation error (cm), rotation error (deg)";
+  errors.log_y = true;
+  errors.y_min = 0.05;
+  errors.horizontal_lines = {5.0};
+  auto t_series = PlotSeries::styled("translation (cm)", plotColour(0), true, 1, 1);
+  auto r_series = PlotSeries::styled("rotation (deg)", plotColour(1), true, 1, 1);
+  for (size_t i = 0; i < records.size(); ++i) {
+    const FrameError e = frameError(records[i].id, records[i].estimate, records[i].truth);
+    const double x = records[i].id;
+    t_series.x.push_back(x);
+    r_series.x.push_back(x);
+    t_series.y.push_back(e.has_pose ? std::max(100.0 * e.translation_m, 0.05) : NAN);
+    r_series.y.push_back(e.has_pose ? std::max(e.rotation_deg, 0.05) : NAN);
+  }
+  errors.series = {t_series, r_series};
+  if (!errors.save(folder + "/errors.png", 1100, 500)) return makeError(folder + "/errors.png: cannot write");
+  return okStatus();
+}
+
+}  // namespace relocalizer

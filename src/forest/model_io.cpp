@@ -1,0 +1,373 @@
+#include "relocalizer/forest/model_io.h"
+
+#include "relocalizer/core/json_fields.h"
+
+#include <zlib.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <type_traits>
+
+namespace relocalizer {
+
+namespace {
+
+using detail::checkedNumber;
+using detail::readField;
+
+using nlohmann::json;
+
+constexpr char kMagic[8] = {'P', 'L', 'F', 'O', 'R', 'E', 'S', 'T'};
+constexpr size_t kPreambleSize = 8 + 4 + 4 + 8 + 4;
+
+static_assert(sizeof(LeafMode) == 92, "LeafMode layout is part of the model format");
+static_assert(sizeof(LeafRange) == 8, "LeafRange layout is part of the model format");
+
+json meanShiftJson(const MeanShiftParams& p) {
+  return {{"bandwidth", p.bandwidth},   {"max_seeds", p.max_seeds},
+          {"max_iterations", p.max_iterations}, {"max_modes", p.max_modes},
+          {"min_mode_share", p.min_mode_share}, {"min_std", p.min_std}};
+}
+
+json forestJson(const ForestParams& p) {
+  return {{"trees", p.trees},
+          {"max_depth", p.max_depth},
+          {"min_samples_leaf", p.min_samples_leaf},
+          {"images_per_tree", p.images_per_tree},
+          {"samples_per_image", p.samples_per_image},
+          {"feature_candidates", p.feature_candidates},
+          {"threshold_candidates", p.threshold_candidates},
+          {"split_sample_cap", p.split_sample_cap},
+          {"max_offset", p.max_offset},
+          {"depth_feature_share", p.depth_feature_share},
+          {"mean_shift", meanShiftJson(p.mean_shift)}};
+}
+
+json paramsJson(const TrainingParams& p) {
+  const auto& l = p.line_sampling;
+  return {{"seed", p.seed},
+          {"train_points", p.train_points},
+          {"train_lines", p.train_lines},
+          {"points", forestJson(p.points)},
+          {"lines", forestJson(p.lines)},
+          {"line_sampling",
+           {{"min_segment_length_px", l.min_segment_length_px},
+            {"spacing_px", l.spacing_px},
+            {"lsd_scale", l.lsd_scale},
+            {"edge_offset_px", l.edge_offset_px},
+            {"ransac_inlier_m", l.ransac_inlier_m},
+            {"ransac_iterations", l.ransac_iterations},
+            {"min_inliers", l.min_inliers},
+            {"min_inlier_ratio", l.min_inlier_ratio}}}};
+}
+
+// JSON values come from files (model headers, merged config), so a number is
+// converted only when it fits its field: nlohmann's implicit conversion would
+// silently truncate an integer and, for a float read into an integer field,
+// is undefined behaviour. Throws std::out_of_range naming the key otherwise.
+void readMeanShift(const json& j, const std::string& prefix, MeanShiftParams& p) {
+  readField(j, prefix, "bandwidth", p.bandwidth);
+  readField(j, prefix, "max_seeds", p.max_seeds);
+  readField(j, prefix, "max_iterations", p.max_iterations);
+  readField(j, prefix, "max_modes", p.max_modes);
+  readField(j, prefix, "min_mode_share", p.min_mode_share);
+  readField(j, prefix, "min_std", p.min_std);
+}
+
+void readForest(const json& j, const std::string& prefix, ForestParams& p) {
+  readField(j, prefix, "trees", p.trees);
+  readField(j, prefix, "max_depth", p.max_depth);
+  readField(j, prefix, "min_samples_leaf", p.min_samples_leaf);
+  readField(j, prefix, "images_per_tree", p.images_per_tree);
+  readField(j, prefix, "samples_per_image", p.samples_per_image);
+  readField(j, prefix, "feature_candidates", p.feature_candidates);
+  readField(j, prefix, "threshold_candidates", p.threshold_candidates);
+  readField(j, prefix, "split_sample_cap", p.split_sample_cap);
+  readField(j, prefix, "max_offset", p.max_offset);
+  readField(j, prefix, "depth_feature_share", p.depth_feature_share);
+  readMeanShift(j.at("mean_shift"), prefix + "mean_shift.", p.mean_shift);
+}
+
+void readParams(const json& j, TrainingParams& p) {
+  readField(j, "", "seed", p.seed);
+  readField(j, "", "train_points", p.train_points);
+  readField(j, "", "train_lines", p.train_lines);
+  readForest(j.at("points"), "points.", p.points);
+  readForest(j.at("lines"), "lines.", p.lines);
+  const json& l = j.at("line_sampling");
+  auto& s = p.line_sampling;
+  const std::string prefix = "line_sampling.";
+  readField(l, prefix, "min_segment_length_px", s.min_segment_length_px);
+  readField(l, prefix, "spacing_px", s.spacing_px);
+  readField(l, prefix, "lsd_scale", s.lsd_scale);
+  readField(l, prefix, "edge_offset_px", s.edge_offset_px);
+  readField(l, prefix, "ransac_inlier_m", s.ransac_inlier_m);
+  readField(l, prefix, "ransac_iterations", s.ransac_iterations);
+  readField(l, prefix, "min_inliers", s.min_inliers);
+  readField(l, prefix, "min_inlier_ratio", s.min_inlier_ratio);
+}
+
+json vec3Json(const Eigen::Vector3f& v) { return {v.x(), v.y(), v.z()}; }
+Eigen::Vector3f vec3From(const json& j, const std::string& name) {
+  if (!j.is_array() || j.size() != 3)
+    throw std::out_of_range("'" + name + "' must be 3 numbers, got " + j.dump());
+  return Eigen::Vector3f(checkedNumber<float>(j[0], name), checkedNumber<float>(j[1], name),
+                         checkedNumber<float>(j[2], name));
+}
+
+json headerJson(const Model& m) {
+  const auto& s = m.summary;
+  return {{"format_version", kModelFormatVersion},
+          {"params", paramsJson(m.params)},
+          {"training_set",
+           {{"dataset", s.dataset},
+            {"format", s.format},
+            {"frames", s.frames},
+            {"images", s.images},
+            {"seconds", s.seconds},
+            {"threads", s.threads},
+            {"scene_min", vec3Json(s.scene_min)},
+            {"scene_max", vec3Json(s.scene_max)},
+            {"software_version", s.software_version}}},
+          {"forests",
+           {{"points", {{"trees", m.points.trees.size()}, {"nodes", m.points.nodeCount()},
+                        {"leaves", m.points.leafCount()}, {"modes", m.points.modeCount()}}},
+            {"lines", {{"trees", m.lines.trees.size()}, {"nodes", m.lines.nodeCount()},
+                       {"leaves", m.lines.leafCount()}, {"modes", m.lines.modeCount()}}}}}};
+}
+
+class Writer {
+ public:
+  explicit Writer(std::vector<uint8_t>& out) : out_(out) {}
+  void bytes(const void* data, size_t n) {
+    const auto* p = static_cast<const uint8_t*>(data);
+    out_.insert(out_.end(), p, p + n);
+  }
+  template <typename T>
+  void value(const T& v) {
+    bytes(&v, sizeof(T));
+  }
+  template <typename T>
+  void array(const std::vector<T>& v) {
+    value(static_cast<uint32_t>(v.size()));
+    bytes(v.data(), v.size() * sizeof(T));
+  }
+
+ private:
+  std::vector<uint8_t>& out_;
+};
+
+class Reader {
+ public:
+  Reader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+  bool bytes(void* out, size_t n) {
+    if (n > size_ - offset_) return false;
+    if (n == 0) return true;  // `out` may be null (an empty vector's data())
+    std::memcpy(out, data_ + offset_, n);
+    offset_ += n;
+    return true;
+  }
+  template <typename T>
+  bool value(T& v) {
+    return bytes(&v, sizeof(T));
+  }
+  template <typename T>
+  bool array(std::vector<T>& v) {
+    uint32_t n = 0;
+    if (!value(n) || static_cast<size_t>(n) * sizeof(T) > size_ - offset_) return false;
+    v.resize(n);
+    return bytes(v.data(), n * sizeof(T));
+  }
+  size_t remaining() const { return size_ - offset_; }
+
+ private:
+  const uint8_t* data_;
+  size_t size_;
+  size_t offset_ = 0;
+};
+
+void writeForest(Writer& w, const Forest& forest) {
+  w.value(static_cast<uint32_t>(forest.trees.size()));
+  for (const Tree& t : forest.trees) {
+    w.array(t.nodes);
+    w.array(t.leaves);
+    w.array(t.modes);
+  }
+}
+
+// Structural checks, so a model that passed the checksum but was written by a
+// buggy trainer cannot make prediction read out of bounds.
+std::string validateTree(const Tree& t) {
+  if (t.nodes.empty()) return "a tree has no nodes";
+  for (size_t i = 0; i < t.nodes.size(); ++i) {
+    const SplitNode& n = t.nodes[i];
+    if (n.isLeaf()) {
+      // Not n.leafIndex(): -left overflows for left = INT32_MIN.
+      const int64_t leaf = -(static_cast<int64_t>(n.left) + 1);
+      if (leaf >= static_cast<int64_t>(t.leaves.size())) return "leaf index out of range";
+      continue;
+    }
+    if (static_cast<size_t>(n.left) <= i || static_cast<size_t>(n.left) + 1 >= t.nodes.size())
+      return "child index out of range";
+    // evaluateFeature indexes BGR pixels with the channels unchecked.
+    const PixelFeature& f = n.feature;
+    if (f.type != FeatureType::Colour && f.type != FeatureType::Depth)
+      return "unknown feature type " + std::to_string(static_cast<int>(f.type));
+    if (f.channel_p > 2 || f.channel_q > 2) return "colour channel out of range";
+  }
+  for (const LeafRange& l : t.leaves)
+    if (static_cast<uint64_t>(l.first_mode) + l.mode_count > t.modes.size())
+      return "leaf mode range out of bounds";
+  return {};
+}
+
+bool readForest(Reader& r, Forest& forest, std::string& why) {
+  uint32_t trees = 0;
+  if (!r.value(trees)) return false;
+  if (trees > kMaxTrees) {
+    why = "forest has " + std::to_string(trees) + " trees, more than " + std::to_string(kMaxTrees);
+    return false;
+  }
+  forest.trees.resize(trees);
+  for (Tree& t : forest.trees) {
+    if (!r.array(t.nodes) || !r.array(t.leaves) || !r.array(t.modes)) return false;
+    why = validateTree(t);
+    if (!why.empty()) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::string trainingParamsToJson(const TrainingParams& params) { return paramsJson(params).dump(2); }
+
+Expected<TrainingParams> trainingParamsFromJson(const std::string& json_text) {
+  TrainingParams params;
+  try {
+    readParams(json::parse(json_text), params);
+  } catch (const std::exception& e) {
+    return makeError(std::string("training parameters: ") + e.what());
+  }
+  return params;
+}
+
+std::string modelHeaderJson(const Model& model, int indent) { return headerJson(model).dump(indent); }
+
+std::vector<uint8_t> serializeModel(const Model& model) {
+  std::vector<uint8_t> body;
+  Writer w(body);
+  const std::string header = headerJson(model).dump();
+  w.value(static_cast<uint32_t>(header.size()));
+  w.bytes(header.data(), header.size());
+  writeForest(w, model.points);
+  writeForest(w, model.lines);
+
+  std::vector<uint8_t> out;
+  out.reserve(kPreambleSize + body.size());
+  Writer p(out);
+  p.bytes(kMagic, sizeof kMagic);
+  p.value(kModelFormatVersion);
+  p.value(static_cast<uint32_t>(0));
+  p.value(static_cast<uint64_t>(body.size()));
+  p.value(static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size()))));
+  out.insert(out.end(), body.begin(), body.end());
+  return out;
+}
+
+Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::string& source) {
+  const std::string where = source + ": ";
+  if (size < sizeof kMagic || std::memcmp(data, kMagic, sizeof kMagic) != 0)
+    return makeError(where + "not a relocalizer model (wrong magic number; expected a file "
+                             "written by `train`)");
+  Reader r(data, size);
+  char magic[8];
+  uint32_t version = 0, reserved = 0, crc = 0;
+  uint64_t body_size = 0;
+  if (!r.bytes(magic, 8) || !r.value(version) || !r.value(reserved) || !r.value(body_size) ||
+      !r.value(crc))
+    return makeError(where + "truncated model file (header incomplete)");
+  if (version != kModelFormatVersion)
+    return makeError(where + "model format version " + std::to_string(version) +
+                     " is not supported (this build reads version " +
+                     std::to_string(kModelFormatVersion) + "); retrain or use a matching build");
+  if (body_size > r.remaining())
+    return makeError(where + "truncated model file (" + std::to_string(r.remaining()) + " of " +
+                     std::to_string(body_size) + " body bytes present)");
+  const uint8_t* body = data + kPreambleSize;
+  uLong computed = 0;
+  // zlib takes 32-bit lengths; feed large bodies in chunks.
+  for (uint64_t offset = 0; offset < body_size;) {
+    const uInt chunk = static_cast<uInt>(std::min<uint64_t>(body_size - offset, 1u << 30));
+    computed = crc32(computed, body + offset, chunk);
+    offset += chunk;
+  }
+  if (computed != crc)
+    return makeError(where + "checksum mismatch: the model file is corrupt");
+
+  Reader b(body, body_size);
+  uint32_t header_size = 0;
+  if (!b.value(header_size) || header_size > b.remaining())
+    return makeError(where + "truncated model file (header JSON)");
+  std::string header(header_size, '\0');
+  b.bytes(header.data(), header_size);
+  Model model;
+  try {
+    const json j = json::parse(header);
+    readParams(j.at("params"), model.params);
+    const json& s = j.at("training_set");
+    model.summary.dataset = s.at("dataset");
+    model.summary.format = s.at("format");
+    model.summary.frames = s.at("frames");
+    readField(s, "training_set.", "images", model.summary.images);
+    readField(s, "training_set.", "seconds", model.summary.seconds);
+    readField(s, "training_set.", "threads", model.summary.threads);
+    model.summary.scene_min = vec3From(s.at("scene_min"), "training_set.scene_min");
+    model.summary.scene_max = vec3From(s.at("scene_max"), "training_set.scene_max");
+    model.summary.software_version = s.at("software_version");
+  } catch (const std::exception& e) {
+    return makeError(where + "model header is not valid: " + e.what());
+  }
+  std::string why;
+  if (!readForest(b, model.points, why) || !readForest(b, model.lines, why))
+    return makeError(where + (why.empty() ? "truncated model file (forest data)"
+                                          : "invalid forest: " + why));
+  if (b.remaining() != 0) return makeError(where + "unexpected bytes after the forests");
+  return model;
+}
+
+Status saveModel(const Model& model, const std::string& path) {
+  const std::vector<uint8_t> bytes = serializeModel(model);
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) return makeError(path + ": cannot open for writing");
+  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  if (!out) return makeError(path + ": write failed");
+  return okStatus();
+}
+
+Expected<Model> loadModel(const std::string& path) {
+  // A directory "opens" as a stream and reports a size near 2^63 (the buffer
+  // below would throw std::bad_alloc); a FIFO would block for good.
+  std::error_code status_error;
+  const auto status = std::filesystem::status(path, status_error);
+  if (!status_error && std::filesystem::is_directory(status))
+    return makeError(path + ": is a directory, not a model file");
+  if (!status_error && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+    return makeError(path + ": is not a regular file (a device or a pipe?), not a model file");
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return makeError(path + ": cannot open model file");
+  const std::streamoff size = in.tellg();
+  if (size <= 0) return makeError(path + ": model file is empty");
+  // One read into a sized buffer: a byte-wise stream copy of a 70 MB model
+  // costs a second of start-up.
+  std::vector<uint8_t> bytes(static_cast<size_t>(size));
+  in.seekg(0);
+  if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) return makeError(path + ": read failed");
+  return deserializeModel(bytes.data(), bytes.size(), path);
+}
+
+}  // namespace relocalizer

@@ -1,0 +1,531 @@
+// Rendering the synthetic room: ray casting through the BVH, shading, the
+// Kinect depth model, time-varying effects and camera paths.
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "synthetic_internal.h"
+
+namespace relocalizer {
+
+using namespace synthetic;
+
+namespace {
+
+struct LoopShape {
+  double rx, ry;
+  double height, height_amp, height_phase;
+  int height_freq;
+  double yaw_amp, yaw_phase;
+  int yaw_freq;
+  double pitch, pitch_amp, pitch_phase;
+  int pitch_freq;
+  double roll_amp, roll_phase;
+  int roll_freq;
+};
+
+constexpr double kDegree = M_PI / 180.0;
+
+Pose loopPose(const LoopShape& s, const Eigen::Vector2d& centre, double theta) {
+  const Eigen::Vector3d position(
+      centre.x() + s.rx * std::cos(theta), centre.y() + s.ry * std::sin(theta),
+      s.height + s.height_amp * std::sin(s.height_freq * theta + s.height_phase));
+  const double yaw = theta + s.yaw_amp * std::sin(s.yaw_freq * theta + s.yaw_phase);
+  const double pitch = s.pitch + s.pitch_amp * std::sin(s.pitch_freq * theta + s.pitch_phase);
+  const double roll = s.roll_amp * std::sin(s.roll_freq * theta + s.roll_phase);
+  const Eigen::Vector3d forward(std::cos(pitch) * std::cos(yaw), std::cos(pitch) * std::sin(yaw),
+                                std::sin(pitch));
+  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  Eigen::Matrix3d r;
+  r.col(0) = std::cos(roll) * right + std::sin(roll) * down;
+  r.col(1) = -std::sin(roll) * right + std::cos(roll) * down;
+  r.col(2) = forward;
+  Pose pose = Pose::Identity();
+  pose.linear() = r;
+  pose.translation() = position;
+  return pose;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- ray casting
+
+Hit SyntheticRoom::Impl::trace(const Ray& r, const FrameState* frame) const {
+  Hit hit;
+  // The shell: nearest exit through the room's faces, for origins inside.
+  for (int k = 0; k < 3; ++k) {
+    if (r.d[k] == 0.0f) continue;
+    const bool positive = r.d[k] > 0.0f;
+    const float t = ((positive ? hi[k] : lo[k]) - r.o[k]) * r.inv[k];
+    if (t > 0.0f && t < hit.t) {
+      hit.t = t;
+      hit.face = faceIndex(k, positive);
+    }
+  }
+  if (!nodes.empty()) {
+    // Nearer children first, and entries kept with their distance so subtrees
+    // behind a hit found meanwhile are skipped. Stack entries >= 0 are nodes,
+    // negative ones leaves: -1 - (first box * 8 + box count).
+    int stack_item[96];
+    float stack_t[96];
+    int top = 0;
+    stack_item[0] = 0;
+    stack_t[top++] = 0.0f;
+    const float ox = r.o.x(), oy = r.o.y(), oz = r.o.z();
+    const float ix = r.inv.x(), iy = r.inv.y(), iz = r.inv.z();
+    while (top > 0) {
+      --top;
+      if (stack_t[top] > hit.t) continue;
+      const int item = stack_item[top];
+      if (item < 0) {
+        const int first = (-1 - item) >> 3, count = (-1 - item) & 7;
+        for (int i = first; i < first + count; ++i) {
+          float t;
+          int face;
+          if (intersectBox(boxes[i], r, t, face) &&
+              (t < hit.t || (t == hit.t && hit.box >= 0 && boxes[i].id < hit.id))) {
+            hit.t = t;
+            hit.box = i;
+            hit.face = face;
+            hit.id = boxes[i].id;
+          }
+        }
+        continue;
+      }
+      const WideNode& node = nodes[item];
+      float entry[4];
+      for (int k = 0; k < 4; ++k) {
+        const float x0 = (node.lo[0][k] - ox) * ix, x1 = (node.hi[0][k] - ox) * ix;
+        const float y0 = (node.lo[1][k] - oy) * iy, y1 = (node.hi[1][k] - oy) * iy;
+        const float z0 = (node.lo[2][k] - oz) * iz, z1 = (node.hi[2][k] - oz) * iz;
+        const float t_near = std::max(std::max(std::min(x0, x1), std::min(y0, y1)),
+                                      std::max(std::min(z0, z1), 0.0f));
+        const float t_far = std::min(std::min(std::max(x0, x1), std::max(y0, y1)),
+                                     std::min(std::max(z0, z1), hit.t));
+        entry[k] = t_near <= t_far ? t_near : kInf;
+      }
+      // Up to four children sorted far to near, then pushed so the nearest pops first.
+      int order[4], n = 0;
+      for (int k = 0; k < 4; ++k) {
+        if (node.count[k] < 0 || entry[k] == kInf) continue;
+        int j = n++;
+        for (; j > 0 && entry[order[j - 1]] < entry[k]; --j) order[j] = order[j - 1];
+        order[j] = k;
+      }
+      for (int j = 0; j < n; ++j) {
+        const int k = order[j];
+        stack_item[top] =
+            node.count[k] > 0 ? -1 - (node.child[k] * 8 + node.count[k]) : node.child[k];
+        stack_t[top++] = entry[k];
+      }
+    }
+  }
+  if (frame) {
+    for (int i = 0; i < frame->mover_count; ++i) {
+      float t;
+      int face;
+      if (intersectBox(frame->movers[i], r, t, face) && t < hit.t) {
+        hit.t = t;
+        hit.box = -2 - i;
+        hit.face = face;
+      }
+    }
+  }
+  if (hit.face == kNoFace) hit.t = kInf;
+  return hit;
+}
+
+Vec3f SyntheticRoom::Impl::shade(const Ray& r, const Hit& hit, const FrameState& frame,
+                                 bool& gives_depth) const {
+  const Vec3f p = r.o + r.d * hit.t;
+  const int axis = hit.face / 2;
+  const bool positive_side = (hit.face & 1) != 0;
+  const int ua = kFaceU[axis], va = kFaceV[axis];
+  Vec3f normal = Vec3f::Zero();
+  int m;
+  float u, v, width, height;
+  if (hit.box == -1) {  // the shell faces inward
+    normal[axis] = positive_side ? -1.0f : 1.0f;
+    m = shell_material[hit.face];
+    u = p[ua] - lo[ua];
+    v = p[va] - lo[va];
+    width = hi[ua] - lo[ua];
+    height = hi[va] - lo[va];
+  } else {
+    const Box& box = hitBox(hit, &frame);
+    const Vec3f local = box.toLocal(p - box.centre) + box.half;
+    Vec3f local_normal = Vec3f::Zero();
+    local_normal[axis] = positive_side ? 1.0f : -1.0f;
+    normal = box.toWorld(local_normal);
+    m = box.material[hit.face];
+    u = local[ua];
+    v = local[va];
+    width = 2 * box.half[ua];
+    height = 2 * box.half[va];
+  }
+  const Material& material = materials[m];
+  const Vec3f albedo_rgb = albedo(material, u, v, width, height);
+  gives_depth = material.gives_depth &&
+                (0.3f * albedo_rgb.x() + 0.59f * albedo_rgb.y() + 0.11f * albedo_rgb.z()) > 0.05f;
+  if (material.pattern == Pattern::kSky) return albedo_rgb.cwiseProduct(frame.gain);  // outdoors
+  Vec3f irradiance = frame.ambient;
+  for (int i = 0; i < 2; ++i) {
+    const Vec3f to_light = lights[i].position - p;
+    const float d2 = to_light.squaredNorm();
+    const float cosine = normal.dot(to_light) / std::sqrt(d2);
+    if (cosine > 0.0f) irradiance += frame.light_colour[i] * (cosine / (1.0f + light_falloff * d2));
+  }
+  return albedo_rgb.cwiseProduct(irradiance).cwiseProduct(frame.gain);
+}
+
+// ---------------------------------------------------------------- frame state
+
+SyntheticRoom::Impl::FrameState SyntheticRoom::Impl::frameState(
+    int frame_index, const RenderEffects& effects) const {
+  FrameState s;
+  s.ambient = ambient;
+  s.light_colour = {lights[0].colour, lights[1].colour};
+  s.gain = Vec3f::Ones();
+  const double t = frame_index;
+  if (effects.illumination_change) {
+    // Slow, incommensurate periods so no two frames light the room alike.
+    const float gain = static_cast<float>(1.0 + 0.25 * std::sin(kTwoPi * t / 157.0 + phases[0]));
+    s.gain =
+        gain * Vec3f(static_cast<float>(1.0 + 0.07 * std::sin(kTwoPi * t / 211.0 + phases[1])),
+                     static_cast<float>(1.0 + 0.07 * std::sin(kTwoPi * t / 193.0 + phases[2])),
+                     static_cast<float>(1.0 + 0.07 * std::sin(kTwoPi * t / 229.0 + phases[3])));
+    for (int i = 0; i < 2; ++i)
+      s.light_colour[i] *=
+          static_cast<float>(1.0 + 0.6 * std::sin(kTwoPi * t / (97.0 + 40 * i) + phases[4 + i]));
+    s.ambient *= static_cast<float>(1.0 + 0.2 * std::sin(kTwoPi * t / 131.0 + phases[6]));
+  }
+  if (effects.moving_objects) {
+    // A person and a crate going round the free floor between the camera
+    // paths (1.6 m or more from the walls) and the furniture (up to 0.65 m
+    // deep, chairs a little further), in opposite directions so they cross
+    // the camera's view now and then.
+    const Vec3f centre = (lo + hi) * 0.5f;
+    const float rx = (hi.x() - lo.x()) / 2 - 0.85f, ry = (hi.y() - lo.y()) / 2 - 0.85f;
+    const struct {
+      double phase, speed;
+      Vec3f half;
+      int material;
+    } movers[2] = {{phases[7], -0.011, {0.2f, 0.12f, 0.85f}, person_material},
+                   {phases[7] + M_PI, 0.007, {0.25f, 0.18f, 0.35f}, cart_material}};
+    for (int i = 0; i < 2; ++i) {
+      const double a = movers[i].phase + movers[i].speed * t;
+      Box& box = s.movers[i];
+      box.centre = Vec3f(centre.x() + rx * static_cast<float>(std::cos(a)),
+                         centre.y() + ry * static_cast<float>(std::sin(a)), movers[i].half.z());
+      box.half = movers[i].half;
+      const float heading = static_cast<float>(a + M_PI / 2);  // along the path
+      box.cos_yaw = std::cos(heading);
+      box.sin_yaw = std::sin(heading);
+      box.rotated = true;
+      box.material = allFaces(movers[i].material);
+      box.id = -1 - i;
+    }
+    s.mover_count = 2;
+  }
+  return s;
+}
+
+// ---------------------------------------------------------------- public API
+
+double KinectDepthModel::quantise(double z) {
+  if (!(z > 0)) return z;
+  const double disparity = kBaselineFocal / z;
+  const double steps = std::floor(disparity / kDisparityStep + 0.5);
+  return steps > 0 ? kBaselineFocal / (steps * kDisparityStep)
+                   : std::numeric_limits<double>::infinity();
+}
+
+SyntheticRoom::SyntheticRoom(uint64_t seed) {
+  auto impl = std::make_shared<Impl>();
+  impl->seed = seed;
+  buildRoom(*impl);
+  impl_ = std::move(impl);
+}
+
+uint64_t SyntheticRoom::seed() const { return impl_->seed; }
+
+Eigen::AlignedBox3d SyntheticRoom::bounds() const {
+  return {impl_->lo.cast<double>(), impl_->hi.cast<double>()};
+}
+
+int SyntheticRoom::boxCount() const { return static_cast<int>(impl_->boxes.size()); }
+
+namespace {
+
+// Rays through pixel centres with direction (x/z, y/z, 1) in the camera
+// frame, so the hit parameter is the depth along the optical axis.
+struct PixelRays {
+  Vec3f origin;
+  Eigen::Matrix3f rotation;
+  float fx, fy, cx, cy;
+  PixelRays(const Pose& pose, const CameraIntrinsics& camera)
+      : origin(pose.translation().cast<float>()),
+        rotation(pose.linear().cast<float>()),
+        fx(static_cast<float>(camera.fx)),
+        fy(static_cast<float>(camera.fy)),
+        cx(static_cast<float>(camera.cx)),
+        cy(static_cast<float>(camera.cy)) {}
+  Ray at(int u, int v) const {
+    return Ray(origin, rotation * Vec3f((u - cx) / fx, (v - cy) / fy, 1.0f));
+  }
+};
+
+// 64 random bits per (seed, frame, pixel): the depth noise needs no state, so
+// rows can be rendered in any order on any number of threads.
+inline uint64_t pixelKey(uint64_t seed, int frame_index, int u, int v) {
+  uint64_t h = mix64(seed ^ 0xD1B54A32D192ED03ULL);
+  h = mix64(h ^
+            (static_cast<uint64_t>(static_cast<uint32_t>(frame_index)) * 0x9E3779B97F4A7C15ULL));
+  return mix64(
+      h ^ ((static_cast<uint64_t>(static_cast<uint32_t>(v)) << 32) | static_cast<uint32_t>(u)));
+}
+
+void checkCamera(const CameraIntrinsics& camera) {
+  const std::string error = camera.validationError();
+  if (!error.empty()) throw std::invalid_argument("SyntheticRoom: " + error);
+}
+
+}  // namespace
+
+RgbdFrame SyntheticRoom::render(const Pose& camera_to_world, const CameraIntrinsics& camera,
+                                int frame_index, const RenderEffects& effects) const {
+  checkCamera(camera);
+  const Impl& room = *impl_;
+  const Impl::FrameState state = room.frameState(frame_index, effects);
+  const int width = camera.width, height = camera.height;
+  cv::Mat colour(height, width, CV_8UC3);
+  cv::Mat exact(height, width, CV_32FC1);
+  cv::Mat depth_ok(height, width, CV_8UC1);
+
+  const PixelRays rays(camera_to_world, camera);
+  std::vector<PixelRays> blur_rays;
+  for (const Pose& p : effects.motion_blur_poses) blur_rays.emplace_back(p, camera);
+
+  tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
+    for (int v = rows.begin(); v < rows.end(); ++v) {
+      auto* c_row = colour.ptr<uint8_t>(v);
+      auto* z_row = exact.ptr<float>(v);
+      auto* ok_row = depth_ok.ptr<uint8_t>(v);
+      for (int u = 0; u < width; ++u) {
+        const Ray ray = rays.at(u, v);
+        const Hit hit = room.trace(ray, &state);
+        bool gives_depth = false;
+        Vec3f rgb = Vec3f::Zero();
+        if (std::isfinite(hit.t)) rgb = room.shade(ray, hit, state, gives_depth);
+        z_row[u] = std::isfinite(hit.t) ? hit.t : kNaN;
+        ok_row[u] = gives_depth ? 1 : 0;
+        if (!blur_rays.empty()) {
+          rgb.setZero();
+          for (const PixelRays& br : blur_rays) {
+            const Ray sub = br.at(u, v);
+            const Hit sub_hit = room.trace(sub, &state);
+            bool ignored;
+            if (std::isfinite(sub_hit.t)) rgb += room.shade(sub, sub_hit, state, ignored);
+          }
+          rgb /= static_cast<float>(blur_rays.size());
+        }
+        for (int ch = 0; ch < 3; ++ch)
+          c_row[3 * u + 2 - ch] =
+              static_cast<uint8_t>(std::clamp(rgb[ch], 0.0f, 1.0f) * 255.0f + 0.5f);
+      }
+    }
+  });
+
+  cv::Mat depth(height, width, CV_32FC1);
+  if (!effects.depth_noise) {
+    exact.copyTo(depth);
+  } else {
+    // Structured light fails where neighbouring depths jump: mark both sides
+    // of every jump over 5 %, drop pixels within ~2 px (at 640 wide) of one,
+    // and half of those one pixel further out, for a ragged Kinect-like rim.
+    cv::Mat edge = cv::Mat::zeros(height, width, CV_8UC1);
+    for (int v = 0; v < height; ++v) {
+      const float* z = exact.ptr<float>(v);
+      const float* z_down = v + 1 < height ? exact.ptr<float>(v + 1) : nullptr;
+      uint8_t* e = edge.ptr<uint8_t>(v);
+      uint8_t* e_down = v + 1 < height ? edge.ptr<uint8_t>(v + 1) : nullptr;
+      for (int u = 0; u < width; ++u) {
+        if (u + 1 < width && !(std::abs(z[u + 1] - z[u]) <= 0.05f * std::min(z[u], z[u + 1])))
+          e[u] = e[u + 1] = 1;
+        if (z_down && !(std::abs(z_down[u] - z[u]) <= 0.05f * std::min(z[u], z_down[u])))
+          e[u] = e_down[u] = 1;
+      }
+    }
+    const int radius = std::max(1, static_cast<int>(std::lround(2.0 * width / 640.0)));
+    cv::Mat near_edge, rim;
+    cv::dilate(edge, near_edge,
+               cv::getStructuringElement(cv::MORPH_RECT, {2 * radius - 1, 2 * radius - 1}));
+    cv::dilate(edge, rim,
+               cv::getStructuringElement(cv::MORPH_RECT, {2 * radius + 1, 2 * radius + 1}));
+    const float mm_to_m = static_cast<float>(1.0 / 1000.0);  // as depthToMetres scales
+    const uint64_t seed = room.seed;
+    tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
+      for (int v = rows.begin(); v < rows.end(); ++v) {
+        const float* z = exact.ptr<float>(v);
+        const uint8_t* ok = depth_ok.ptr<uint8_t>(v);
+        const uint8_t* near = near_edge.ptr<uint8_t>(v);
+        const uint8_t* outer = rim.ptr<uint8_t>(v);
+        float* out = depth.ptr<float>(v);
+        for (int u = 0; u < width; ++u) {
+          out[u] = kNaN;
+          if (!ok[u] || near[u] || !std::isfinite(z[u])) continue;
+          const uint64_t key = pixelKey(seed, frame_index, u, v);
+          if (outer[u] && (key >> 63)) continue;
+          // Box-Muller from two 24-bit uniforms; u1 > 0 keeps the log finite.
+          const float u1 = (static_cast<float>((key >> 8) & 0xFFFFFF) + 1.0f) * 0x1.0p-24f;
+          const float u2 = static_cast<float>((key >> 32) & 0xFFFFFF) * 0x1.0p-24f;
+          const double gauss = std::sqrt(-2.0f * std::log(u1)) * std::cos(kTwoPi * u2);
+          const double noisy = z[u] + KinectDepthModel::noiseSigma(z[u]) * gauss;
+          const double quantised = KinectDepthModel::quantise(noisy);
+          if (!(quantised >= KinectDepthModel::kMinDepth &&
+                quantised <= KinectDepthModel::kMaxDepth))
+            continue;
+          const int mm = static_cast<int>(quantised * 1000.0 + 0.5);
+          out[u] = static_cast<float>(mm) * mm_to_m;
+        }
+      }
+    });
+  }
+
+  RgbdFrame frame;
+  frame.colour = colour;
+  frame.depth = depth;
+  frame.camera = camera;
+  frame.stamp = frame_index;
+  frame.id = frame_index;
+  frame.ground_truth = camera_to_world;
+  frame.source = "synthetic room (seed " + std::to_string(room.seed) + ")";
+  return frame;
+}
+
+cv::Mat SyntheticRoom::exactDepth(const Pose& camera_to_world,
+                                  const CameraIntrinsics& camera) const {
+  checkCamera(camera);
+  const Impl& room = *impl_;
+  cv::Mat depth(camera.height, camera.width, CV_32FC1);
+  const PixelRays rays(camera_to_world, camera);
+  tbb::parallel_for(tbb::blocked_range<int>(0, camera.height),
+                    [&](const tbb::blocked_range<int>& rows) {
+                      for (int v = rows.begin(); v < rows.end(); ++v) {
+                        float* out = depth.ptr<float>(v);
+                        for (int u = 0; u < camera.width; ++u) {
+                          const Hit hit = room.trace(rays.at(u, v), nullptr);
+                          out[u] = std::isfinite(hit.t) ? hit.t : kNaN;
+                        }
+                      }
+                    });
+  return depth;
+}
+
+std::optional<double> SyntheticRoom::castRay(const Eigen::Vector3d& origin,
+                                             const Eigen::Vector3d& direction) const {
+  const Impl& room = *impl_;
+  const Eigen::AlignedBox3d inside = bounds();
+  if (!inside.contains(origin) || !(direction.squaredNorm() > 0)) return std::nullopt;
+  const Hit hit = room.trace(Ray(origin.cast<float>(), direction.cast<float>()), nullptr);
+  if (!std::isfinite(hit.t)) return std::nullopt;
+  return static_cast<double>(hit.t);
+}
+
+double SyntheticRoom::surfaceDistance(const Eigen::Vector3d& point) const {
+  const Impl& room = *impl_;
+  const Vec3f p = point.cast<float>();
+  float best = std::min((p - room.lo).minCoeff(), (room.hi - p).minCoeff());
+  best = std::abs(best);
+  for (const Box& box : room.boxes) best = std::min(best, boxDistance(box, p));
+  return best;
+}
+
+SyntheticTrajectories SyntheticRoom::trajectories(int train_frames, int test_frames) const {
+  const Impl& room = *impl_;
+  const Eigen::Vector2d centre((room.lo.x() + room.hi.x()) / 2, (room.lo.y() + room.hi.y()) / 2);
+  const double half_w = (room.hi.x() - room.lo.x()) / 2, half_d = (room.hi.y() - room.lo.y()) / 2;
+  // Radii keep the camera ~1.6-1.9 m from the walls, so furniture (up to
+  // 0.65 m deep) is at least ~1 m away. Wobble frequencies are integers so
+  // the loops close.
+  const LoopShape train{half_w - 1.85,
+                        half_d - 1.6,
+                        1.45,
+                        0.06,
+                        room.phases[0],
+                        3,
+                        7 * kDegree,
+                        room.phases[1],
+                        2,
+                        -8 * kDegree,
+                        4 * kDegree,
+                        room.phases[2],
+                        5,
+                        2 * kDegree,
+                        room.phases[3],
+                        3};
+  // Inside and above the training loop, wobbling differently: new viewpoints
+  // that are never more than ~0.25 m and ~15 degrees from a training view.
+  const LoopShape test{train.rx - 0.12,
+                       train.ry - 0.12,
+                       1.55,
+                       0.06,
+                       room.phases[4],
+                       2,
+                       5 * kDegree,
+                       room.phases[5],
+                       3,
+                       -9 * kDegree,
+                       3 * kDegree,
+                       room.phases[6],
+                       4,
+                       1.5 * kDegree,
+                       room.phases[7],
+                       2};
+  // At most ~1.3 degrees of loop per frame keeps steps at ~1-3 cm and 1-2 degrees.
+  constexpr double kMinFramesPerLoop = 280;
+  const double train_step = 2 * M_PI / std::max<double>(train_frames, kMinFramesPerLoop);
+  const double train_arc = train_step * std::max(train_frames, 0);
+  const double theta0 = room.path_phase;
+  double test_step = 2 * M_PI / std::max<double>(test_frames, kMinFramesPerLoop);
+  double test_start;
+  if (train_arc >= 2 * M_PI - 1e-9) {
+    test_start = theta0 + 0.37 * 2 * M_PI;
+  } else {
+    // Keep the test arc inside the part of the loop training has seen.
+    if (test_frames > 0) test_step = std::min(test_step, 0.8 * train_arc / test_frames);
+    test_start = theta0 + (train_arc - test_step * std::max(test_frames - 1, 0)) / 2;
+  }
+  SyntheticTrajectories out;
+  for (int i = 0; i < train_frames; ++i)
+    out.train.push_back(loopPose(train, centre, theta0 + i * train_step));
+  for (int i = 0; i < test_frames; ++i)
+    out.test.push_back(loopPose(test, centre, test_start + i * test_step));
+  return out;
+}
+
+std::vector<Pose> motionBlurPoses(const std::vector<Pose>& path, size_t index, int samples,
+                                  double exposure) {
+  std::vector<Pose> poses;
+  if (index >= path.size() || samples < 1) return poses;
+  const double last = static_cast<double>(path.size() - 1);
+  for (int k = 0; k < samples; ++k) {
+    const double s = std::clamp(index + exposure * ((k + 0.5) / samples - 0.5), 0.0, last);
+    const size_t i0 = static_cast<size_t>(std::floor(s));
+    const size_t i1 = std::min(i0 + 1, path.size() - 1);
+    const double f = s - i0;
+    Pose p = Pose::Identity();
+    p.translation() = (1 - f) * path[i0].translation() + f * path[i1].translation();
+    p.linear() = Eigen::Quaterniond(path[i0].linear())
+                     .slerp(f, Eigen::Quaterniond(path[i1].linear()))
+                     .toRotationMatrix();
+    poses.push_back(p);
+  }
+  return poses;
+}
+
+}  // namespace relocalizer
