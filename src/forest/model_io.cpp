@@ -27,6 +27,7 @@ constexpr size_t kPreambleSize = 8 + 4 + 4 + 8 + 4;
 
 static_assert(sizeof(LeafMode) == 92, "LeafMode layout is part of the model format");
 static_assert(sizeof(LeafRange) == 8, "LeafRange layout is part of the model format");
+static_assert(sizeof(SurfaceElement) == 24, "SurfaceElement layout is part of the model format");
 
 json meanShiftJson(const MeanShiftParams& p) {
   return {{"bandwidth", p.bandwidth},   {"max_seeds", p.max_seeds},
@@ -48,9 +49,17 @@ json forestJson(const ForestParams& p) {
           {"mean_shift", meanShiftJson(p.mean_shift)}};
 }
 
+json surfaceJson(const TrainingParams& p) {
+  const SurfaceParams& s = p.surface;
+  return {{"enabled", p.build_surface}, {"voxel_size", s.voxel_size},
+          {"pixel_stride", s.pixel_stride}, {"normal_step", s.normal_step},
+          {"max_depth", s.max_depth},       {"min_frames", s.min_frames}};
+}
+
 json paramsJson(const TrainingParams& p) {
   const auto& l = p.line_sampling;
   return {{"seed", p.seed},
+          {"surface", surfaceJson(p)},
           {"train_points", p.train_points},
           {"train_lines", p.train_lines},
           {"points", forestJson(p.points)},
@@ -93,8 +102,21 @@ void readForest(const json& j, const std::string& prefix, ForestParams& p) {
   readMeanShift(j.at("mean_shift"), prefix + "mean_shift.", p.mean_shift);
 }
 
+void readSurface(const json& j, TrainingParams& p) {
+  const std::string prefix = "surface.";
+  readField(j, prefix, "enabled", p.build_surface);
+  readField(j, prefix, "voxel_size", p.surface.voxel_size);
+  readField(j, prefix, "pixel_stride", p.surface.pixel_stride);
+  readField(j, prefix, "normal_step", p.surface.normal_step);
+  readField(j, prefix, "max_depth", p.surface.max_depth);
+  readField(j, prefix, "min_frames", p.surface.min_frames);
+}
+
 void readParams(const json& j, TrainingParams& p) {
   readField(j, "", "seed", p.seed);
+  // Version-1 model headers predate the surface: they keep the defaults, and the
+  // model no surface (the file has none to read).
+  if (j.contains("surface")) readSurface(j.at("surface"), p);
   readField(j, "", "train_points", p.train_points);
   readField(j, "", "train_lines", p.train_lines);
   readForest(j.at("points"), "points.", p.points);
@@ -138,7 +160,8 @@ json headerJson(const Model& m) {
            {{"points", {{"trees", m.points.trees.size()}, {"nodes", m.points.nodeCount()},
                         {"leaves", m.points.leafCount()}, {"modes", m.points.modeCount()}}},
             {"lines", {{"trees", m.lines.trees.size()}, {"nodes", m.lines.nodeCount()},
-                       {"leaves", m.lines.leafCount()}, {"modes", m.lines.modeCount()}}}}}};
+                       {"leaves", m.lines.leafCount()}, {"modes", m.lines.modeCount()}}}}},
+          {"surface", {{"elements", m.surface.elements().size()}, {"voxel_size", m.surface.voxelSize()}}}};
 }
 
 class Writer {
@@ -242,6 +265,28 @@ bool readForest(Reader& r, Forest& forest, std::string& why) {
   return true;
 }
 
+void writeSurface(Writer& w, const SurfaceModel& surface) {
+  w.value(surface.voxelSize());
+  w.array(surface.elements());
+}
+
+bool readSurface(Reader& r, SurfaceModel& surface, std::string& why) {
+  float voxel_size = 0.0f;
+  std::vector<SurfaceElement> elements;
+  if (!r.value(voxel_size) || !r.array(elements)) return false;
+  if (!(voxel_size > 0.0f && std::isfinite(voxel_size))) {
+    why = "surface voxel size " + std::to_string(voxel_size) + " is not a positive number";
+    return false;
+  }
+  for (const SurfaceElement& e : elements)
+    if (!e.point.allFinite() || !(std::abs(e.normal.norm() - 1.0f) < 1e-3f)) {
+      why = "a surface element has a non-finite point or a normal that is not unit length";
+      return false;
+    }
+  surface = SurfaceModel(voxel_size, std::move(elements));
+  return true;
+}
+
 }  // namespace
 
 std::string trainingParamsToJson(const TrainingParams& params) { return paramsJson(params).dump(2); }
@@ -266,6 +311,7 @@ std::vector<uint8_t> serializeModel(const Model& model) {
   w.bytes(header.data(), header.size());
   writeForest(w, model.points);
   writeForest(w, model.lines);
+  writeSurface(w, model.surface);
 
   std::vector<uint8_t> out;
   out.reserve(kPreambleSize + body.size());
@@ -291,9 +337,9 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
   if (!r.bytes(magic, 8) || !r.value(version) || !r.value(reserved) || !r.value(body_size) ||
       !r.value(crc))
     return makeError(where + "truncated model file (header incomplete)");
-  if (version != kModelFormatVersion)
+  if (version < 1 || version > kModelFormatVersion)
     return makeError(where + "model format version " + std::to_string(version) +
-                     " is not supported (this build reads version " +
+                     " is not supported (this build reads versions 1 to " +
                      std::to_string(kModelFormatVersion) + "); retrain or use a matching build");
   if (body_size > r.remaining())
     return makeError(where + "truncated model file (" + std::to_string(r.remaining()) + " of " +
@@ -336,7 +382,10 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
   if (!readForest(b, model.points, why) || !readForest(b, model.lines, why))
     return makeError(where + (why.empty() ? "truncated model file (forest data)"
                                           : "invalid forest: " + why));
-  if (b.remaining() != 0) return makeError(where + "unexpected bytes after the forests");
+  if (version >= 2 && !readSurface(b, model.surface, why))
+    return makeError(where + (why.empty() ? "truncated model file (surface data)"
+                                          : "invalid surface: " + why));
+  if (b.remaining() != 0) return makeError(where + "unexpected bytes after the forests and surface");
   return model;
 }
 

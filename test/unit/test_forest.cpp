@@ -4,6 +4,10 @@
 #include <fstream>
 #include <random>
 #include <tbb/global_control.h>
+#include <zlib.h>
+
+#include <cstring>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -13,6 +17,7 @@
 #include "relocalizer/forest/sampling.h"
 #include "relocalizer/forest/training.h"
 #include "relocalizer/forest/training_config.h"
+#include "relocalizer/pose/relocalizer.h"
 #include "support.h"
 
 using namespace relocalizer;
@@ -257,6 +262,8 @@ class ModelFile : public TrainedTree {
     model_.summary.dataset = "random";
     model_.summary.images = 6;
     model_.summary.scene_max = Eigen::Vector3f(1, 2, 3);
+    model_.surface = SurfaceModel(0.02f, {{Eigen::Vector3f(1, 2, 3), Eigen::Vector3f::UnitX()},
+                                          {Eigen::Vector3f(1, 2.5f, 3), Eigen::Vector3f::UnitY()}});
     path_ = dir_.str() + "/model.bin";
     ASSERT_TRUE(saveModel(model_, path_).ok());
     std::ifstream in(path_, std::ios::binary);
@@ -282,6 +289,68 @@ TEST_F(ModelFile, RoundTripIsByteIdentical) {
   EXPECT_EQ(loaded->params.points.min_samples_leaf, 5);
 }
 
+TEST_F(ModelFile, SurfaceRoundTrips) {
+  auto loaded = loadModel(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  ASSERT_EQ(loaded->surface.elements().size(), 2u);
+  EXPECT_EQ(loaded->surface.voxelSize(), 0.02f);
+  EXPECT_EQ(loaded->surface.elements()[1].point, Eigen::Vector3f(1, 2.5f, 3));
+  EXPECT_EQ(loaded->surface.elements()[1].normal, Eigen::Vector3f::UnitY());
+  // The lookup index is rebuilt on load.
+  ASSERT_NE(loaded->surface.near(Eigen::Vector3f(1.005f, 2.5f, 3.0f)), nullptr);
+}
+
+namespace {
+// The same model as format version 1 wrote it: no surface section after the
+// forests and no surface in the header JSON.
+std::vector<uint8_t> asVersion1(const std::vector<uint8_t>& v2, size_t surface_elements) {
+  constexpr size_t kPreamble = 8 + 4 + 4 + 8 + 4;
+  uint32_t header_size = 0;
+  std::memcpy(&header_size, v2.data() + kPreamble, 4);
+  nlohmann::json header = nlohmann::json::parse(
+      std::string(v2.begin() + kPreamble + 4, v2.begin() + kPreamble + 4 + header_size));
+  header.erase("surface");
+  header["params"].erase("surface");
+  header["format_version"] = 1;
+  const std::string text = header.dump();
+  std::vector<uint8_t> body(4 + text.size());
+  const uint32_t new_size = static_cast<uint32_t>(text.size());
+  std::memcpy(body.data(), &new_size, 4);
+  std::memcpy(body.data() + 4, text.data(), text.size());
+  // Forests as they are; the surface section (voxel size, count, elements) is last.
+  const size_t forests_begin = kPreamble + 4 + header_size;
+  std::vector<uint8_t> tail(v2.begin() + forests_begin, v2.end());
+  // The surface is the last 8 + 24 n bytes: voxel size, count n, n elements.
+  const size_t surface_size = 8 + 24 * surface_elements;
+  uint32_t count = 0;
+  std::memcpy(&count, tail.data() + tail.size() - surface_size + 4, 4);
+  if (count != surface_elements) return {};
+  tail.resize(tail.size() - surface_size);
+  body.insert(body.end(), tail.begin(), tail.end());
+  std::vector<uint8_t> out(v2.begin(), v2.begin() + 8);
+  const uint32_t version = 1, reserved = 0;
+  const uint64_t body_size = body.size();
+  const uint32_t crc = static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size())));
+  for (auto [data, n] : {std::pair<const void*, size_t>{&version, 4}, {&reserved, 4}, {&body_size, 8}, {&crc, 4}})
+    out.insert(out.end(), static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + n);
+  out.insert(out.end(), body.begin(), body.end());
+  return out;
+}
+}  // namespace
+
+TEST_F(ModelFile, Version1ModelsLoadWithoutASurfaceAndSaySo) {
+  const std::vector<uint8_t> v1 = asVersion1(bytes_, model_.surface.elements().size());
+  ASSERT_FALSE(v1.empty());
+  auto loaded = loadModel(writeVariant(v1));
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  EXPECT_TRUE(loaded->surface.empty());
+  EXPECT_EQ(loaded->points.nodeCount(), model_.points.nodeCount());
+  const Relocalizer relocalizer(*loaded);
+  EXPECT_NE(relocalizer.limitations().find("no scene surface"), std::string::npos)
+      << relocalizer.limitations();
+  EXPECT_EQ(Relocalizer(model_).limitations(), "");
+}
+
 TEST_F(ModelFile, RejectsWrongMagic) {
   auto b = bytes_;
   b[0] = 'X';
@@ -296,7 +365,10 @@ TEST_F(ModelFile, RejectsFutureVersion) {
   b[8] = static_cast<uint8_t>(kModelFormatVersion + 1);
   auto r = loadModel(writeVariant(b));
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().find("format version 2 is not supported"), std::string::npos) << r.error();
+  EXPECT_NE(r.error().find("format version " + std::to_string(kModelFormatVersion + 1) +
+                           " is not supported"),
+            std::string::npos)
+      << r.error();
 }
 
 TEST_F(ModelFile, RejectsTruncation) {

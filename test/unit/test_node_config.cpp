@@ -51,3 +51,15 @@ TEST(NodeConfig, TheCoreReaderAcceptsTheFile) {
   EXPECT_EQ(json::parse(relocalizer::relocalizerParamsToJson(*params)),
             json::parse(relocalizer::relocalizerParamsToJson({})));
 }
+
+// The preset the README uses to compare with published numbers switches the
+// surface stage off and nothing else.
+TEST(NodeConfig, SurfaceOffPresetChangesOnlyTheSurfaceSwitch) {
+  auto params = relocalizer::loadRelocalizerParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/surface_off.yaml");
+  ASSERT_TRUE(params.ok()) << params.error();
+  EXPECT_FALSE(params->surface.enabled);
+  relocalizer::RelocalizerParams expected;
+  expected.surface.enabled = false;
+  EXPECT_EQ(json::parse(relocalizer::relocalizerParamsToJson(*params)),
+            json::parse(relocalizer::relocalizerParamsToJson(expected)));
+}

@@ -1,6 +1,6 @@
 #pragma once
-// The model file: one point forest and one line forest, with everything needed
-// to know how they were made.
+// The model file: one point forest, one line forest and the scene surface, with
+// everything needed to know how they were made.
 //
 // Layout (little-endian):
 //   char[8]   magic "PLFOREST"
@@ -14,6 +14,7 @@
 //     forest points, forest lines, each:
 //       uint32 trees; per tree:
 //         uint32 n + SplitNode[n], uint32 n + LeafRange[n], uint32 n + LeafMode[n]
+//     surface (version >= 2): float voxel size, uint32 n + SurfaceElement[n]
 // Saving is deterministic: the same model gives the same bytes.
 
 #include <cstdint>
@@ -26,7 +27,9 @@
 
 namespace relocalizer {
 
-constexpr uint32_t kModelFormatVersion = 1;
+// 2 added the scene surface; version-1 files still load, with an empty surface
+// (relocalization then skips the surface fit and check, and says so).
+constexpr uint32_t kModelFormatVersion = 2;
 
 // What the forests were trained on.
 struct TrainingSummary {
@@ -46,6 +49,7 @@ struct Model {
   TrainingSummary summary;
   Forest points;
   Forest lines;
+  SurfaceModel surface;  // empty for version-1 files and when training built none
 };
 
 std::vector<uint8_t> serializeModel(const Model& model);
