@@ -104,7 +104,7 @@ int main(int argc, char** argv) {
       if (static_cast<int>(times.size()) <= tree) times.resize(tree + 1);
       times[tree] = seconds;
     };
-    trainForests(images, params, model.points, model.lines, progress);
+    trainForestsReleasingDepth(images, params, model.points, model.lines, progress);
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -123,6 +123,9 @@ int main(int argc, char** argv) {
     summary.scene_min = summary.scene_min.cwiseMin(image.pose.translation().cast<float>());
     summary.scene_max = summary.scene_max.cwiseMax(image.pose.translation().cast<float>());
   }
+  // The images are the bulk of training's memory; serialising needs about the
+  // model's size again.
+  images = {};
   if (const Status saved = saveModel(model, output); !saved) return cli::fail(app, saved.error(), 1);
   const auto bytes = std::filesystem::file_size(output);
 

@@ -13,8 +13,14 @@
 //                      set summary (human readable with `strings` or `head -c`)
 //     forest points, forest lines, each:
 //       uint32 trees; per tree:
-//         uint32 n + SplitNode[n], uint32 n + LeafRange[n], uint32 n + LeafMode[n]
+//         uint32 nodes n, uint32 modes m, uint64 length of the zlib stream, the
+//         stream of: SplitNode[n], LeafMode[m], Descriptor[m], each array
+//         stored byte plane by byte plane (byte 0 of every element, then byte
+//         1, ...), which lets deflate halve the model.
 // Saving is deterministic: the same model gives the same bytes.
+//
+// Version 1 (relocalizer 0.1.0: uncompressed, leaves as indices into a range
+// array, 92-byte modes with the descriptor inline) still loads, converted.
 
 #include <cstdint>
 #include <string>
@@ -26,7 +32,7 @@
 
 namespace relocalizer {
 
-constexpr uint32_t kModelFormatVersion = 1;
+constexpr uint32_t kModelFormatVersion = 2;
 
 // What the forests were trained on.
 struct TrainingSummary {
