@@ -1,14 +1,12 @@
 #include "relocalizer/data/depth_alignment.h"
 
-#include <Eigen/Cholesky>
 #include <cmath>
+
+#include "relocalizer/core/point_to_plane.h"
 
 namespace relocalizer {
 
 namespace {
-
-using Vector6d = Eigen::Matrix<double, 6, 1>;
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 bool validDepth(float z) { return z > 0.0f; }  // false for NaN too
 
@@ -16,27 +14,11 @@ Eigen::Vector3d backProject(const CameraIntrinsics& camera, int u, int v, float 
   return camera.backProject(static_cast<float>(u), static_cast<float>(v), z).cast<double>();
 }
 
-// Rigid transform exp([w, t]) to first order in rotation (axis-angle w).
-Pose increment(const Vector6d& x) {
-  Pose d = Pose::Identity();
-  const Eigen::Vector3d w = x.head<3>();
-  const double angle = w.norm();
-  if (angle > 0.0) d.linear() = Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
-  d.translation() = x.tail<3>();
-  return d;
-}
-
-struct Accumulated {
-  Matrix6d hessian = Matrix6d::Zero();
-  Vector6d gradient = Vector6d::Zero();
-  double squared = 0.0;
-  int count = 0;
-};
-
 // One Gauss-Newton linearisation of the point-to-plane energy at `motion`.
-Accumulated linearise(const cv::Mat& fixed, const cv::Mat& moving, const CameraIntrinsics& camera,
-                      const Pose& motion, const DepthAlignmentParams& params) {
-  Accumulated acc;
+PointToPlaneSystem linearise(const cv::Mat& fixed, const cv::Mat& moving,
+                             const CameraIntrinsics& camera, const Pose& motion,
+                             const DepthAlignmentParams& params) {
+  PointToPlaneSystem system(params.huber);
   const int step = std::max(1, params.normal_step);
   for (int v = 0; v < moving.rows; v += params.stride) {
     const float* row = moving.ptr<float>(v);
@@ -62,19 +44,12 @@ Accumulated linearise(const cv::Mat& fixed, const cv::Mat& moving, const CameraI
       normal /= length;
       const double r = normal.dot(p - q);
       if (std::abs(r) > params.max_residual) continue;
-      // d r / d(w, t) for p -> p + w x p + t.
-      Vector6d jacobian;
-      jacobian.head<3>() = p.cross(normal);
-      jacobian.tail<3>() = normal;
-      const double weight = std::abs(r) <= params.huber ? 1.0 : params.huber / std::abs(r);
-      acc.hessian.noalias() += weight * jacobian * jacobian.transpose();
-      acc.gradient.noalias() += weight * r * jacobian;
-      acc.squared += r * r;
-      ++acc.count;
+      system.add(p, normal, r);
     }
   }
-  return acc;
+  return system;
 }
+
 
 }  // namespace
 
@@ -86,19 +61,13 @@ DepthAlignment alignDepth(const cv::Mat& fixed_depth, const cv::Mat& moving_dept
   DepthAlignment result;
   Pose motion = initial;
   for (int it = 0; it <= params.iterations; ++it) {
-    const Accumulated acc = linearise(fixed_depth, moving_depth, camera, motion, params);
-    if (acc.count < params.min_correspondences) return result;
-    const double rms = std::sqrt(acc.squared / acc.count);
-    if (it == 0) result.initial_rms = rms;
-    result.final_rms = rms;
-    result.correspondences = acc.count;
+    const PointToPlaneSystem system = linearise(fixed_depth, moving_depth, camera, motion, params);
+    if (system.count() < params.min_correspondences) return result;
+    if (it == 0) result.initial_rms = system.rms();
+    result.final_rms = system.rms();
+    result.correspondences = system.count();
     if (it == params.iterations) break;  // the last pass only measures
-    const Eigen::LDLT<Matrix6d> solver(acc.hessian);
-    if (solver.info() != Eigen::Success) return result;
-    const Vector6d x = solver.solve(-acc.gradient);
-    if (!x.allFinite()) return result;
-    motion = increment(x) * motion;
-    motion.linear() = nearestRotation(motion.linear());
+    if (!system.step(motion)) return result;
   }
   result.valid = true;
   result.motion = motion;

@@ -51,6 +51,7 @@ EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& recor
   s.forest = latency(records, &StageTimings::forest);
   s.ransac = latency(records, &StageTimings::ransac);
   s.refinement = latency(records, &StageTimings::refinement);
+  s.surface = latency(records, &StageTimings::surface);
   return s;
 }
 
@@ -74,6 +75,7 @@ std::string formatEvaluationTable(const EvaluationSummary& s, const std::string&
   row("forests      ", s.forest);
   row("RANSAC       ", s.ransac);
   row("refinement   ", s.refinement);
+  row("surface (ICP)", s.surface);
   return out.str();
 }
 
@@ -107,19 +109,23 @@ Status writeEvaluationOutputs(const std::string& folder, const std::vector<Evalu
     std::ofstream csv(folder + "/errors.csv");
     if (!csv) return makeError(folder + "/errors.csv: cannot open for writing");
     csv << "id,stamp,has_pose,translation_error_m,rotation_error_deg,point_inliers,line_inliers,"
-           "score,total_ms,sampling_ms,forest_ms,ransac_ms,refinement_ms,message\n";
+           "score,surface_agreement,total_ms,sampling_ms,forest_ms,ransac_ms,refinement_ms,"
+           "surface_ms,message\n";
     for (const auto& r : records) {
       const FrameError e = frameError(r.id, r.estimate, r.truth);
       std::string message = r.message;
       for (char& c : message)
         if (c == '"') c = '\'';
       char line[512];
-      std::snprintf(line, sizeof line, "%d,%.6f,%d,%s,%s,%d,%d,%.4f,%.2f,%.2f,%.2f,%.2f,%.2f,\"%s\"\n",
+      std::snprintf(line, sizeof line,
+                    "%d,%.6f,%d,%s,%s,%d,%d,%.4f,%s,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,\"%s\"\n",
                     r.id, r.stamp, e.has_pose ? 1 : 0,
                     e.has_pose ? number(e.translation_m, "%.5f").c_str() : "",
                     e.has_pose ? number(e.rotation_deg, "%.4f").c_str() : "", r.point_inliers,
-                    r.line_inliers, r.score, 1000 * r.timings.total, 1000 * r.timings.sampling,
-                    1000 * r.timings.forest, 1000 * r.timings.ransac, 1000 * r.timings.refinement,
+                    r.line_inliers, r.score,
+                    r.surface_agreement >= 0 ? number(r.surface_agreement, "%.4f").c_str() : "",
+                    1000 * r.timings.total, 1000 * r.timings.sampling, 1000 * r.timings.forest,
+                    1000 * r.timings.ransac, 1000 * r.timings.refinement, 1000 * r.timings.surface,
                     message.c_str());
       csv << line;
     }
@@ -141,7 +147,8 @@ Status writeEvaluationOutputs(const std::string& folder, const std::vector<Evalu
     };
     j["latency"] = {{"total", lat(summary.total)},   {"sampling", lat(summary.sampling)},
                     {"forest", lat(summary.forest)}, {"ransac", lat(summary.ransac)},
-                    {"refinement", lat(summary.refinement)}};
+                    {"refinement", lat(summary.refinement)},
+                    {"surface", lat(summary.surface)}};
     if (!options.extra_json.empty()) {
       try {
         j.update(nlohmann::json::parse(options.extra_json));

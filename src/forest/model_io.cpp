@@ -26,8 +26,8 @@ using nlohmann::json;
 constexpr char kMagic[8] = {'P', 'L', 'F', 'O', 'R', 'E', 'S', 'T'};
 constexpr size_t kPreambleSize = 8 + 4 + 4 + 8 + 4;
 
-// Version 1 (relocalizer 0.1.0) stored leaves as an index into a range array
-// and 92-byte modes with their descriptor, support and log-determinant inline.
+// Versions 1 and 2 stored leaves as an index into a range array and 92-byte
+// modes with their descriptor, support and log-determinant inline.
 namespace v1 {
 struct LeafMode {
   float mean[3];
@@ -38,6 +38,8 @@ struct LeafMode {
 };
 static_assert(sizeof(LeafMode) == 92, "version-1 mode layout");
 }  // namespace v1
+static_assert(sizeof(LeafRange) == 8, "LeafRange layout is part of the model format");
+static_assert(sizeof(SurfaceElement) == 24, "SurfaceElement layout is part of the model format");
 
 json meanShiftJson(const MeanShiftParams& p) {
   return {{"bandwidth", p.bandwidth},   {"max_seeds", p.max_seeds},
@@ -59,9 +61,17 @@ json forestJson(const ForestParams& p) {
           {"mean_shift", meanShiftJson(p.mean_shift)}};
 }
 
+json surfaceJson(const TrainingParams& p) {
+  const SurfaceParams& s = p.surface;
+  return {{"enabled", p.build_surface}, {"voxel_size", s.voxel_size},
+          {"pixel_stride", s.pixel_stride}, {"normal_step", s.normal_step},
+          {"max_depth", s.max_depth},       {"min_frames", s.min_frames}};
+}
+
 json paramsJson(const TrainingParams& p) {
   const auto& l = p.line_sampling;
   return {{"seed", p.seed},
+          {"surface", surfaceJson(p)},
           {"train_points", p.train_points},
           {"train_lines", p.train_lines},
           {"points", forestJson(p.points)},
@@ -104,8 +114,21 @@ void readForest(const json& j, const std::string& prefix, ForestParams& p) {
   readMeanShift(j.at("mean_shift"), prefix + "mean_shift.", p.mean_shift);
 }
 
+void readSurface(const json& j, TrainingParams& p) {
+  const std::string prefix = "surface.";
+  readField(j, prefix, "enabled", p.build_surface);
+  readField(j, prefix, "voxel_size", p.surface.voxel_size);
+  readField(j, prefix, "pixel_stride", p.surface.pixel_stride);
+  readField(j, prefix, "normal_step", p.surface.normal_step);
+  readField(j, prefix, "max_depth", p.surface.max_depth);
+  readField(j, prefix, "min_frames", p.surface.min_frames);
+}
+
 void readParams(const json& j, TrainingParams& p) {
   readField(j, "", "seed", p.seed);
+  // Version-1 model headers predate the surface: they keep the defaults, and the
+  // model no surface (the file has none to read).
+  if (j.contains("surface")) readSurface(j.at("surface"), p);
   readField(j, "", "train_points", p.train_points);
   readField(j, "", "train_lines", p.train_lines);
   readForest(j.at("points"), "points.", p.points);
@@ -149,7 +172,8 @@ json headerJson(const Model& m) {
            {{"points", {{"trees", m.points.trees.size()}, {"nodes", m.points.nodeCount()},
                         {"leaves", m.points.leafCount()}, {"modes", m.points.modeCount()}}},
             {"lines", {{"trees", m.lines.trees.size()}, {"nodes", m.lines.nodeCount()},
-                       {"leaves", m.lines.leafCount()}, {"modes", m.lines.modeCount()}}}}}};
+                       {"leaves", m.lines.leafCount()}, {"modes", m.lines.modeCount()}}}}},
+          {"surface", {{"elements", m.surface.elements().size()}, {"voxel_size", m.surface.voxelSize()}}}};
 }
 
 class Writer {
@@ -329,7 +353,7 @@ bool readTrees(Reader& r, Forest& forest, std::string& why) {
   return true;
 }
 
-// A version-1 forest, converted: each leaf's range moves into its node, each
+// A version-1 or -2 forest, converted: each leaf's range moves into its node, each
 // mode's descriptor into the descriptor array; support and log-determinant,
 // which nothing reads, are dropped.
 bool readTreesV1(Reader& r, Forest& forest, std::string& why) {
@@ -367,6 +391,28 @@ bool readTreesV1(Reader& r, Forest& forest, std::string& why) {
   return true;
 }
 
+void writeSurface(Writer& w, const SurfaceModel& surface) {
+  w.value(surface.voxelSize());
+  w.array(surface.elements());
+}
+
+bool readSurface(Reader& r, SurfaceModel& surface, std::string& why) {
+  float voxel_size = 0.0f;
+  std::vector<SurfaceElement> elements;
+  if (!r.value(voxel_size) || !r.array(elements)) return false;
+  if (!(voxel_size > 0.0f && std::isfinite(voxel_size))) {
+    why = "surface voxel size " + std::to_string(voxel_size) + " is not a positive number";
+    return false;
+  }
+  for (const SurfaceElement& e : elements)
+    if (!e.point.allFinite() || !(std::abs(e.normal.norm() - 1.0f) < 1e-3f)) {
+      why = "a surface element has a non-finite point or a normal that is not unit length";
+      return false;
+    }
+  surface = SurfaceModel(voxel_size, std::move(elements));
+  return true;
+}
+
 }  // namespace
 
 std::string trainingParamsToJson(const TrainingParams& params) { return paramsJson(params).dump(2); }
@@ -396,6 +442,7 @@ std::vector<uint8_t> serializeModel(const Model& model) {
     w.value(static_cast<uint32_t>(forest->trees.size()));
     for (const auto& tree : packed) w.bytes(tree.data(), tree.size());
   }
+  writeSurface(w, model.surface);
 
   std::vector<uint8_t> out;
   out.reserve(kPreambleSize + body.size());
@@ -421,7 +468,7 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
   if (!r.bytes(magic, 8) || !r.value(version) || !r.value(reserved) || !r.value(body_size) ||
       !r.value(crc))
     return makeError(where + "truncated model file (header incomplete)");
-  if (version != kModelFormatVersion && version != 1)
+  if (version < 1 || version > kModelFormatVersion)
     return makeError(where + "model format version " + std::to_string(version) +
                      " is not supported (this build reads versions 1 to " +
                      std::to_string(kModelFormatVersion) + "); retrain or use a matching build");
@@ -463,11 +510,14 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
     return makeError(where + "model header is not valid: " + e.what());
   }
   std::string why;
-  const auto read = version == 1 ? readTreesV1 : readTrees;
+  const auto read = version <= 2 ? readTreesV1 : readTrees;
   if (!read(b, model.points, why) || !read(b, model.lines, why))
     return makeError(where + (why.empty() ? "truncated model file (forest data)"
                                           : "invalid forest: " + why));
-  if (b.remaining() != 0) return makeError(where + "unexpected bytes after the forests");
+  if (version >= 2 && !readSurface(b, model.surface, why))
+    return makeError(where + (why.empty() ? "truncated model file (surface data)"
+                                          : "invalid surface: " + why));
+  if (b.remaining() != 0) return makeError(where + "unexpected bytes after the forests and surface");
   return model;
 }
 

@@ -241,6 +241,12 @@ bool appendTrainingImage(const RgbdFrame& frame, std::vector<TrainingImage>& ima
   return true;
 }
 
+SurfaceModel buildSurface(const std::vector<TrainingImage>& images, const SurfaceParams& params) {
+  SurfaceBuilder builder(params);
+  for (const TrainingImage& image : images) builder.addFrame(image.depth, image.camera, image.pose);
+  return builder.build();
+}
+
 void trainForests(const std::vector<TrainingImage>& images, const TrainingParams& params,
                   Forest& points, Forest& lines, const TrainingProgress& progress) {
   trainForestsImpl(images, params, points, lines, progress, {});

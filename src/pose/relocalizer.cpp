@@ -5,6 +5,7 @@
 #include <tbb/task_group.h>
 
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -46,6 +47,13 @@ std::string Relocalizer::validationError() const {
     return "point_samples and line_samples must be >= 0 and max_leaves >= 1";
   if (params_.solver.hypotheses < 1 || params_.solver.batch_size < 1)
     return "solver.hypotheses and solver.batch_size must be >= 1";
+  const SurfaceFitParams& s = params_.surface;
+  if (s.points < 1 || s.iterations < 0 || s.min_correspondences < 0)
+    return "surface.points must be >= 1, surface.iterations and surface.min_correspondences >= 0";
+  if (!(s.max_distance > 0 && s.huber > 0 && s.tolerance > 0))
+    return "surface.max_distance, surface.huber and surface.tolerance must be positive (metres)";
+  if (!(s.min_agreement >= 0 && s.min_agreement <= 1))
+    return "surface.min_agreement must be a share between 0 and 1";
   return {};
 }
 
@@ -144,11 +152,38 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
   result.line_inliers = solution.line_inliers;
   result.score = solution.score;
   if (!solution.success) return fail(solution.message);
-  result.success = true;
   result.pose = solution.pose;
   result.covariance = solution.covariance;
+
+  // --- Surface: refine by depth ICP and check against the scene's geometry ---------------
+  if (params_.surface.enabled && !model_.surface.empty()) {
+    const auto surface_start = Clock::now();
+    const SurfaceFit fit = fitToSurface(model_.surface, surfaceFitPoints(frame, params_.surface.points),
+                                        solution.pose, params_.surface);
+    result.timings.surface = secondsSince(surface_start);
+    result.surface_agreement = fit.agreement;
+    result.surface_refined = fit.refined;
+    result.pose = fit.pose;
+    if (fit.agreement < params_.surface.min_agreement) {
+      char buffer[200];
+      std::snprintf(buffer, sizeof buffer,
+                    "the pose does not fit the scene's surface: %.1f%% of the frame's depth lies on "
+                    "it (need %.1f%%)",
+                    100.0 * fit.agreement, 100.0 * params_.surface.min_agreement);
+      return fail(buffer);
+    }
+  }
+  result.success = true;
   result.timings.total = secondsSince(start);
   return result;
+}
+
+std::string Relocalizer::limitations() const {
+  if (params_.surface.enabled && model_.surface.empty())
+    return "the model has no scene surface (written by an older `train`, or trained with "
+           "surface.enabled: false), so poses are neither refined by depth ICP nor checked "
+           "against the scene; retrain the model to get both";
+  return {};
 }
 
 Expected<PredictionQuality> Relocalizer::measurePredictions(const RgbdFrame& frame,
@@ -221,7 +256,16 @@ json toJson(const RelocalizerParams& p) {
             {"robust_scale", s.robust_scale},
             {"use_lines_in_refinement", s.use_lines_in_refinement},
             {"min_inliers", s.min_inliers},
-            {"min_inlier_ratio", s.min_inlier_ratio}}}};
+            {"min_inlier_ratio", s.min_inlier_ratio}}},
+          {"surface",
+           {{"enabled", p.surface.enabled},
+            {"points", p.surface.points},
+            {"iterations", p.surface.iterations},
+            {"max_distance", p.surface.max_distance},
+            {"huber", p.surface.huber},
+            {"tolerance", p.surface.tolerance},
+            {"min_agreement", p.surface.min_agreement},
+            {"min_correspondences", p.surface.min_correspondences}}}};
 }
 }  // namespace
 
@@ -257,6 +301,17 @@ Expected<RelocalizerParams> relocalizerParamsFromJson(const std::string& json_te
     readField(s, at, "use_lines_in_refinement", q.use_lines_in_refinement);
     readField(s, at, "min_inliers", q.min_inliers);
     readField(s, at, "min_inlier_ratio", q.min_inlier_ratio);
+    const json& f = j.at("surface");
+    const std::string in = "surface.";
+    SurfaceFitParams& r = p.surface;
+    readField(f, in, "enabled", r.enabled);
+    readField(f, in, "points", r.points);
+    readField(f, in, "iterations", r.iterations);
+    readField(f, in, "max_distance", r.max_distance);
+    readField(f, in, "huber", r.huber);
+    readField(f, in, "tolerance", r.tolerance);
+    readField(f, in, "min_agreement", r.min_agreement);
+    readField(f, in, "min_correspondences", r.min_correspondences);
   } catch (const std::exception& e) {
     return makeError(std::string("relocalizer parameters: ") + e.what());
   }

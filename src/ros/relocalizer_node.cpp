@@ -123,6 +123,8 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
            params_.model.c_str(), model.points.trees.size(), model.lines.trees.size(),
            mode_text.c_str(), tf_text.c_str(), colour_sub_.getTopic().c_str(),
            depth_sub_.getTopic().c_str(), info_sub_.getTopic().c_str());
+  if (const std::string limits = relocalizer_->limitations(); !limits.empty())
+    ROS_WARN("relocalizer: %s: %s", params_.model.c_str(), limits.c_str());
 }
 
 RelocalizerNode::~RelocalizerNode() {
@@ -366,6 +368,7 @@ RelocalizerNode::ResultMsg RelocalizerNode::failure(const ros::Time& stamp,
   result.header.frame_id = params_.map_frame;
   result.success = false;
   result.message = message;
+  result.surface_agreement = -1.0f;  // not checked
   return result;
 }
 
@@ -410,10 +413,12 @@ RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const Input& input,
   result.point_inliers = static_cast<uint32_t>(solved.point_inliers);
   result.line_inliers = static_cast<uint32_t>(solved.line_inliers);
   result.score = solved.score;
+  result.surface_agreement = solved.surface_agreement;
   result.time_sampling = static_cast<float>(solved.timings.sampling);
   result.time_forest = static_cast<float>(solved.timings.forest);
   result.time_ransac = static_cast<float>(solved.timings.ransac);
   result.time_refinement = static_cast<float>(solved.timings.refinement);
+  result.time_surface = static_cast<float>(solved.timings.surface);
 
   std::optional<geometry_msgs::TransformStamped> transform;
   if (solved.success && transforms_) {
@@ -517,6 +522,7 @@ bool RelocalizerNode::onRelocalize(relocalizer::Relocalize::Request& request,
   response.point_inliers = result.point_inliers;
   response.line_inliers = result.line_inliers;
   response.score = result.score;
+  response.surface_agreement = result.surface_agreement;
   response.processing_time = result.processing_time;
   // A failed relocalization is an answer, not a transport error: returning
   // false would hide the message from the caller.

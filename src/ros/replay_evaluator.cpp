@@ -284,10 +284,12 @@ int ReplayEvaluator::report(const std::vector<Truth>& truths) {
     record.point_inliers = static_cast<int>(result.point_inliers);
     record.line_inliers = static_cast<int>(result.line_inliers);
     record.score = result.score;
+    record.surface_agreement = result.surface_agreement;
     record.timings.sampling = result.time_sampling;
     record.timings.forest = result.time_forest;
     record.timings.ransac = result.time_ransac;
     record.timings.refinement = result.time_refinement;
+    record.timings.surface = result.time_surface;
     record.timings.total = result.processing_time;
     records.push_back(std::move(record));
     received = std::max(received, result.frames_received);

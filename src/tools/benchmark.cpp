@@ -145,6 +145,7 @@ int main(int argc, char** argv) {
       {"forest_lines", &StageTimings::forest_lines},
       {"ransac", &StageTimings::ransac},
       {"refinement", &StageTimings::refinement},
+      {"surface", &StageTimings::surface},
       {"total", &StageTimings::total}};
   std::printf("CPU: %s; %zu frames x %d passes\n", out["cpu"].get<std::string>().c_str(),
               loaded.size(), repeat);

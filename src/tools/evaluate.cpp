@@ -65,6 +65,8 @@ int main(int argc, char** argv) {
   std::printf("model %s: %zu point trees, %zu line trees, trained on %d images of %s\n",
               model_path.c_str(), model.points.trees.size(), model.lines.trees.size(),
               model.summary.images, model.summary.dataset.c_str());
+  if (const std::string limits = (*relocalizer)->limitations(); !limits.empty())
+    std::printf("warning: %s\n", limits.c_str());
 
   const int thread_count = cli::resolveThreads(threads);
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, thread_count);
@@ -103,6 +105,7 @@ int main(int argc, char** argv) {
       r.point_inliers = result.point_inliers;
       r.line_inliers = result.line_inliers;
       r.score = result.score;
+      r.surface_agreement = result.surface_agreement;
       r.timings = result.timings;
       records.push_back(std::move(r));
     }

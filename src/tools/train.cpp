@@ -91,6 +91,15 @@ int main(int argc, char** argv) {
 
   Model model;
   model.params = params;
+  // Before the forests: they release each image's depth once its samples are
+  // drawn, and the surface is fused from that depth.
+  double surface_seconds = 0.0;
+  if (params.build_surface) {
+    const auto surface_start = std::chrono::steady_clock::now();
+    model.surface = buildSurface(images, params.surface);
+    surface_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - surface_start).count();
+  }
   std::mutex tree_mutex;
   std::vector<double> tree_seconds[2];
   {
@@ -142,6 +151,12 @@ int main(int argc, char** argv) {
                 f == &model.points ? "points" : "lines", f->trees.size(), f->nodeCount(),
                 f->leafCount(), f->modeCount(), depth, per_tree.c_str());
   }
+  if (params.build_surface)
+    std::printf("  surface %zu elements of %.0f mm (%.1f MB), fused in %.1f s\n",
+                model.surface.elements().size(), 1000.0 * model.surface.voxelSize(),
+                model.surface.elements().size() * sizeof(SurfaceElement) / 1e6, surface_seconds);
+  else
+    std::printf("  no surface (surface.enabled: false): poses will not be checked against the scene\n");
   std::printf("wrote %s (%.1f MB)\n", output.c_str(), bytes / 1e6);
   return 0;
 }

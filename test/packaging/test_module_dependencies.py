@@ -21,7 +21,7 @@ TABLE_HEADER = ["module", "concern", "folders", "libraries", "may use"]
 ROS_MODULES = {"ros", "tools"}
 # What the node executable and the nodelet may carry: the method and the ROS layer.
 NODE_TARGETS = ("relocalizer_node", "relocalizer_nodelet")
-NODE_MODULES = {"core", "forest", "pose", "ros"}
+NODE_MODULES = {"core", "surface", "forest", "pose", "ros"}
 SOURCE_SUFFIXES = (".h", ".hpp", ".cpp")
 
 

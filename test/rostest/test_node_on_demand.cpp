@@ -67,6 +67,9 @@ void expectAccurate(const relocalizer::Relocalize::Response& response, const Pos
   EXPECT_EQ(response.pose.header.frame_id, "map");
   EXPECT_GT(response.point_inliers, 0u);
   EXPECT_GT(response.processing_time, 0.0f);
+  // The fixture model carries a scene surface, so every answer was checked against it.
+  EXPECT_GE(response.surface_agreement, 0.5f);
+  EXPECT_LE(response.surface_agreement, 1.0f);
 }
 
 }  // namespace

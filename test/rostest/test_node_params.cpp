@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "../../src/ros/node_params.h"
+#include "relocalizer/forest/model_io.h"
 
 using relocalizer_ros::loadNodeParams;
 using relocalizer_ros::NodeParams;
@@ -158,8 +159,10 @@ TEST(NodeParams, BadModelFilesStopTheNodeWithTheirReason) {
       {"truncated_preamble.bin", with([](auto& b) { b.resize(20); }), "truncated model file (header incomplete)"},
       {"wrong_magic.bin", with([](auto& b) { std::memcpy(b.data(), "PLTREES!", 8); }),
        "not a relocalizer model (wrong magic number; expected a file written by `train`)"},
-      {"future_version.bin", with([](auto& b) { b[8] = 2; }),
-       "model format version 2 is not supported (this build reads version 1); retrain or use a matching build"},
+      {"future_version.bin", with([](auto& b) { b[8] = static_cast<uint8_t>(relocalizer::kModelFormatVersion + 1); }),
+       "model format version " + std::to_string(relocalizer::kModelFormatVersion + 1) +
+           " is not supported (this build reads versions 1 to " + std::to_string(relocalizer::kModelFormatVersion) +
+           "); retrain or use a matching build"},
       {"checksum.bin", with([](auto& b) { b[b.size() - 7] ^= 0x40; }), "checksum mismatch: the model file is corrupt"},
       {"empty.bin", {}, "model file is empty"},
       // Files a user might pass by mistake: the bag, the node's YAML.

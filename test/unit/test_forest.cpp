@@ -8,6 +8,7 @@
 #include <random>
 #include <tbb/global_control.h>
 #include <zlib.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -17,6 +18,7 @@
 #include "relocalizer/forest/sampling.h"
 #include "relocalizer/forest/training.h"
 #include "relocalizer/forest/training_config.h"
+#include "relocalizer/pose/relocalizer.h"
 #include "support.h"
 
 using namespace relocalizer;
@@ -369,6 +371,8 @@ class ModelFile : public TrainedTree {
     model_.summary.dataset = "random";
     model_.summary.images = 6;
     model_.summary.scene_max = Eigen::Vector3f(1, 2, 3);
+    model_.surface = SurfaceModel(0.02f, {{Eigen::Vector3f(1, 2, 3), Eigen::Vector3f::UnitX()},
+                                          {Eigen::Vector3f(1, 2.5f, 3), Eigen::Vector3f::UnitY()}});
     path_ = dir_.str() + "/model.bin";
     ASSERT_TRUE(saveModel(model_, path_).ok());
     std::ifstream in(path_, std::ios::binary);
@@ -394,6 +398,17 @@ TEST_F(ModelFile, RoundTripIsByteIdentical) {
   EXPECT_EQ(loaded->params.points.min_samples_leaf, 5);
 }
 
+TEST_F(ModelFile, SurfaceRoundTrips) {
+  auto loaded = loadModel(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  ASSERT_EQ(loaded->surface.elements().size(), 2u);
+  EXPECT_EQ(loaded->surface.voxelSize(), 0.02f);
+  EXPECT_EQ(loaded->surface.elements()[1].point, Eigen::Vector3f(1, 2.5f, 3));
+  EXPECT_EQ(loaded->surface.elements()[1].normal, Eigen::Vector3f::UnitY());
+  // The lookup index is rebuilt on load.
+  ASSERT_NE(loaded->surface.near(Eigen::Vector3f(1.005f, 2.5f, 3.0f)), nullptr);
+}
+
 namespace {
 
 void expectSameForest(const Forest& a, const Forest& b) {
@@ -410,16 +425,24 @@ void expectSameForest(const Forest& a, const Forest& b) {
   }
 }
 
-// Version 1 as relocalizer 0.1.0 wrote it: leaf nodes hold -(leaf index + 1)
-// into a range array, modes are 92 bytes with the descriptor inline (support
-// and log-determinant, which nothing reads, are written as given).
-std::vector<uint8_t> versionOneBytes(const Model& model, float support = 7.0f) {
+// The model as format version 1 (relocalizer 0.1.0) or 2 wrote it: leaf nodes
+// hold -(leaf index + 1) into a range array, modes are 92 bytes with the
+// descriptor inline (support and log-determinant, which nothing reads, are
+// written as given), nothing compressed. Version 2 appends the surface and
+// names it in the header; version 1 has neither.
+std::vector<uint8_t> oldVersionBytes(const Model& model, uint32_t version, float support = 7.0f) {
   std::vector<uint8_t> body;
   auto put = [&body](const void* data, size_t n) {
     body.insert(body.end(), static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + n);
   };
   auto put32 = [&put](uint32_t v) { put(&v, 4); };
-  const std::string header = modelHeaderJson(model, -1);
+  nlohmann::json header_json = nlohmann::json::parse(modelHeaderJson(model, -1));
+  header_json["format_version"] = version;
+  if (version == 1) {
+    header_json.erase("surface");
+    header_json["params"].erase("surface");
+  }
+  const std::string header = header_json.dump();
   put32(static_cast<uint32_t>(header.size()));
   put(header.data(), header.size());
   for (const Forest* forest : {&model.points, &model.lines}) {
@@ -448,8 +471,14 @@ std::vector<uint8_t> versionOneBytes(const Model& model, float support = 7.0f) {
       }
     }
   }
+  if (version == 2) {
+    const float voxel_size = model.surface.voxelSize();
+    put(&voxel_size, 4);
+    put32(static_cast<uint32_t>(model.surface.elements().size()));
+    put(model.surface.elements().data(), model.surface.elements().size() * sizeof(SurfaceElement));
+  }
   std::vector<uint8_t> out = {'P', 'L', 'F', 'O', 'R', 'E', 'S', 'T'};
-  const uint32_t version = 1, reserved = 0;
+  const uint32_t reserved = 0;
   const uint64_t size = body.size();
   const uint32_t crc = static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size())));
   for (const auto& [data, n] : std::initializer_list<std::pair<const void*, size_t>>{
@@ -474,35 +503,51 @@ TEST_F(ModelFile, RoundTripKeepsEveryNodeModeAndDescriptor) {
   EXPECT_LT(bytes_.size(), raw * 3 / 4);
 }
 
-TEST_F(ModelFile, VersionOneLoadsAsTheSameForestAndSavesAsTheCurrentVersion) {
-  const std::vector<uint8_t> old = versionOneBytes(model_);
-  auto loaded = deserializeModel(old.data(), old.size(), "v1.model");
+TEST_F(ModelFile, VersionOneLoadsTheSameForestsWithoutASurfaceAndSaysSo) {
+  const std::vector<uint8_t> old = oldVersionBytes(model_, 1);
+  auto loaded = loadModel(writeVariant(old));
   ASSERT_TRUE(loaded.ok()) << loaded.error();
   expectSameForest(loaded->points, model_.points);
   expectSameForest(loaded->lines, model_.lines);
   EXPECT_EQ(loaded->summary.dataset, "random");
+  EXPECT_TRUE(loaded->surface.empty());
+  const Relocalizer relocalizer(*loaded);
+  EXPECT_NE(relocalizer.limitations().find("no scene surface"), std::string::npos)
+      << relocalizer.limitations();
+  EXPECT_EQ(Relocalizer(model_).limitations(), "");
+}
+
+TEST_F(ModelFile, VersionTwoLoadsAsTheSameModelAndSavesAsTheCurrentVersion) {
+  const std::vector<uint8_t> old = oldVersionBytes(model_, 2);
+  auto loaded = loadModel(writeVariant(old));
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  expectSameForest(loaded->points, model_.points);
+  expectSameForest(loaded->lines, model_.lines);
+  ASSERT_EQ(loaded->surface.elements().size(), 2u);
+  EXPECT_EQ(loaded->surface.elements()[1].point, Eigen::Vector3f(1, 2.5f, 3));
   EXPECT_EQ(serializeModel(*loaded), bytes_);
 }
 
-TEST_F(ModelFile, VersionOneLeafIndicesAreChecked) {
+TEST_F(ModelFile, OldVersionsLeafIndicesAreChecked) {
   // -(INT32_MIN + 1) overflows int32: the check must not.
-  for (int32_t code : {INT32_MIN, -100000}) {
-    Model model = model_;
-    Tree& tree = model.points.trees[0];
-    // versionOneBytes numbers the leaves itself; corrupt its output instead.
-    std::vector<uint8_t> bytes = versionOneBytes(model);
-    uint32_t header_size = 0;
-    std::memcpy(&header_size, bytes.data() + 28, 4);
-    const size_t first_node = 28 + 4 + header_size + 4 + 4;  // after the tree count and node count
-    size_t leaf = 0;
-    while (!tree.nodes[leaf].isLeaf()) ++leaf;
-    std::memcpy(bytes.data() + first_node + leaf * sizeof(SplitNode) + 12, &code, 4);
-    const uint32_t crc = static_cast<uint32_t>(crc32(0L, bytes.data() + 28, static_cast<uInt>(bytes.size() - 28)));
-    std::memcpy(bytes.data() + 24, &crc, 4);
-    auto r = deserializeModel(bytes.data(), bytes.size(), "v1.model");
-    ASSERT_FALSE(r.ok());
-    EXPECT_EQ(r.error(), "v1.model: invalid forest: leaf index out of range");
-  }
+  for (uint32_t version : {1u, 2u})
+    for (int32_t code : {INT32_MIN, -100000}) {
+      SCOPED_TRACE("version " + std::to_string(version) + ", code " + std::to_string(code));
+      const Tree& tree = model_.points.trees[0];
+      // oldVersionBytes numbers the leaves itself; corrupt its output instead.
+      std::vector<uint8_t> bytes = oldVersionBytes(model_, version);
+      uint32_t header_size = 0;
+      std::memcpy(&header_size, bytes.data() + 28, 4);
+      const size_t first_node = 28 + 4 + header_size + 4 + 4;  // after the tree count and node count
+      size_t leaf = 0;
+      while (!tree.nodes[leaf].isLeaf()) ++leaf;
+      std::memcpy(bytes.data() + first_node + leaf * sizeof(SplitNode) + 12, &code, 4);
+      const uint32_t crc = static_cast<uint32_t>(crc32(0L, bytes.data() + 28, static_cast<uInt>(bytes.size() - 28)));
+      std::memcpy(bytes.data() + 24, &crc, 4);
+      auto r = deserializeModel(bytes.data(), bytes.size(), "old.model");
+      ASSERT_FALSE(r.ok());
+      EXPECT_EQ(r.error(), "old.model: invalid forest: leaf index out of range");
+    }
 }
 
 TEST_F(ModelFile, RejectsWrongMagic) {
@@ -519,7 +564,8 @@ TEST_F(ModelFile, RejectsFutureVersion) {
   b[8] = static_cast<uint8_t>(kModelFormatVersion + 1);
   auto r = loadModel(writeVariant(b));
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().find("format version " + std::to_string(kModelFormatVersion + 1) + " is not supported"),
+  EXPECT_NE(r.error().find("format version " + std::to_string(kModelFormatVersion + 1) +
+                           " is not supported"),
             std::string::npos)
       << r.error();
 }

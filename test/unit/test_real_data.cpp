@@ -44,6 +44,7 @@ TEST(RealData, ReducedRedkitchenDevProtocolStaysAboveItsFloor) {
   Model model;
   model.params = params;
   trainForests(images, params, model.points, model.lines);
+  model.surface = buildSurface(images, params.surface);
   images.clear();
   const Relocalizer relocalizer(std::move(model));
 
@@ -61,6 +62,7 @@ TEST(RealData, ReducedRedkitchenDevProtocolStaysAboveItsFloor) {
     auto frame = (*test_set)->load(i);
     ASSERT_TRUE(frame.ok()) << frame.error();
     const Relocalization r = relocalizer.relocalize(*frame);
+    if (r.success) EXPECT_GE(r.surface_agreement, relocalizer.params().surface.min_agreement);
     std::optional<Pose> estimate;
     if (r.success) estimate = r.pose;
     errors.push_back(frameError(frame->id, estimate, *frame->ground_truth));

@@ -23,6 +23,7 @@ struct EvaluationRecord {
   int point_inliers = 0;
   int line_inliers = 0;
   float score = 0.0f;
+  float surface_agreement = -1.0f;  // < 0: not checked
   StageTimings timings;
 };
 
@@ -33,7 +34,7 @@ struct LatencySummary {
 
 struct EvaluationSummary {
   AccuracySummary accuracy;
-  LatencySummary total, sampling, forest, ransac, refinement;
+  LatencySummary total, sampling, forest, ransac, refinement, surface;
 };
 
 EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& records);

@@ -1,6 +1,6 @@
 #pragma once
-// The model file: one point forest and one line forest, with everything needed
-// to know how they were made.
+// The model file: one point forest, one line forest and the scene surface, with
+// everything needed to know how they were made.
 //
 // Layout (little-endian):
 //   char[8]   magic "PLFOREST"
@@ -17,10 +17,15 @@
 //         stream of: SplitNode[n], LeafMode[m], Descriptor[m], each array
 //         stored byte plane by byte plane (byte 0 of every element, then byte
 //         1, ...), which lets deflate halve the model.
+//     surface: float voxel size, uint32 n + SurfaceElement[n]
 // Saving is deterministic: the same model gives the same bytes.
 //
-// Version 1 (relocalizer 0.1.0: uncompressed, leaves as indices into a range
-// array, 92-byte modes with the descriptor inline) still loads, converted.
+// Older versions still load, converted:
+//   1 (relocalizer 0.1.0): forests uncompressed, each tree as uint32 n +
+//     SplitNode[n] (leaves as indices into the next array), uint32 n +
+//     LeafRange[n], uint32 n + 92-byte modes with the descriptor inline; no
+//     surface (relocalization then skips the surface fit and check, and says so).
+//   2: version 1's forests, then the surface as in version 3.
 
 #include <cstdint>
 #include <string>
@@ -32,7 +37,7 @@
 
 namespace relocalizer {
 
-constexpr uint32_t kModelFormatVersion = 2;
+constexpr uint32_t kModelFormatVersion = 3;
 
 // What the forests were trained on.
 struct TrainingSummary {
@@ -52,6 +57,7 @@ struct Model {
   TrainingSummary summary;
   Forest points;
   Forest lines;
+  SurfaceModel surface;  // empty for version-1 files and when training built none
 };
 
 std::vector<uint8_t> serializeModel(const Model& model);

@@ -21,6 +21,7 @@
 #include "relocalizer/forest/forest.h"
 #include "relocalizer/forest/mean_shift.h"
 #include "relocalizer/forest/sampling.h"
+#include "relocalizer/surface/surface_model.h"
 
 namespace relocalizer {
 
@@ -48,6 +49,8 @@ struct TrainingParams {
   LineSamplingParams line_sampling;
   bool train_points = true;
   bool train_lines = true;
+  bool build_surface = true;  // fuse the images' depth into the scene surface (surface_model.h)
+  SurfaceParams surface;
 };
 
 // Differential-entropy bookkeeping for a set of 3D labels: sufficient
@@ -123,6 +126,10 @@ namespace relocalizer {
 // A posed frame as training keeps it; false (and nothing appended) when the
 // frame has no ground truth.
 bool appendTrainingImage(const RgbdFrame& frame, std::vector<TrainingImage>& images);
+
+// The scene surface fused from the images' depth at their poses, in image order
+// (so the same images give the same surface).
+SurfaceModel buildSurface(const std::vector<TrainingImage>& images, const SurfaceParams& params);
 
 // Grows the point and line forests (those enabled in `params`): every tree's
 // samples first, then all trees of both forests in parallel, largest first.

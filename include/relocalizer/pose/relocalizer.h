@@ -10,6 +10,7 @@
 #include "relocalizer/core/frame.h"
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/pose/pose_solver.h"
+#include "relocalizer/surface/surface_fit.h"
 
 namespace relocalizer {
 
@@ -22,6 +23,7 @@ struct RelocalizerParams {
   int min_valid_depth = 1000;  // frames with fewer valid depth pixels are refused
   uint32_t seed = 1;         // each call restarts from it: same frame, same answer
   PoseSolverParams solver;
+  SurfaceFitParams surface;  // depth ICP and the surface check after the solver
 };
 
 // With two or more threads the line branch (LSD, line samples, line forest)
@@ -37,6 +39,7 @@ struct StageTimings {  // seconds
   double sampling_and_forests = 0.0;  // wall time of the sampling and forest stages
   double ransac = 0.0;           // hypotheses and preemptive scoring
   double refinement = 0.0;       // Ceres LM, inside the loop and final
+  double surface = 0.0;          // depth ICP against the scene surface and the agreement
   double total = 0.0;            // the whole call
 };
 
@@ -50,6 +53,11 @@ struct Relocalization {
   int point_samples = 0;
   int line_samples = 0;
   float score = 0.0f;  // inlier share of the samples
+  // Share of the frame's depth points on the scene surface at the answered pose
+  // (surface_fit.h); negative when not measured (no surface in the model, the
+  // check off, or no solver pose to check).
+  float surface_agreement = -1.0f;
+  bool surface_refined = false;  // depth ICP moved the solver's pose
   StageTimings timings;
 };
 
@@ -80,6 +88,10 @@ class Relocalizer {
   const RelocalizerParams& params() const { return params_; }
   // Empty if the parameters can be used with this model, else why not.
   std::string validationError() const;
+  // Empty, or what this model cannot do with these parameters that a current
+  // one could (a version-1 model has no scene surface to check poses against),
+  // for the node and the tools to warn about at start.
+  std::string limitations() const;
 
  private:
   Model model_;
