@@ -6,8 +6,8 @@
 # synthetic room.
 #
 # The previous release (BENCH_PREVIOUS, default the tag v0.1.0) is checked out
-# in a git worktree under BUILD/bench/previous and built there with its own
-# `make build` (its devel space is BUILD/bench/previous/build/devel); the first
+# in a git worktree under BUILD/bench/.previous and built there with its own
+# `make build` (its devel space is BUILD/bench/.previous/build/devel); the first
 # run pays for that build, later runs only check it. Both versions train their
 # own model on the same frames, and are evaluated and benchmarked on the same
 # test frames; the per-stage benchmarks alternate between the two
@@ -44,7 +44,10 @@ declare -A tools_of=([now]="$devel/lib/relocalizer")
 # build folder in 0.1.0 (whose devel space was inside it).
 declare -A node_arg_of=([now]="$devel")
 declare -A tree_of=([now]="$root")
-worktree="$out/previous"
+# A hidden folder: roslaunch finds launch files by walking the package folder,
+# build/ included, and skips only hidden folders; a second copy of the launch
+# files there makes `roslaunch relocalizer X.launch` ambiguous.
+worktree="$out/.previous"
 if [ "$previous" != none ]; then
   if ! git -C "$root" rev-parse -q --verify "$previous^{commit}" > /dev/null; then
     echo "bench: $previous is not a git revision here; measuring this build only"

@@ -85,7 +85,8 @@ def main():
     stage_rows = [("sampling_points", "sampling, random pixels"), ("sampling_lines", "sampling, LSD lines"),
                   ("forest_points", "point forest (descriptors + prediction)"),
                   ("forest_lines", "line forest (descriptors + prediction)"),
-                  ("ransac", "preemptive RANSAC"), ("refinement", "Ceres refinement")]
+                  ("ransac", "preemptive RANSAC"), ("refinement", "Ceres refinement"),
+                  ("surface", "surface ICP and check")]
     # (key, label, unit, format, target text, target test on the "now" value)
     rows = []
     for threads_key in sorted({"1", t}, key=int):

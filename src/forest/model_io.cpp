@@ -296,15 +296,20 @@ std::string validateTree(const Tree& t) {
   return {};
 }
 
-// Reads the tree streams of one forest (the counts and stored sizes first, so
-// that the streams can be inflated in parallel).
-bool readTrees(Reader& r, Forest& forest, std::string& why) {
-  uint32_t trees = 0;
+bool readTreeCount(Reader& r, uint32_t& trees, std::string& why) {
   if (!r.value(trees)) return false;
   if (trees > kMaxTrees) {
     why = "forest has " + std::to_string(trees) + " trees, more than " + std::to_string(kMaxTrees);
     return false;
   }
+  return true;
+}
+
+// Reads the tree streams of one forest (the counts and stored sizes first, so
+// that the streams can be inflated in parallel).
+bool readTrees(Reader& r, Forest& forest, std::string& why) {
+  uint32_t trees = 0;
+  if (!readTreeCount(r, trees, why)) return false;
   struct Stream {
     uint32_t nodes = 0, modes = 0;
     uint64_t stored = 0;
@@ -358,11 +363,7 @@ bool readTrees(Reader& r, Forest& forest, std::string& why) {
 // which nothing reads, are dropped.
 bool readTreesV1(Reader& r, Forest& forest, std::string& why) {
   uint32_t trees = 0;
-  if (!r.value(trees)) return false;
-  if (trees > kMaxTrees) {
-    why = "forest has " + std::to_string(trees) + " trees, more than " + std::to_string(kMaxTrees);
-    return false;
-  }
+  if (!readTreeCount(r, trees, why)) return false;
   forest.trees.resize(trees);
   std::vector<LeafRange> leaves;
   std::vector<v1::LeafMode> modes;

@@ -329,7 +329,7 @@ Pose refinePose(const Pose& initial, const std::vector<RefinementTerm>& terms,
   }
 
   double delta[6] = {0, 0, 0, 0, 0, 0};
-  const TermCosts costs(*solve_terms, initial);
+  TermCosts costs(*solve_terms, initial);  // not const: the terms update its pose
   ceres::Problem problem(problem_options);
   for (const auto& cost : costs.costs) problem.AddResidualBlock(cost.get(), loss.get(), delta);
   ceres::Solver::Options options;
