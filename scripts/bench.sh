@@ -53,6 +53,12 @@ if [ "$previous" != none ]; then
     echo "bench: $previous is not a git revision here; measuring this build only"
   else
     echo "bench: building the previous release $previous in $worktree (log: $out/previous_build.log)"
+    # A build folder configured elsewhere (a moved worktree) fails CMake's
+    # check of its own path: start that build afresh.
+    cache="$worktree/build/CMakeCache.txt"
+    if [ -f "$cache" ] && ! grep -qx "CMAKE_CACHEFILE_DIR:INTERNAL=$worktree/build" "$cache"; then
+      rm -rf "$worktree/build"
+    fi
     if [ ! -e "$worktree/.git" ]; then
       git -C "$root" worktree prune
       git -C "$root" worktree add --detach -f "$worktree" "$previous" > "$out/previous_build.log" 2>&1

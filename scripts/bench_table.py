@@ -35,6 +35,8 @@ def figures(run, threads):
     for r in rounds:
         for t, stages in r["threads"].items():
             for stage, s in stages.items():
+                if not isinstance(s, dict):  # e.g. within_5cm_5deg beside the stages
+                    continue
                 f.setdefault(f"{stage}@{t}", []).append(s["median_ms"])
                 f.setdefault(f"{stage}_p95@{t}", []).append(s["p95_ms"])
     for key, values in list(f.items()):
