@@ -6,74 +6,92 @@
 namespace relocalizer {
 
 FeatureImage FeatureImage::of(const cv::Mat& colour, const cv::Mat& depth) {
-  CV_Assert(colour.type() == CV_8UC3 && depth.type() == CV_32FC1 && colour.size() == depth.size());
+  CV_Assert(colour.type() == CV_8UC3 &&
+            (depth.empty() || (depth.type() == CV_32FC1 && colour.size() == depth.size())));
   FeatureImage image;
   image.colour = colour.ptr<uint8_t>();
-  image.depth = depth.ptr<float>();
   image.width = colour.cols;
   image.height = colour.rows;
   image.colour_stride = colour.step[0];
-  image.depth_stride = depth.step[0] / sizeof(float);
+  if (!depth.empty()) {
+    image.depth = depth.ptr<float>();
+    image.depth_stride = depth.step[0] / sizeof(float);
+  }
   return image;
 }
 
 namespace {
 
-// In-place 8-point fast Walsh-Hadamard transform (natural / Hadamard order).
-inline void hadamard8(float* x, int stride) {
-  for (int half = 1; half < 8; half *= 2)
-    for (int start = 0; start < 8; start += 2 * half)
-      for (int i = start; i < start + half; ++i) {
-        const float a = x[i * stride], b = x[(i + half) * stride];
-        x[i * stride] = a + b;
-        x[(i + half) * stride] = a - b;
-      }
+// One coefficient of the 8-point Walsh-Hadamard transform in natural
+// (Hadamard) order: row N of the matrix is (-1)^popcount(N & j). With the
+// index a template argument every sign is a constant, so each coefficient is
+// seven integer additions; only the 4 lowest-sequency ones are ever needed.
+template <int N>
+inline int hadamardCoefficient(const int* x) {
+  int sum = 0;
+  for (int j = 0; j < 8; ++j) sum += (__builtin_popcount(N & j) & 1) ? -x[j] : x[j];
+  return sum;
 }
 
-// Natural-order indices of the Walsh functions with sequency 0..3 (number of
-// sign changes), so that a 4x4 block of them is the low-frequency corner.
-constexpr int kLowSequency[4] = {0, 4, 6, 2};
+// The 4 lowest-sequency coefficients (sequency 0..3 are natural indices
+// 0, 4, 6, 2) of 8 consecutive values.
+inline void lowSequency(const int* x, int out[4]) {
+  out[0] = hadamardCoefficient<0>(x);
+  out[1] = hadamardCoefficient<4>(x);
+  out[2] = hadamardCoefficient<6>(x);
+  out[3] = hadamardCoefficient<2>(x);
+}
 
 }  // namespace
 
 DescriptorF computeDescriptor(const FeatureImage& image, int u, int v) {
   constexpr int kCells = 8;
-  constexpr int kCell = kDescriptorPatch / kCells;  // 2x2 pixels averaged per cell
-  float cells[3][kCells * kCells];
+  static_assert(kDescriptorPatch == 2 * kCells, "cells average 2x2 pixels");
+  // Cell sums stay integers (at most 4 * 255 per cell, 64 * 1020 per
+  // coefficient, far below 2^24), so the transform is exact in int and the
+  // floats below are the same as a float transform in any order would give.
+  int cells[3][kCells * kCells];
   const int u0 = u - kDescriptorPatch / 2, v0 = v - kDescriptorPatch / 2;
   const bool inside = u0 >= 0 && v0 >= 0 && u0 + kDescriptorPatch <= image.width &&
                       v0 + kDescriptorPatch <= image.height;
   for (int cy = 0; cy < kCells; ++cy) {
+    int y0 = v0 + 2 * cy, y1 = y0 + 1;
+    if (!inside) {
+      y0 = std::clamp(y0, 0, image.height - 1);
+      y1 = std::clamp(y1, 0, image.height - 1);
+    }
+    const uint8_t* row0 = image.colour + y0 * image.colour_stride;
+    const uint8_t* row1 = image.colour + y1 * image.colour_stride;
     for (int cx = 0; cx < kCells; ++cx) {
-      int sum[3] = {0, 0, 0};
-      for (int dy = 0; dy < kCell; ++dy) {
-        int y = v0 + cy * kCell + dy;
-        if (!inside) y = std::clamp(y, 0, image.height - 1);
-        const uint8_t* row = image.colour + y * image.colour_stride;
-        for (int dx = 0; dx < kCell; ++dx) {
-          int x = u0 + cx * kCell + dx;
-          if (!inside) x = std::clamp(x, 0, image.width - 1);
-          sum[0] += row[x * 3];
-          sum[1] += row[x * 3 + 1];
-          sum[2] += row[x * 3 + 2];
-        }
+      int x0 = u0 + 2 * cx, x1 = x0 + 1;
+      if (!inside) {
+        x0 = std::clamp(x0, 0, image.width - 1);
+        x1 = std::clamp(x1, 0, image.width - 1);
       }
-      for (int c = 0; c < 3; ++c) cells[c][cy * kCells + cx] = static_cast<float>(sum[c]);
+      for (int c = 0; c < 3; ++c)
+        cells[c][cy * kCells + cx] =
+            row0[x0 * 3 + c] + row0[x1 * 3 + c] + row1[x0 * 3 + c] + row1[x1 * 3 + c];
     }
   }
   DescriptorF out;
-  float norm = 0.0f;
   for (int c = 0; c < 3; ++c) {
-    float* m = cells[c];
-    for (int row = 0; row < kCells; ++row) hadamard8(m + row * kCells, 1);
-    for (int col = 0; col < kCells; ++col) hadamard8(m + col, kCells);
-    for (int sy = 0; sy < 4; ++sy)
-      for (int sx = 0; sx < 4; ++sx) {
-        const float value = m[kLowSequency[sy] * kCells + kLowSequency[sx]];
-        out[c * kDescriptorPerChannel + sy * 4 + sx] = value;
-        norm += value * value;
-      }
+    // by_row[k][r]: horizontal coefficient k of cell row r; then the vertical
+    // transform of each of those columns gives coefficient (sy, sx).
+    int by_row[4][kCells];
+    for (int r = 0; r < kCells; ++r) {
+      int k[4];
+      lowSequency(cells[c] + r * kCells, k);
+      for (int sx = 0; sx < 4; ++sx) by_row[sx][r] = k[sx];
+    }
+    for (int sx = 0; sx < 4; ++sx) {
+      int k[4];
+      lowSequency(by_row[sx], k);
+      for (int sy = 0; sy < 4; ++sy)
+        out[c * kDescriptorPerChannel + sy * 4 + sx] = static_cast<float>(k[sy]);
+    }
   }
+  float norm = 0.0f;
+  for (float value : out) norm += value * value;
   const float scale = norm > 0.0f ? 1.0f / std::sqrt(norm) : 0.0f;
   for (float& value : out) value *= scale;
   return out;

@@ -21,7 +21,6 @@ void LeafMode::setCovariance(const Eigen::Matrix3f& covariance) {
   const Eigen::Matrix3f inverse = covariance.inverse();
   information = {inverse(0, 0), inverse(0, 1), inverse(0, 2), inverse(1, 1), inverse(1, 2),
                  inverse(2, 2)};
-  log_det_covariance = std::log(std::max(covariance.determinant(), 1e-30f));
 }
 
 int Tree::depth() const {
@@ -39,13 +38,18 @@ int Tree::depth() const {
   return deepest;
 }
 
-int32_t Tree::descend(const FeatureImage& image, int u, int v, float depth) const {
+size_t Tree::leafCount() const {
+  return static_cast<size_t>(
+      std::count_if(nodes.begin(), nodes.end(), [](const SplitNode& n) { return n.isLeaf(); }));
+}
+
+LeafRange Tree::descend(const FeatureImage& image, int u, int v, float depth) const {
   int32_t index = 0;
   while (!nodes[index].isLeaf()) {
     const SplitNode& node = nodes[index];
     index = node.left + (evaluateFeature(node.feature, image, u, v, depth) < node.threshold ? 0 : 1);
   }
-  return nodes[index].leafIndex();
+  return nodes[index].leafModes();
 }
 
 size_t Forest::nodeCount() const {
@@ -55,7 +59,7 @@ size_t Forest::nodeCount() const {
 }
 size_t Forest::leafCount() const {
   size_t n = 0;
-  for (const auto& t : trees) n += t.leaves.size();
+  for (const auto& t : trees) n += t.leafCount();
   return n;
 }
 size_t Forest::modeCount() const {
@@ -73,7 +77,12 @@ namespace {
 // nothing is allocated per sample.
 class BranchQueue {
  public:
-  explicit BranchQueue(int capacity) : capacity_(std::min(capacity, kMaxCapacity)) {}
+  BranchQueue() = default;
+  explicit BranchQueue(int capacity) { reset(capacity); }
+  void reset(int capacity) {
+    capacity_ = std::clamp(capacity, 0, kMaxCapacity);
+    size_ = 0;
+  }
   bool empty() const { return size_ == 0; }
   void push(float priority, int32_t node) {
     if (capacity_ == 0 || (size_ == capacity_ && priority >= entries_[size_ - 1].priority)) return;
@@ -101,40 +110,161 @@ class BranchQueue {
   };
   static constexpr int kMaxCapacity = 64;
   std::array<Entry, kMaxCapacity> entries_;
-  int capacity_;
+  int capacity_ = 0;
   int size_ = 0;
+};
+
+// One step of a descent at a split node: the child to take, and the sibling
+// queued for backtracking by how narrowly the sample missed it.
+inline int32_t splitStep(const std::vector<SplitNode>& nodes, int32_t index, const FeatureImage& image,
+                         const Sample& sample, int max_leaves, BranchQueue& queue) {
+  const SplitNode& node = nodes[index];
+  // Start fetching both children while the feature reads the image: deep
+  // nodes are rarely cached, and this overlaps the two memory latencies.
+  __builtin_prefetch(&nodes[node.left]);
+  __builtin_prefetch(&nodes[node.left + 1]);
+  const float f = evaluateFeature(node.feature, image, sample.u, sample.v, sample.depth);
+  const bool go_left = f < node.threshold;
+  if (max_leaves > 1) queue.push(std::abs(f - node.threshold), node.left + (go_left ? 1 : 0));
+  return node.left + (go_left ? 0 : 1);
+}
+
+// Keeps the nearest mode of `range` in `best` (the first of equals).
+inline void nearestMode(const Tree& tree, const LeafRange& range, const Descriptor& descriptor,
+                        ModeCandidate& best) {
+  for (uint32_t m = range.first_mode; m < range.first_mode + range.mode_count; ++m) {
+    const int32_t d = descriptorDistance(tree.descriptors[m], descriptor);
+    if (d < best.descriptor_distance) {
+      best.descriptor_distance = d;
+      best.mode = &tree.modes[m];
+    }
+  }
+}
+
+ModeCandidate noCandidate() {
+  ModeCandidate none;
+  none.descriptor_distance = std::numeric_limits<int32_t>::max();
+  return none;
+}
+
+// predictInTree for many samples at once. A single descent is a chain of
+// dependent cache misses (each node's address comes from its parent, and a
+// model of tens of MB does not fit the cache), so one sample at a time leaves
+// the core waiting on DRAM. Here kLanes samples advance in turn, one memory
+// access each per round (a node, or a leaf's modes' descriptors) with the next access prefetched, so up to kLanes misses are in
+// flight. Each lane runs exactly predictInTree's steps in its order, so every
+// candidate is the one predictInTree gives. Writes candidates[slot] of each
+// prediction.
+class LockStepDescent {
+ public:
+  static constexpr int kLanes = 16;
+
+  LockStepDescent(const Tree& tree, const FeatureImage& image, int max_leaves)
+      : tree_(tree), image_(image), max_leaves_(max_leaves) {}
+
+  void run(const Sample* samples, const Descriptor* descriptors, size_t count, Prediction* out,
+           int slot) {
+    samples_ = samples;
+    descriptors_ = descriptors;
+    count_ = count;
+    out_ = out;
+    slot_ = slot;
+    next_ = 0;
+    int active = 0;
+    for (Lane& lane : lanes_) active += start(lane) ? 1 : 0;
+    while (active > 0)
+      for (Lane& lane : lanes_)
+        if (lane.step != Step::Idle && !advance(lane)) active -= start(lane) ? 0 : 1;
+  }
+
+ private:
+  enum class Step : uint8_t { Descend, Modes, Idle };
+  struct Lane {
+    BranchQueue queue;
+    size_t sample = 0;
+    int32_t node = 0;
+    LeafRange range;
+    int visited = 0;
+    ModeCandidate best;
+    Step step = Step::Idle;
+  };
+
+  // Gives the lane the next sample; false when none is left.
+  bool start(Lane& lane) {
+    if (next_ >= count_) {
+      lane.step = Step::Idle;
+      return false;
+    }
+    lane.sample = next_++;
+    lane.node = 0;
+    lane.visited = 0;
+    lane.queue.reset(max_leaves_ - 1);
+    lane.best = noCandidate();
+    lane.step = Step::Descend;
+    return true;
+  }
+
+  // One memory access of the lane; false when its sample is done (and
+  // written).
+  bool advance(Lane& lane) {
+    const std::vector<SplitNode>& nodes = tree_.nodes;
+    switch (lane.step) {
+      case Step::Descend:
+        if (!nodes[lane.node].isLeaf()) {
+          lane.node = splitStep(nodes, lane.node, image_, samples_[lane.sample], max_leaves_, lane.queue);
+        } else {
+          lane.range = nodes[lane.node].leafModes();
+          const LeafRange& r = lane.range;
+          for (uint32_t m = r.first_mode; m < r.first_mode + r.mode_count; ++m) {
+            const char* descriptor = reinterpret_cast<const char*>(tree_.descriptors[m].data());
+            __builtin_prefetch(descriptor);
+            __builtin_prefetch(descriptor + kDescriptorSize - 1);
+          }
+          lane.step = Step::Modes;
+        }
+        return true;
+      case Step::Modes:
+        nearestMode(tree_, lane.range, descriptors_[lane.sample], lane.best);
+        ++lane.visited;
+        if (lane.visited >= std::max(1, max_leaves_) || lane.queue.empty()) {
+          out_[lane.sample].candidates[slot_] = lane.best;
+          return false;
+        }
+        lane.node = lane.queue.pop();
+        __builtin_prefetch(&nodes[lane.node]);
+        lane.step = Step::Descend;
+        return true;
+      case Step::Idle:
+        break;
+    }
+    return false;
+  }
+
+  const Tree& tree_;
+  const FeatureImage& image_;
+  const int max_leaves_;
+  std::array<Lane, kLanes> lanes_;
+  const Sample* samples_ = nullptr;
+  const Descriptor* descriptors_ = nullptr;
+  size_t count_ = 0;
+  size_t next_ = 0;
+  Prediction* out_ = nullptr;
+  int slot_ = 0;
 };
 
 }  // namespace
 
 ModeCandidate predictInTree(const Tree& tree, const FeatureImage& image, const Sample& sample,
                             const Descriptor& descriptor, int max_leaves) {
-  ModeCandidate best;
-  best.descriptor_distance = std::numeric_limits<int32_t>::max();
+  ModeCandidate best = noCandidate();
   if (tree.nodes.empty()) return best;
   BranchQueue queue(max_leaves - 1);
   int32_t start = 0;
   for (int visited = 0; visited < std::max(1, max_leaves); ++visited) {
     int32_t index = start;
-    while (!tree.nodes[index].isLeaf()) {
-      const SplitNode& node = tree.nodes[index];
-      // Start fetching both children while the feature reads the image: deep
-      // nodes are rarely cached, and this overlaps the two memory latencies.
-      __builtin_prefetch(&tree.nodes[node.left]);
-      __builtin_prefetch(&tree.nodes[node.left + 1]);
-      const float f = evaluateFeature(node.feature, image, sample.u, sample.v, sample.depth);
-      const bool go_left = f < node.threshold;
-      if (max_leaves > 1) queue.push(std::abs(f - node.threshold), node.left + (go_left ? 1 : 0));
-      index = node.left + (go_left ? 0 : 1);
-    }
-    const LeafRange& leaf = tree.leaves[tree.nodes[index].leafIndex()];
-    for (uint32_t m = leaf.first_mode; m < leaf.first_mode + leaf.mode_count; ++m) {
-      const int32_t d = descriptorDistance(tree.modes[m].descriptor, descriptor);
-      if (d < best.descriptor_distance) {
-        best.descriptor_distance = d;
-        best.mode = &tree.modes[m];
-      }
-    }
+    while (!tree.nodes[index].isLeaf())
+      index = splitStep(tree.nodes, index, image, sample, max_leaves, queue);
+    nearestMode(tree, tree.nodes[index].leafModes(), descriptor, best);
     if (queue.empty()) break;
     start = queue.pop();
   }
@@ -146,16 +276,25 @@ void predictForest(const Forest& forest, const FeatureImage& image,
                    const PredictionParams& params, std::vector<Prediction>& out) {
   out.resize(samples.size());
   const int trees = std::min<int>(static_cast<int>(forest.trees.size()), kMaxTrees);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, samples.size(), 64),
+  // Blocks of several lane-fills, so that lanes stay busy while a block drains.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, samples.size(), 8 * LockStepDescent::kLanes),
                     [&](const tbb::blocked_range<size_t>& range) {
-                      for (size_t i = range.begin(); i < range.end(); ++i) {
+                      const size_t first = range.begin(), count = range.size();
+                      for (int t = 0; t < trees; ++t) {
+                        if (forest.trees[t].nodes.empty()) {
+                          for (size_t i = first; i < range.end(); ++i) out[i].candidates[t] = noCandidate();
+                          continue;
+                        }
+                        LockStepDescent(forest.trees[t], image, params.max_leaves)
+                            .run(samples.data() + first, descriptors.data() + first, count,
+                                 out.data() + first, t);
+                      }
+                      // One candidate per tree that had a mode, in tree order.
+                      for (size_t i = first; i < range.end(); ++i) {
                         Prediction& p = out[i];
                         p.count = 0;
-                        for (int t = 0; t < trees; ++t) {
-                          const ModeCandidate c = predictInTree(forest.trees[t], image, samples[i],
-                                                                descriptors[i], params.max_leaves);
-                          if (c.mode) p.candidates[p.count++] = c;
-                        }
+                        for (int t = 0; t < trees; ++t)
+                          if (p.candidates[t].mode) p.candidates[p.count++] = p.candidates[t];
                       }
                     });
 }

@@ -1,11 +1,12 @@
 #include "relocalizer/forest/training.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <numeric>
 #include <random>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
+#include <tbb/task_arena.h>
 
 namespace relocalizer {
 
@@ -57,65 +58,172 @@ RgbdFrame asFrame(const TrainingImage& image) {
 
 }  // namespace
 
+namespace {
+
+// One tree's share of the sampling: its random stream and chosen images.
+struct TreeDraw {
+  ForestKind kind;
+  int tree;
+  const ForestParams* params;
+  std::mt19937 rng;
+  std::vector<int> chosen;  // ascending
+  size_t next = 0;          // first chosen image not drawn yet
+  TreeSamples samples;
+};
+
+// The line samples of every image (LSD once per image; trees subsample them).
+std::vector<LineSamples> lineSamplesPerImage(const std::vector<TrainingImage>& images,
+                                             const TrainingParams& params) {
+  std::vector<LineSamples> cache(images.size());
+  tbb::parallel_for(0, static_cast<int>(images.size()), [&](int i) {
+    std::mt19937 rng(static_cast<uint32_t>(treeSeed(params.seed, ForestKind::Lines, 100000 + i)));
+    cache[i] = sampleLines(asFrame(images[i]), params.line_sampling, 0, rng);
+  });
+  return cache;
+}
+
+void drawFromImage(TreeDraw& draw, const std::vector<TrainingImage>& images, int i,
+                   const std::vector<LineSamples>& line_cache, std::vector<Sample>& drawn) {
+  drawn.clear();
+  if (draw.kind == ForestKind::Points) {
+    samplePoints(asFrame(images[i]), draw.params->samples_per_image, draw.rng, drawn);
+  } else {
+    const auto& all = line_cache[i].samples;
+    const int take = std::min<int>(draw.params->samples_per_image, static_cast<int>(all.size()));
+    std::vector<int> order(all.size());
+    std::iota(order.begin(), order.end(), 0);
+    for (int k = 0; k < take; ++k) {
+      std::uniform_int_distribution<int> pick(k, static_cast<int>(order.size()) - 1);
+      std::swap(order[k], order[pick(draw.rng)]);
+      drawn.push_back(all[order[k]]);
+    }
+  }
+  for (const Sample& s : drawn) draw.samples.items.push_back(makeItem(i, s, images[i].pose));
+}
+
+// Every tree's samples for the forests in `kinds`. Each tree draws from its
+// chosen images in increasing order with its own random stream. Going image by
+// image, with every tree that chose the image drawing from it, keeps each
+// stream in that order, so the samples are the same as drawing tree by tree;
+// and once an image is passed no tree needs its depth again, which
+// `image_done` may use to free it.
+std::vector<TreeDraw> drawSamples(const std::vector<TrainingImage>& images, const TrainingParams& params,
+                                  const std::vector<ForestKind>& kinds,
+                                  const std::function<void(int)>& image_done) {
+  const int n_images = static_cast<int>(images.size());
+  std::vector<TreeDraw> draws;
+  std::vector<LineSamples> line_cache;
+  for (ForestKind kind : kinds) {
+    const ForestParams& forest = kind == ForestKind::Points ? params.points : params.lines;
+    if (kind == ForestKind::Lines) line_cache = lineSamplesPerImage(images, params);
+    for (int t = 0; t < forest.trees; ++t) {
+      TreeDraw draw{kind, t, &forest, std::mt19937(static_cast<uint32_t>(treeSeed(params.seed, kind, t))), {}, 0, {}};
+      draw.chosen = chooseImages(n_images, forest.images_per_tree, draw.rng);
+      // Reserved to size (points: at most samples_per_image an image; lines:
+      // what each image has), so the largest allocation of training grows
+      // without push_back's doubling slack.
+      size_t expected = 0;
+      for (int i : draw.chosen)
+        expected += kind == ForestKind::Points
+                        ? static_cast<size_t>(std::max(0, forest.samples_per_image))
+                        : std::min<size_t>(std::max(0, forest.samples_per_image), line_cache[i].samples.size());
+      draw.samples.items.reserve(expected);
+      draws.push_back(std::move(draw));
+    }
+  }
+  for (int i = 0; i < n_images; ++i) {
+    tbb::parallel_for(size_t{0}, draws.size(), [&](size_t d) {
+      TreeDraw& draw = draws[d];
+      if (draw.next >= draw.chosen.size() || draw.chosen[draw.next] != i) return;
+      ++draw.next;
+      thread_local std::vector<Sample> drawn;
+      drawFromImage(draw, images, i, line_cache, drawn);
+    });
+    if (image_done) image_done(i);
+  }
+  return draws;
+}
+
+// Grows every drawn tree, in parallel, largest sample set first: trees take a
+// time roughly proportional to their samples, and starting the largest first
+// keeps the last thread from finishing alone on a big tree. A shared counter
+// rather than a partitioned range, which would give each thread a fixed half.
+void growTrees(const std::vector<TrainingImage>& images, std::vector<TreeDraw>& draws,
+               const TrainingProgress& progress, uint64_t seed, std::vector<Forest*> forests) {
+  std::vector<size_t> order(draws.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return draws[a].samples.items.size() > draws[b].samples.items.size();
+  });
+  for (const TreeDraw& draw : draws) {
+    Forest& forest = *forests[static_cast<int>(draw.kind)];
+    forest.trees.resize(std::max<size_t>(forest.trees.size(), draw.tree + 1));
+  }
+  std::atomic<size_t> next{0};
+  const int workers = std::max(1, tbb::this_task_arena::max_concurrency());
+  tbb::parallel_for(0, workers, [&](int) {
+    for (size_t k = next++; k < order.size(); k = next++) {
+      TreeDraw& draw = draws[order[k]];
+      const auto start = std::chrono::steady_clock::now();
+      forests[static_cast<int>(draw.kind)]->trees[draw.tree] =
+          growTree(images, draw.samples, *draw.params, treeSeed(seed, draw.kind, draw.tree), progress);
+      if (progress.tree_done)
+        progress.tree_done(draw.kind, draw.tree,
+                           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      draw.samples.items.clear();
+      draw.samples.items.shrink_to_fit();
+    }
+  }, tbb::simple_partitioner());
+}
+
+void reportDrawn(const std::vector<TreeDraw>& draws, const TrainingProgress& progress) {
+  if (!progress.samples_drawn) return;
+  for (ForestKind kind : {ForestKind::Points, ForestKind::Lines}) {
+    size_t total = 0;
+    bool any = false;
+    for (const TreeDraw& draw : draws)
+      if (draw.kind == kind) {
+        total += draw.samples.items.size();
+        any = true;
+      }
+    if (any) progress.samples_drawn(total);
+  }
+}
+
+std::vector<ForestKind> enabledForests(const TrainingParams& params) {
+  std::vector<ForestKind> kinds;
+  if (params.train_points) kinds.push_back(ForestKind::Points);
+  if (params.train_lines) kinds.push_back(ForestKind::Lines);
+  return kinds;
+}
+
+void trainForestsImpl(const std::vector<TrainingImage>& images, const TrainingParams& params,
+                      Forest& points, Forest& lines, const TrainingProgress& progress,
+                      const std::function<void(int)>& image_done) {
+  std::vector<TreeDraw> draws = drawSamples(images, params, enabledForests(params), image_done);
+  reportDrawn(draws, progress);
+  if (params.train_points) points = Forest{};
+  if (params.train_lines) lines = Forest{};
+  growTrees(images, draws, progress, params.seed, {&points, &lines});
+}
+
+}  // namespace
+
 std::vector<TreeSamples> drawTreeSamples(const std::vector<TrainingImage>& images, ForestKind kind,
                                          const TrainingParams& params) {
-  const ForestParams& forest = kind == ForestKind::Points ? params.points : params.lines;
-  const int n_images = static_cast<int>(images.size());
-  std::vector<LineSamples> line_cache;
-  if (kind == ForestKind::Lines) {
-    line_cache.resize(n_images);
-    tbb::parallel_for(0, n_images, [&](int i) {
-      std::mt19937 rng(static_cast<uint32_t>(treeSeed(params.seed, kind, 100000 + i)));
-      line_cache[i] = sampleLines(asFrame(images[i]), params.line_sampling, 0, rng);
-    });
-  }
-  std::vector<TreeSamples> trees(forest.trees);
-  tbb::parallel_for(0, forest.trees, [&](int t) {
-    std::mt19937 rng(static_cast<uint32_t>(treeSeed(params.seed, kind, t)));
-    const std::vector<int> chosen = chooseImages(n_images, forest.images_per_tree, rng);
-    std::vector<Sample> drawn;
-    for (int i : chosen) {
-      drawn.clear();
-      if (kind == ForestKind::Points) {
-        samplePoints(asFrame(images[i]), forest.samples_per_image, rng, drawn);
-      } else {
-        const auto& all = line_cache[i].samples;
-        const int take = std::min<int>(forest.samples_per_image, static_cast<int>(all.size()));
-        std::vector<int> order(all.size());
-        std::iota(order.begin(), order.end(), 0);
-        for (int k = 0; k < take; ++k) {
-          std::uniform_int_distribution<int> pick(k, static_cast<int>(order.size()) - 1);
-          std::swap(order[k], order[pick(rng)]);
-          drawn.push_back(all[order[k]]);
-        }
-      }
-      for (const Sample& s : drawn) trees[t].items.push_back(makeItem(i, s, images[i].pose));
-    }
-  });
-  return trees;
+  std::vector<TreeDraw> draws = drawSamples(images, params, {kind}, {});
+  std::vector<TreeSamples> samples;
+  for (TreeDraw& draw : draws) samples.push_back(std::move(draw.samples));
+  return samples;
 }
 
 Forest trainForest(const std::vector<TrainingImage>& images, ForestKind kind,
                    const TrainingParams& params, const TrainingProgress& progress) {
-  const ForestParams& forest_params = kind == ForestKind::Points ? params.points : params.lines;
-  std::vector<TreeSamples> samples = drawTreeSamples(images, kind, params);
-  if (progress.samples_drawn) {
-    size_t total = 0;
-    for (const auto& s : samples) total += s.items.size();
-    progress.samples_drawn(total);
-  }
-  Forest forest;
-  forest.trees.resize(samples.size());
-  tbb::parallel_for(0, static_cast<int>(samples.size()), [&](int t) {
-    const auto start = std::chrono::steady_clock::now();
-    forest.trees[t] =
-        growTree(images, samples[t], forest_params, treeSeed(params.seed, kind, t), progress);
-    if (progress.tree_done)
-      progress.tree_done(kind, t, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-    samples[t].items.clear();
-    samples[t].items.shrink_to_fit();
-  });
-  return forest;
+  std::vector<TreeDraw> draws = drawSamples(images, params, {kind}, {});
+  reportDrawn(draws, progress);
+  Forest points, lines;
+  growTrees(images, draws, progress, params.seed, {&points, &lines});
+  return kind == ForestKind::Points ? points : lines;
 }
 
 }  // namespace relocalizer
@@ -141,13 +249,15 @@ SurfaceModel buildSurface(const std::vector<TrainingImage>& images, const Surfac
 
 void trainForests(const std::vector<TrainingImage>& images, const TrainingParams& params,
                   Forest& points, Forest& lines, const TrainingProgress& progress) {
-  tbb::parallel_invoke(
-      [&] {
-        if (params.train_points) points = trainForest(images, ForestKind::Points, params, progress);
-      },
-      [&] {
-        if (params.train_lines) lines = trainForest(images, ForestKind::Lines, params, progress);
-      });
+  trainForestsImpl(images, params, points, lines, progress, {});
 }
 
+void trainForestsReleasingDepth(std::vector<TrainingImage>& images, const TrainingParams& params,
+                                Forest& points, Forest& lines, const TrainingProgress& progress) {
+  const bool depth_features = (params.train_points && params.points.depth_feature_share > 0.0f) ||
+                              (params.train_lines && params.lines.depth_feature_share > 0.0f);
+  std::function<void(int)> release;
+  if (!depth_features) release = [&images](int i) { images[i].depth.release(); };
+  trainForestsImpl(images, params, points, lines, progress, release);
+}
 }  // namespace relocalizer

@@ -101,15 +101,16 @@ class TreeGrower {
   void makeLeaf(Tree& tree, const NodeTask& task);
 
   // The leaf's labels into points_ (and their items into members_); mean shift
-  // is quadratic, so large leaves contribute a strided subset. Returns the stride.
-  size_t gatherLeafPoints(const NodeTask& task);
+  // is quadratic, so large leaves contribute a strided subset.
+  void gatherLeafPoints(const NodeTask& task);
 
   // Per mode, the sum of the WHT descriptors of the samples assigned to it.
   std::vector<DescriptorF> modeDescriptorSums(size_t mode_count) const;
 
-  // A mode as the model stores it: support scaled back up by the stride, the
-  // covariance as its inverse, the descriptor sum normalised and quantised.
-  static LeafMode leafMode(const Mode3D& mode, size_t stride, DescriptorF& descriptor_sum);
+  // A mode as the model stores it: the covariance as its inverse.
+  static LeafMode leafMode(const Mode3D& mode);
+  // A mode's descriptor: the sum of its samples' normalised and quantised.
+  static Descriptor modeDescriptor(DescriptorF& descriptor_sum);
 
   const std::vector<TrainingImage>& images_;
   std::vector<TreeSamples::Item>& items_;
@@ -118,6 +119,11 @@ class TreeGrower {
   const TrainingProgress& progress_;
   std::vector<FeatureImage> views_;
   std::vector<float> values_;
+  // Each scoring sample's label as LabelStats of one sample: its products are
+  // formed once per node instead of once per candidate feature, and adding it
+  // to a bin is the same arithmetic as LabelStats::add of the label.
+  std::vector<LabelStats> moments_;
+  std::vector<uint32_t> bin_of_;
   std::vector<float> thresholds_;
   std::vector<LabelStats> bins_;
   std::vector<Eigen::Vector3f> points_;
@@ -135,6 +141,8 @@ TreeGrower::TreeGrower(const std::vector<TrainingImage>& images, TreeSamples& sa
   views_.reserve(images.size());
   for (const auto& image : images) views_.push_back(image.view());
   values_.resize(std::max(1, params.split_sample_cap));
+  moments_.resize(values_.size());
+  bin_of_.resize(values_.size());
   thresholds_.resize(std::max(1, params.threshold_candidates));
   bins_.resize(thresholds_.size() + 1);
 }
@@ -192,7 +200,12 @@ bool TreeGrower::trySplit(const NodeTask& task, PixelFeature& best_feature, floa
 
   const size_t subset = moveScoringSubsetToFront(task);
   LabelStats parent;
-  for (size_t i = 0; i < subset; ++i) parent.add(items_[task.begin + i].world);
+  for (size_t i = 0; i < subset; ++i) {
+    const Eigen::Vector3f& label = items_[task.begin + i].world;
+    parent.add(label);
+    moments_[i] = LabelStats{};
+    moments_[i].add(label);
+  }
   const double parent_entropy = parent.entropy();
   const double min_side =
       std::max(1.0, static_cast<double>(min_leaf) * static_cast<double>(subset) / n);
@@ -224,18 +237,33 @@ void TreeGrower::scoreFeature(const PixelFeature& feature, const NodeTask& task,
                               const LabelStats& parent, double parent_entropy, double min_side,
                               std::uniform_int_distribution<size_t>& pick_value,
                               SplitChoice& best) {
-  for (size_t i = 0; i < subset; ++i) values_[i] = evaluate(feature, items_[task.begin + i]);
+  // The samples' pixels are scattered over hundreds of images, nearly all
+  // cache misses: prefetching kAhead samples ahead keeps several in flight.
+  constexpr size_t kAhead = 16;
+  const TreeSamples::Item* items = items_.data() + task.begin;
+  for (size_t i = 0; i < subset; ++i) {
+    if (i + kAhead < subset) {
+      const TreeSamples::Item& ahead = items[i + kAhead];
+      prefetchFeature(feature, views_[ahead.image], ahead.u, ahead.v, ahead.depth);
+    }
+    values_[i] = evaluate(feature, items[i]);
+  }
   const size_t t_count = thresholds_.size();
   for (size_t t = 0; t < t_count; ++t) thresholds_[t] = values_[pick_value(rng_)];
   std::sort(thresholds_.begin(), thresholds_.end());
   for (auto& bin : bins_) bin = LabelStats{};
+  // Bin b holds values in [thresholds[b-1], thresholds[b]); "v < thresholds[k]"
+  // (go left) is then "bin <= k". The bin is the upper_bound index, counted
+  // without branches (a binary search over random values mispredicts half its
+  // branches); the same for every value, as feature values are never NaN.
+  const float* thresholds = thresholds_.data();
   for (size_t i = 0; i < subset; ++i) {
-    // Bin b holds values in [thresholds[b-1], thresholds[b]); "v < thresholds[k]"
-    // (go left) is then "bin <= k".
-    const size_t bin =
-        std::upper_bound(thresholds_.begin(), thresholds_.end(), values_[i]) - thresholds_.begin();
-    bins_[bin].add(items_[task.begin + i].world);
+    const float value = values_[i];
+    unsigned bin = 0;
+    for (size_t t = 0; t < t_count; ++t) bin += thresholds[t] <= value ? 1u : 0u;
+    bin_of_[i] = bin;
   }
+  for (size_t i = 0; i < subset; ++i) bins_[bin_of_[i]].add(moments_[i]);
   LabelStats left;
   for (size_t k = 0; k < t_count; ++k) {
     left.add(bins_[k]);
@@ -267,20 +295,21 @@ size_t TreeGrower::partition(const NodeTask& task, const PixelFeature& feature, 
 }
 
 void TreeGrower::makeLeaf(Tree& tree, const NodeTask& task) {
-  const size_t stride = gatherLeafPoints(task);
+  gatherLeafPoints(task);
   const std::vector<Mode3D> modes = meanShiftModes(points_, params_.mean_shift, &assignment_);
   std::vector<DescriptorF> descriptors = modeDescriptorSums(modes.size());
   LeafRange range;
   range.first_mode = static_cast<uint32_t>(tree.modes.size());
   range.mode_count = static_cast<uint32_t>(modes.size());
-  for (size_t m = 0; m < modes.size(); ++m)
-    tree.modes.push_back(leafMode(modes[m], stride, descriptors[m]));
-  tree.nodes[task.node].left = SplitNode::encodeLeaf(static_cast<int32_t>(tree.leaves.size()));
-  tree.leaves.push_back(range);
+  for (size_t m = 0; m < modes.size(); ++m) {
+    tree.modes.push_back(leafMode(modes[m]));
+    tree.descriptors.push_back(modeDescriptor(descriptors[m]));
+  }
+  tree.nodes[task.node] = SplitNode::leaf(range);
   if (progress_.samples_done) progress_.samples_done(task.end - task.begin);
 }
 
-size_t TreeGrower::gatherLeafPoints(const NodeTask& task) {
+void TreeGrower::gatherLeafPoints(const NodeTask& task) {
   const size_t n = task.end - task.begin;
   constexpr size_t kMaxLeafPoints = 600;
   const size_t stride = std::max<size_t>(1, (n + kMaxLeafPoints - 1) / kMaxLeafPoints);
@@ -290,7 +319,6 @@ size_t TreeGrower::gatherLeafPoints(const NodeTask& task) {
     points_.push_back(items_[i].world);
     members_.push_back(i);
   }
-  return stride;
 }
 
 std::vector<DescriptorF> TreeGrower::modeDescriptorSums(size_t mode_count) const {
@@ -306,17 +334,19 @@ std::vector<DescriptorF> TreeGrower::modeDescriptorSums(size_t mode_count) const
   return sums;
 }
 
-LeafMode TreeGrower::leafMode(const Mode3D& mode, size_t stride, DescriptorF& descriptor_sum) {
+LeafMode TreeGrower::leafMode(const Mode3D& mode) {
   LeafMode out;
   out.mean = mode.mean;
-  out.support = static_cast<float>(mode.support * stride);
   out.setCovariance(mode.covariance);
+  return out;
+}
+
+Descriptor TreeGrower::modeDescriptor(DescriptorF& descriptor_sum) {
   float norm = 0.0f;
   for (float x : descriptor_sum) norm += x * x;
   if (norm > 0.0f)
     for (float& x : descriptor_sum) x /= std::sqrt(norm);
-  out.descriptor = quantizeDescriptor(descriptor_sum);
-  return out;
+  return quantizeDescriptor(descriptor_sum);
 }
 
 }  // namespace
@@ -326,9 +356,7 @@ Tree growTree(const std::vector<TrainingImage>& images, TreeSamples& samples,
   if (samples.items.empty()) {
     // No data (e.g. no line segments at all): a single leaf without modes.
     Tree tree;
-    tree.nodes.emplace_back();
-    tree.nodes[0].left = SplitNode::encodeLeaf(0);
-    tree.leaves.push_back({0, 0});
+    tree.nodes.push_back(SplitNode::leaf({0, 0}));
     return tree;
   }
   return TreeGrower(images, samples, params, seed, progress).grow();

@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <cstring>
 #include <memory>
 
 namespace relocalizer {
@@ -116,77 +117,104 @@ void perturbed(const double* delta, const Eigen::Matrix3d& r0, const Eigen::Vect
   jl = leftJacobian(w);
 }
 
-class PointToPointAnalytic : public ceres::SizedCostFunction<3, 6> {
+// R, t and J_l at the parameters being evaluated, shared by every term of one
+// problem. All terms have the one parameter block, and Ceres evaluates them one
+// after another at the same values (num_threads = 1), so the exponential map
+// and J_l, once two thirds of each term's cost, are computed once per
+// evaluation point. Compared bit for bit, so the values are exactly those each term would
+// compute for itself.
+class SharedPerturbation {
  public:
-  PointToPointAnalytic(const RefinementTerm& term, const Pose& base)
-      : camera_(term.camera_point), mean_(term.mode_mean), r0_(base.linear()), t0_(base.translation()),
-        sqrt_information_(term.information.llt().matrixL().transpose()) {}
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    Eigen::Matrix3d r, jl;
-    Eigen::Vector3d t;
-    perturbed(parameters[0], r0_, t0_, r, t, jl);
-    const Eigen::Vector3d rc = r * camera_;
-    Eigen::Map<Eigen::Vector3d> out(residuals);
-    out = sqrt_information_ * (rc + t - mean_);
-    if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>> j(jacobians[0]);
-      j.leftCols<3>() = sqrt_information_;
-      j.rightCols<3>() = -sqrt_information_ * skew(rc) * jl;
-    }
-    return true;
+  explicit SharedPerturbation(const Pose& base) : r0_(base.linear()), t0_(base.translation()) {}
+  void update(const double* delta) {
+    if (valid_ && std::memcmp(delta, delta_, sizeof delta_) == 0) return;
+    std::memcpy(delta_, delta, sizeof delta_);
+    perturbed(delta, r0_, t0_, r_, t_, jl_);
+    valid_ = true;
   }
+  const Eigen::Matrix3d& rotation() const { return r_; }
+  const Eigen::Vector3d& translation() const { return t_; }
+  const Eigen::Matrix3d& leftJacobian() const { return jl_; }
 
  private:
-  Eigen::Vector3d camera_, mean_;
   Eigen::Matrix3d r0_;
   Eigen::Vector3d t0_;
-  Eigen::Matrix3d sqrt_information_;
+  double delta_[6] = {0, 0, 0, 0, 0, 0};
+  bool valid_ = false;
+  Eigen::Matrix3d r_, jl_;
+  Eigen::Vector3d t_;
 };
 
-class PointOnLineAnalytic : public ceres::SizedCostFunction<3, 6> {
- public:
-  PointOnLineAnalytic(const RefinementTerm& term, const Pose& base)
-      : mean_(term.mode_mean), line_point_(term.line_point), line_direction_(term.line_direction),
-        r0_(base.linear()), t0_(base.translation()),
-        sqrt_information_(term.information.llt().matrixL().transpose()) {}
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    Eigen::Matrix3d r, jl;
-    Eigen::Vector3d t;
-    perturbed(parameters[0], r0_, t0_, r, t, jl);
-    const Eigen::Vector3d d = r * line_direction_;
-    const Eigen::Vector3d ra = r * line_point_;
-    const Eigen::Vector3d m = mean_ - ra - t;
-    const Eigen::Matrix3d projector = Eigen::Matrix3d::Identity() - d * d.transpose();
-    Eigen::Map<Eigen::Vector3d> out(residuals);
-    out = sqrt_information_ * (projector * m);
-    if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>> j(jacobians[0]);
-      const Eigen::Matrix3d skew_d = skew(d), skew_ra = skew(ra);
-      j.leftCols<3>() = -sqrt_information_ * projector;
-      j.rightCols<3>() = sqrt_information_ *
-                         (skew_ra + d.dot(m) * skew_d + d * (m.transpose() * skew_d) -
-                          d * (d.transpose() * skew_ra)) *
-                         jl;
-    }
-    return true;
-  }
+Eigen::Matrix3d sqrtInformation(const RefinementTerm& term) {
+  return term.information.llt().matrixL().transpose();
+}
 
- private:
-  Eigen::Vector3d mean_, line_point_, line_direction_;
-  Eigen::Matrix3d r0_;
-  Eigen::Vector3d t0_;
-  Eigen::Matrix3d sqrt_information_;
-};
-
-void addTerms(ceres::Problem& problem, double* delta, const std::vector<RefinementTerm>& terms,
-              const Pose& base, ceres::LossFunction* loss) {
-  for (const RefinementTerm& term : terms) {
-    if (term.on_line)
-      problem.AddResidualBlock(new PointOnLineAnalytic(term, base), loss, delta);
-    else
-      problem.AddResidualBlock(new PointToPointAnalytic(term, base), loss, delta);
+// E_p and E_l with their Jacobians (row-major 3 x 6, if `jacobian` is not
+// null) at the shared pose.
+void pointToPoint(const RefinementTerm& term, const Eigen::Matrix3d& sqrt_information,
+                  const SharedPerturbation& pose, double* residuals, double* jacobian) {
+  const Eigen::Vector3d rc = pose.rotation() * term.camera_point;
+  Eigen::Map<Eigen::Vector3d> out(residuals);
+  out = sqrt_information * (rc + pose.translation() - term.mode_mean);
+  if (jacobian) {
+    Eigen::Map<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>> j(jacobian);
+    j.leftCols<3>() = sqrt_information;
+    j.rightCols<3>() = -sqrt_information * skew(rc) * pose.leftJacobian();
   }
 }
+
+void pointOnLine(const RefinementTerm& term, const Eigen::Matrix3d& sqrt_information,
+                 const SharedPerturbation& pose, double* residuals, double* jacobian) {
+  const Eigen::Matrix3d& r = pose.rotation();
+  const Eigen::Vector3d d = r * term.line_direction;
+  const Eigen::Vector3d ra = r * term.line_point;
+  const Eigen::Vector3d m = term.mode_mean - ra - pose.translation();
+  const Eigen::Matrix3d projector = Eigen::Matrix3d::Identity() - d * d.transpose();
+  Eigen::Map<Eigen::Vector3d> out(residuals);
+  out = sqrt_information * (projector * m);
+  if (jacobian) {
+    Eigen::Map<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>> j(jacobian);
+    const Eigen::Matrix3d skew_d = skew(d), skew_ra = skew(ra);
+    j.leftCols<3>() = -sqrt_information * projector;
+    j.rightCols<3>() = sqrt_information *
+                       (skew_ra + d.dot(m) * skew_d + d * (m.transpose() * skew_d) -
+                        d * (d.transpose() * skew_ra)) *
+                       pose.leftJacobian();
+  }
+}
+
+// One term for Ceres: E_p or E_l with the hand-derived Jacobian.
+class AnalyticTerm : public ceres::SizedCostFunction<3, 6> {
+ public:
+  AnalyticTerm(const RefinementTerm& term, SharedPerturbation& pose)
+      : term_(term), pose_(pose), sqrt_information_(sqrtInformation(term)) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    pose_.update(parameters[0]);
+    double* jacobian = jacobians ? jacobians[0] : nullptr;
+    if (term_.on_line)
+      pointOnLine(term_, sqrt_information_, pose_, residuals, jacobian);
+    else
+      pointToPoint(term_, sqrt_information_, pose_, residuals, jacobian);
+    return true;
+  }
+
+ private:
+  const RefinementTerm& term_;  // outlives the problem
+  SharedPerturbation& pose_;
+  Eigen::Matrix3d sqrt_information_;
+};
+
+// The cost functions of one problem, owned here rather than by the problem:
+// a problem that owns them keeps a reference count per cost function (a map
+// insert per term), which cost more than evaluating the term.
+struct TermCosts {
+  TermCosts(const std::vector<RefinementTerm>& terms, const Pose& base) : pose(base) {
+    costs.reserve(terms.size());
+    for (const RefinementTerm& term : terms) costs.push_back(std::make_unique<AnalyticTerm>(term, pose));
+  }
+  SharedPerturbation pose;
+  std::vector<std::unique_ptr<AnalyticTerm>> costs;
+};
 
 Pose applyDelta(const double* delta, const Pose& base) {
   Eigen::Matrix3d r;
@@ -207,12 +235,12 @@ ResidualJacobians residualJacobians(const Pose& base, const RefinementTerm& term
   double* autodiff_blocks[1] = {out.autodiff.data()};
   const double* parameters[1] = {delta};
   Eigen::Vector3d residual;
+  SharedPerturbation pose(base);
+  AnalyticTerm(term, pose).Evaluate(parameters, residual.data(), analytic_blocks);
   if (term.on_line) {
-    PointOnLineAnalytic(term, base).Evaluate(parameters, residual.data(), analytic_blocks);
     ceres::AutoDiffCostFunction<PointOnLineCost, 3, 6> reference(new PointOnLineCost(term, base));
     reference.Evaluate(parameters, out.residual.data(), autodiff_blocks);
   } else {
-    PointToPointAnalytic(term, base).Evaluate(parameters, residual.data(), analytic_blocks);
     ceres::AutoDiffCostFunction<PointToPointCost, 3, 6> reference(new PointToPointCost(term, base));
     reference.Evaluate(parameters, out.residual.data(), autodiff_blocks);
   }
@@ -237,20 +265,34 @@ Eigen::Vector3d lineResidual(const Pose& pose, const RefinementTerm& term) {
 namespace {
 
 // Gauss-Newton information of all terms at `pose`, robust weights included,
-// inverted: the covariance of the left perturbation (v, w).
+// inverted: the covariance of the left perturbation (v, w). The Jacobians are
+// the cost functions' own, scaled as Ceres' loss corrector scales them: for
+// the Cauchy loss (rho'' < 0) that is sqrt(rho'(|r|^2)) on every entry. No
+// problem is built: that would cost a residual block per term for one
+// evaluation.
 Matrix6d covarianceAt(const Pose& pose, const std::vector<RefinementTerm>& terms,
-                      ceres::LossFunction* loss, const ceres::Problem::Options& problem_options) {
-  double zero[6] = {0, 0, 0, 0, 0, 0};
-  ceres::Problem at_solution(problem_options);
-  addTerms(at_solution, zero, terms, pose, loss);
-  ceres::CRSMatrix jacobian;
-  at_solution.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, nullptr, nullptr, &jacobian);
+                      const ceres::LossFunction* loss) {
+  const double zero[6] = {0, 0, 0, 0, 0, 0};
+  SharedPerturbation at(pose);
+  Eigen::Matrix<double, 3, 6, Eigen::RowMajor> jacobian;
+  Eigen::Vector3d residual;
   Matrix6d information = Matrix6d::Zero();
-  for (int row = 0; row < jacobian.num_rows; ++row) {
-    Eigen::Matrix<double, 6, 1> j = Eigen::Matrix<double, 6, 1>::Zero();
-    for (int k = jacobian.rows[row]; k < jacobian.rows[row + 1]; ++k)
-      j(jacobian.cols[k]) = jacobian.values[k];
-    information += j * j.transpose();
+  at.update(zero);
+  for (const RefinementTerm& term : terms) {
+    if (term.on_line)
+      pointOnLine(term, sqrtInformation(term), at, residual.data(), jacobian.data());
+    else
+      pointToPoint(term, sqrtInformation(term), at, residual.data(), jacobian.data());
+    if (loss) {
+      double rho[3];
+      // Ceres' expression, so the weight is the one it would apply.
+      loss->Evaluate(Eigen::Map<const Eigen::VectorXd>(residual.data(), 3).squaredNorm(), rho);
+      Eigen::Map<Eigen::VectorXd>(jacobian.data(), 18) *= std::sqrt(rho[1]);
+    }
+    for (int row = 0; row < 3; ++row) {
+      const Eigen::Matrix<double, 6, 1> j = jacobian.row(row).transpose();
+      information += j * j.transpose();
+    }
   }
   Eigen::FullPivLU<Matrix6d> lu(information);
   return lu.isInvertible() ? Matrix6d(lu.inverse()) : Matrix6d(Matrix6d::Identity() * 1e6);
@@ -269,6 +311,10 @@ Pose refinePose(const Pose& initial, const std::vector<RefinementTerm>& terms,
   if (params.robust_scale > 0) loss = std::make_unique<ceres::CauchyLoss>(params.robust_scale);
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  // The problem is built here, one parameter block and well-formed terms: the
+  // per-term checks (a sort and allocation each) would find nothing.
+  problem_options.disable_all_safety_checks = true;
 
   // A deterministic, evenly spread subset bounds the solve's cost; the
   // covariance below still uses every term.
@@ -283,20 +329,21 @@ Pose refinePose(const Pose& initial, const std::vector<RefinementTerm>& terms,
   }
 
   double delta[6] = {0, 0, 0, 0, 0, 0};
+  TermCosts costs(*solve_terms, initial);  // not const: the terms update its pose
   ceres::Problem problem(problem_options);
-  addTerms(problem, delta, *solve_terms, initial, loss.get());
+  for (const auto& cost : costs.costs) problem.AddResidualBlock(cost.get(), loss.get(), delta);
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   options.minimizer_type = ceres::TRUST_REGION;
   options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   options.max_num_iterations = max_iterations > 0 ? max_iterations : params.lm_iterations;
-  options.num_threads = 1;
+  options.num_threads = 1;  // SharedPerturbation relies on one evaluation at a time
   options.logging_type = ceres::SILENT;
   options.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   const Pose refined = applyDelta(delta, initial);
-  if (covariance) *covariance = covarianceAt(refined, terms, loss.get(), problem_options);
+  if (covariance) *covariance = covarianceAt(refined, terms, loss.get());
   return refined;
 }
 

@@ -91,6 +91,15 @@ int main(int argc, char** argv) {
 
   Model model;
   model.params = params;
+  // Before the forests: they release each image's depth once its samples are
+  // drawn, and the surface is fused from that depth.
+  double surface_seconds = 0.0;
+  if (params.build_surface) {
+    const auto surface_start = std::chrono::steady_clock::now();
+    model.surface = buildSurface(images, params.surface);
+    surface_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - surface_start).count();
+  }
   std::mutex tree_mutex;
   std::vector<double> tree_seconds[2];
   {
@@ -104,14 +113,7 @@ int main(int argc, char** argv) {
       if (static_cast<int>(times.size()) <= tree) times.resize(tree + 1);
       times[tree] = seconds;
     };
-    trainForests(images, params, model.points, model.lines, progress);
-  }
-  double surface_seconds = 0.0;
-  if (params.build_surface) {
-    const auto surface_start = std::chrono::steady_clock::now();
-    model.surface = buildSurface(images, params.surface);
-    surface_seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - surface_start).count();
+    trainForestsReleasingDepth(images, params, model.points, model.lines, progress);
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -130,6 +132,9 @@ int main(int argc, char** argv) {
     summary.scene_min = summary.scene_min.cwiseMin(image.pose.translation().cast<float>());
     summary.scene_max = summary.scene_max.cwiseMax(image.pose.translation().cast<float>());
   }
+  // The images are the bulk of training's memory; serialising needs about the
+  // model's size again.
+  images = {};
   if (const Status saved = saveModel(model, output); !saved) return cli::fail(app, saved.error(), 1);
   const auto bytes = std::filesystem::file_size(output);
 

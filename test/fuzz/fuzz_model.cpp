@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <iterator>
 #include <vector>
 
 #include "relocalizer/forest/forest.h"
@@ -47,12 +48,12 @@ struct TinyImage {
 void checkInvariants(const Forest& forest) {
   if (forest.trees.size() > static_cast<size_t>(kMaxTrees)) std::abort();
   for (const Tree& tree : forest.trees) {
-    if (tree.nodes.empty()) std::abort();
+    if (tree.nodes.empty() || tree.descriptors.size() != tree.modes.size()) std::abort();
     for (size_t i = 0; i < tree.nodes.size(); ++i) {
       const SplitNode& node = tree.nodes[i];
       if (node.left < 0) {
-        const int64_t leaf = -(static_cast<int64_t>(node.left) + 1);
-        if (leaf >= static_cast<int64_t>(tree.leaves.size())) std::abort();
+        const LeafRange leaf = node.leafModes();
+        if (static_cast<uint64_t>(leaf.first_mode) + leaf.mode_count > tree.modes.size()) std::abort();
         continue;
       }
       if (static_cast<size_t>(node.left) <= i || static_cast<size_t>(node.left) + 1 >= tree.nodes.size())
@@ -60,8 +61,6 @@ void checkInvariants(const Forest& forest) {
       const PixelFeature& f = node.feature;
       if (f.type == FeatureType::Colour && (f.channel_p > 2 || f.channel_q > 2)) std::abort();
     }
-    for (const LeafRange& leaf : tree.leaves)
-      if (static_cast<uint64_t>(leaf.first_mode) + leaf.mode_count > tree.modes.size()) std::abort();
   }
 }
 
@@ -93,6 +92,11 @@ void useForest(const Forest& forest) {
       }
     }
   }
+  // The lock-step descent reads the same arrays by another path.
+  const std::vector<Sample> samples(std::begin(corners), std::end(corners));
+  const std::vector<Descriptor> descriptors(samples.size(), descriptor);
+  std::vector<Prediction> predictions;
+  predictForest(forest, image.view, samples, descriptors, PredictionParams{}, predictions);
 }
 
 void exercise(const uint8_t* data, size_t size) {

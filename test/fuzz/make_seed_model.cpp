@@ -12,13 +12,14 @@ using namespace relocalizer;
 
 namespace {
 
-LeafMode mode(float x, float y, float z, int8_t d0) {
+void addMode(Tree& t, float x, float y, float z, int8_t d0) {
   LeafMode m;
   m.mean = Eigen::Vector3f(x, y, z);
-  m.support = 10.0f;
   m.setCovariance(Eigen::Matrix3f::Identity() * 0.01f);
-  m.descriptor[0] = d0;
-  return m;
+  t.modes.push_back(m);
+  Descriptor d{};
+  d[0] = d0;
+  t.descriptors.push_back(d);
 }
 
 Tree splitTree(FeatureType type) {
@@ -31,22 +32,17 @@ Tree splitTree(FeatureType type) {
   root.feature.channel_q = 2;
   root.threshold = type == FeatureType::Colour ? 3.0f : 0.05f;
   root.left = 1;
-  SplitNode left, right;
-  left.left = SplitNode::encodeLeaf(0);
-  right.left = SplitNode::encodeLeaf(1);
-  t.nodes = {root, left, right};
-  t.leaves = {LeafRange{0, 2}, LeafRange{2, 1}};
-  t.modes = {mode(0.1f, 0.2f, 1.5f, 100), mode(-0.3f, 0.0f, 2.0f, -50), mode(1.0f, 1.0f, 1.0f, 7)};
+  t.nodes = {root, SplitNode::leaf({0, 2}), SplitNode::leaf({2, 1})};
+  addMode(t, 0.1f, 0.2f, 1.5f, 100);
+  addMode(t, -0.3f, 0.0f, 2.0f, -50);
+  addMode(t, 1.0f, 1.0f, 1.0f, 7);
   return t;
 }
 
 Tree leafTree() {
   Tree t;
-  SplitNode leaf;
-  leaf.left = SplitNode::encodeLeaf(0);
-  t.nodes = {leaf};
-  t.leaves = {LeafRange{0, 1}};
-  t.modes = {mode(0.5f, 0.5f, 0.5f, 1)};
+  t.nodes = {SplitNode::leaf({0, 1})};
+  addMode(t, 0.5f, 0.5f, 0.5f, 1);
   return t;
 }
 

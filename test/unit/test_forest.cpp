@@ -1,12 +1,13 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <random>
 #include <tbb/global_control.h>
 #include <zlib.h>
-
-#include <cstring>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -181,6 +182,70 @@ TEST(Descriptor, UnitLengthAndInvariantToContrastGain) {
   EXPECT_GT(f[2 * kDescriptorPerChannel], f[0]);  // red (30) over blue (10)
 }
 
+namespace {
+
+// The descriptor as first written: 2x2 box filter to 8x8 cells, a full float
+// fast WHT of rows then columns, and the 4x4 low-sequency corner. The library
+// computes only those 16 coefficients, in integers; the floats must be the same.
+DescriptorF referenceDescriptor(const FeatureImage& image, int u, int v) {
+  auto hadamard8 = [](float* x, int stride) {
+    for (int half = 1; half < 8; half *= 2)
+      for (int start = 0; start < 8; start += 2 * half)
+        for (int i = start; i < start + half; ++i) {
+          const float a = x[i * stride], b = x[(i + half) * stride];
+          x[i * stride] = a + b;
+          x[(i + half) * stride] = a - b;
+        }
+  };
+  constexpr int kLowSequency[4] = {0, 4, 6, 2};
+  float cells[3][64];
+  for (int cy = 0; cy < 8; ++cy)
+    for (int cx = 0; cx < 8; ++cx) {
+      int sum[3] = {0, 0, 0};
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const int y = std::clamp(v - 8 + 2 * cy + dy, 0, image.height - 1);
+          const int x = std::clamp(u - 8 + 2 * cx + dx, 0, image.width - 1);
+          for (int c = 0; c < 3; ++c) sum[c] += image.colour[y * image.colour_stride + x * 3 + c];
+        }
+      for (int c = 0; c < 3; ++c) cells[c][cy * 8 + cx] = static_cast<float>(sum[c]);
+    }
+  DescriptorF out;
+  float norm = 0.0f;
+  for (int c = 0; c < 3; ++c) {
+    for (int row = 0; row < 8; ++row) hadamard8(cells[c] + row * 8, 1);
+    for (int col = 0; col < 8; ++col) hadamard8(cells[c] + col, 8);
+    for (int sy = 0; sy < 4; ++sy)
+      for (int sx = 0; sx < 4; ++sx) {
+        const float value = cells[c][kLowSequency[sy] * 8 + kLowSequency[sx]];
+        out[c * kDescriptorPerChannel + sy * 4 + sx] = value;
+        norm += value * value;
+      }
+  }
+  const float scale = norm > 0.0f ? 1.0f / std::sqrt(norm) : 0.0f;
+  for (float& value : out) value *= scale;
+  return out;
+}
+
+}  // namespace
+
+TEST(Descriptor, SameFloatsAsTheFullFloatTransformInsideAndAtBorders) {
+  cv::Mat colour(37, 53, CV_8UC3);
+  cv::RNG(7).fill(colour, cv::RNG::UNIFORM, 0, 256);  // not cv::theRNG(): later tests draw from it
+  cv::Mat depth(37, 53, CV_32FC1, cv::Scalar(1.0f));
+  const FeatureImage image = FeatureImage::of(colour, depth);
+  int compared = 0;
+  for (int v = -3; v < 40; v += 2)
+    for (int u = -3; u < 56; u += 3) {
+      const DescriptorF fast = computeDescriptor(image, u, v);
+      const DescriptorF reference = referenceDescriptor(image, u, v);
+      for (int i = 0; i < kDescriptorSize; ++i)
+        ASSERT_EQ(fast[i], reference[i]) << "pixel (" << u << ", " << v << "), coefficient " << i;
+      ++compared;
+    }
+  EXPECT_GT(compared, 300);
+}
+
 class TrainedTree : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -196,9 +261,11 @@ class TrainedTree : public ::testing::Test {
 TEST_F(TrainedTree, GrowsWithinLimitsAndEveryLeafHasAMode) {
   ASSERT_EQ(forest_.trees.size(), 2u);
   for (const Tree& t : forest_.trees) {
-    EXPECT_GT(t.leaves.size(), 10u);
+    EXPECT_GT(t.leafCount(), 10u);
     EXPECT_LE(t.depth(), params_.points.max_depth);
-    for (const LeafRange& l : t.leaves) EXPECT_GE(l.mode_count, 1u);
+    EXPECT_EQ(t.descriptors.size(), t.modes.size());
+    for (const SplitNode& n : t.nodes)
+      if (n.isLeaf()) EXPECT_GE(n.leafModes().mode_count, 1u);
   }
 }
 
@@ -216,11 +283,10 @@ TEST_F(TrainedTree, OneLeafBacktrackingEqualsPlainDescentAndMoreLeavesNeverWorse
   const Tree& tree = forest_.trees[0];
   for (size_t i = 0; i < samples.size(); ++i) {
     const Sample& s = samples[i];
-    const int32_t leaf = tree.descend(image.view(), s.u, s.v, s.depth);
-    const LeafRange& range = tree.leaves[leaf];
+    const LeafRange range = tree.descend(image.view(), s.u, s.v, s.depth);
     int32_t nearest = std::numeric_limits<int32_t>::max();
     for (uint32_t m = range.first_mode; m < range.first_mode + range.mode_count; ++m)
-      nearest = std::min(nearest, descriptorDistance(tree.modes[m].descriptor, descriptors[i]));
+      nearest = std::min(nearest, descriptorDistance(tree.descriptors[m], descriptors[i]));
     const ModeCandidate one = predictInTree(tree, image.view(), s, descriptors[i], 1);
     ASSERT_NE(one.mode, nullptr);
     EXPECT_EQ(one.descriptor_distance, nearest);
@@ -231,6 +297,49 @@ TEST_F(TrainedTree, OneLeafBacktrackingEqualsPlainDescentAndMoreLeavesNeverWorse
       const ModeCandidate more = predictInTree(tree, image.view(), s, descriptors[i], leaves);
       EXPECT_LE(more.descriptor_distance, previous);
       previous = more.descriptor_distance;
+    }
+  }
+}
+
+// predictForest descends many samples in lock-step; each tree's candidate must
+// be exactly the one the one-sample-at-a-time predictInTree gives, for any
+// backtracking budget, sample count (partial lane groups) and tree layout.
+TEST_F(TrainedTree, LockStepPredictionEqualsPerSamplePrediction) {
+  Forest forest = forest_;
+  forest.trees.push_back(Tree{});  // a tree without nodes contributes no candidate
+  forest.trees.push_back(forest_.trees[0]);
+  std::mt19937 rng(5);
+  for (int image_index : {1, 4}) {
+    const TrainingImage& image = images_[image_index];
+    RgbdFrame frame;
+    frame.colour = image.colour;
+    frame.depth = image.depth;
+    frame.camera = image.camera;
+    for (int count : {1, 17, 600}) {
+      std::vector<Sample> samples;
+      samplePoints(frame, count, rng, samples);
+      std::vector<Descriptor> descriptors;
+      computeDescriptors(image.view(), samples, descriptors);
+      for (int max_leaves : {1, 2, 3, 8, 16}) {
+        PredictionParams params;
+        params.max_leaves = max_leaves;
+        std::vector<Prediction> predictions;
+        predictForest(forest, image.view(), samples, descriptors, params, predictions);
+        ASSERT_EQ(predictions.size(), samples.size());
+        for (size_t i = 0; i < samples.size(); ++i) {
+          std::vector<ModeCandidate> expected;
+          for (const Tree& tree : forest.trees) {
+            const ModeCandidate c = predictInTree(tree, image.view(), samples[i], descriptors[i], max_leaves);
+            if (c.mode) expected.push_back(c);
+          }
+          ASSERT_EQ(predictions[i].count, static_cast<int>(expected.size()));
+          for (size_t k = 0; k < expected.size(); ++k) {
+            EXPECT_EQ(predictions[i].candidates[k].mode, expected[k].mode)
+                << "sample " << i << ", candidate " << k << ", max_leaves " << max_leaves;
+            EXPECT_EQ(predictions[i].candidates[k].descriptor_distance, expected[k].descriptor_distance);
+          }
+        }
+      }
     }
   }
 }
@@ -301,54 +410,144 @@ TEST_F(ModelFile, SurfaceRoundTrips) {
 }
 
 namespace {
-// The same model as format version 1 wrote it: no surface section after the
-// forests and no surface in the header JSON.
-std::vector<uint8_t> asVersion1(const std::vector<uint8_t>& v2, size_t surface_elements) {
-  constexpr size_t kPreamble = 8 + 4 + 4 + 8 + 4;
-  uint32_t header_size = 0;
-  std::memcpy(&header_size, v2.data() + kPreamble, 4);
-  nlohmann::json header = nlohmann::json::parse(
-      std::string(v2.begin() + kPreamble + 4, v2.begin() + kPreamble + 4 + header_size));
-  header.erase("surface");
-  header["params"].erase("surface");
-  header["format_version"] = 1;
-  const std::string text = header.dump();
-  std::vector<uint8_t> body(4 + text.size());
-  const uint32_t new_size = static_cast<uint32_t>(text.size());
-  std::memcpy(body.data(), &new_size, 4);
-  std::memcpy(body.data() + 4, text.data(), text.size());
-  // Forests as they are; the surface section (voxel size, count, elements) is last.
-  const size_t forests_begin = kPreamble + 4 + header_size;
-  std::vector<uint8_t> tail(v2.begin() + forests_begin, v2.end());
-  // The surface is the last 8 + 24 n bytes: voxel size, count n, n elements.
-  const size_t surface_size = 8 + 24 * surface_elements;
-  uint32_t count = 0;
-  std::memcpy(&count, tail.data() + tail.size() - surface_size + 4, 4);
-  if (count != surface_elements) return {};
-  tail.resize(tail.size() - surface_size);
-  body.insert(body.end(), tail.begin(), tail.end());
-  std::vector<uint8_t> out(v2.begin(), v2.begin() + 8);
-  const uint32_t version = 1, reserved = 0;
-  const uint64_t body_size = body.size();
+
+void expectSameForest(const Forest& a, const Forest& b) {
+  ASSERT_EQ(a.trees.size(), b.trees.size());
+  for (size_t t = 0; t < a.trees.size(); ++t) {
+    const Tree& x = a.trees[t];
+    const Tree& y = b.trees[t];
+    ASSERT_EQ(x.nodes.size(), y.nodes.size());
+    ASSERT_EQ(x.modes.size(), y.modes.size());
+    ASSERT_EQ(x.descriptors.size(), y.descriptors.size());
+    EXPECT_EQ(std::memcmp(x.nodes.data(), y.nodes.data(), x.nodes.size() * sizeof(SplitNode)), 0) << "tree " << t;
+    EXPECT_EQ(std::memcmp(x.modes.data(), y.modes.data(), x.modes.size() * sizeof(LeafMode)), 0) << "tree " << t;
+    EXPECT_EQ(x.descriptors, y.descriptors) << "tree " << t;
+  }
+}
+
+// The model as format version 1 (relocalizer 0.1.0) or 2 wrote it: leaf nodes
+// hold -(leaf index + 1) into a range array, modes are 92 bytes with the
+// descriptor inline (support and log-determinant, which nothing reads, are
+// written as given), nothing compressed. Version 2 appends the surface and
+// names it in the header; version 1 has neither.
+std::vector<uint8_t> oldVersionBytes(const Model& model, uint32_t version, float support = 7.0f) {
+  std::vector<uint8_t> body;
+  auto put = [&body](const void* data, size_t n) {
+    body.insert(body.end(), static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + n);
+  };
+  auto put32 = [&put](uint32_t v) { put(&v, 4); };
+  nlohmann::json header_json = nlohmann::json::parse(modelHeaderJson(model, -1));
+  header_json["format_version"] = version;
+  if (version == 1) {
+    header_json.erase("surface");
+    header_json["params"].erase("surface");
+  }
+  const std::string header = header_json.dump();
+  put32(static_cast<uint32_t>(header.size()));
+  put(header.data(), header.size());
+  for (const Forest* forest : {&model.points, &model.lines}) {
+    put32(static_cast<uint32_t>(forest->trees.size()));
+    for (const Tree& tree : forest->trees) {
+      std::vector<SplitNode> nodes = tree.nodes;
+      std::vector<LeafRange> leaves;
+      for (SplitNode& n : nodes)
+        if (n.isLeaf()) {
+          leaves.push_back(n.leafModes());
+          n = SplitNode{};
+          n.left = -static_cast<int32_t>(leaves.size());  // leaf index k is -(k + 1)
+        }
+      put32(static_cast<uint32_t>(nodes.size()));
+      put(nodes.data(), nodes.size() * sizeof(SplitNode));
+      put32(static_cast<uint32_t>(leaves.size()));
+      put(leaves.data(), leaves.size() * sizeof(LeafRange));
+      put32(static_cast<uint32_t>(tree.modes.size()));
+      for (size_t m = 0; m < tree.modes.size(); ++m) {
+        put(tree.modes[m].mean.data(), 12);
+        put(&support, 4);
+        put(tree.modes[m].information.data(), 24);
+        const float log_det = -9.0f;
+        put(&log_det, 4);
+        put(tree.descriptors[m].data(), kDescriptorSize);
+      }
+    }
+  }
+  if (version == 2) {
+    const float voxel_size = model.surface.voxelSize();
+    put(&voxel_size, 4);
+    put32(static_cast<uint32_t>(model.surface.elements().size()));
+    put(model.surface.elements().data(), model.surface.elements().size() * sizeof(SurfaceElement));
+  }
+  std::vector<uint8_t> out = {'P', 'L', 'F', 'O', 'R', 'E', 'S', 'T'};
+  const uint32_t reserved = 0;
+  const uint64_t size = body.size();
   const uint32_t crc = static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size())));
-  for (auto [data, n] : {std::pair<const void*, size_t>{&version, 4}, {&reserved, 4}, {&body_size, 8}, {&crc, 4}})
+  for (const auto& [data, n] : std::initializer_list<std::pair<const void*, size_t>>{
+           {&version, 4}, {&reserved, 4}, {&size, 8}, {&crc, 4}})
     out.insert(out.end(), static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + n);
   out.insert(out.end(), body.begin(), body.end());
   return out;
 }
+
 }  // namespace
 
-TEST_F(ModelFile, Version1ModelsLoadWithoutASurfaceAndSaySo) {
-  const std::vector<uint8_t> v1 = asVersion1(bytes_, model_.surface.elements().size());
-  ASSERT_FALSE(v1.empty());
-  auto loaded = loadModel(writeVariant(v1));
+TEST_F(ModelFile, RoundTripKeepsEveryNodeModeAndDescriptor) {
+  auto loaded = loadModel(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.error();
+  expectSameForest(loaded->points, model_.points);
+  expectSameForest(loaded->lines, model_.lines);
+  // Deflated byte planes: well under the arrays' own size.
+  size_t raw = 0;
+  for (const Forest* f : {&model_.points, &model_.lines})
+    for (const Tree& t : f->trees)
+      raw += t.nodes.size() * sizeof(SplitNode) + t.modes.size() * (sizeof(LeafMode) + sizeof(Descriptor));
+  EXPECT_LT(bytes_.size(), raw * 3 / 4);
+}
+
+TEST_F(ModelFile, VersionOneLoadsTheSameForestsWithoutASurfaceAndSaysSo) {
+  const std::vector<uint8_t> old = oldVersionBytes(model_, 1);
+  auto loaded = loadModel(writeVariant(old));
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  expectSameForest(loaded->points, model_.points);
+  expectSameForest(loaded->lines, model_.lines);
+  EXPECT_EQ(loaded->summary.dataset, "random");
   EXPECT_TRUE(loaded->surface.empty());
-  EXPECT_EQ(loaded->points.nodeCount(), model_.points.nodeCount());
   const Relocalizer relocalizer(*loaded);
   EXPECT_NE(relocalizer.limitations().find("no scene surface"), std::string::npos)
       << relocalizer.limitations();
   EXPECT_EQ(Relocalizer(model_).limitations(), "");
+}
+
+TEST_F(ModelFile, VersionTwoLoadsAsTheSameModelAndSavesAsTheCurrentVersion) {
+  const std::vector<uint8_t> old = oldVersionBytes(model_, 2);
+  auto loaded = loadModel(writeVariant(old));
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  expectSameForest(loaded->points, model_.points);
+  expectSameForest(loaded->lines, model_.lines);
+  ASSERT_EQ(loaded->surface.elements().size(), 2u);
+  EXPECT_EQ(loaded->surface.elements()[1].point, Eigen::Vector3f(1, 2.5f, 3));
+  EXPECT_EQ(serializeModel(*loaded), bytes_);
+}
+
+TEST_F(ModelFile, OldVersionsLeafIndicesAreChecked) {
+  // -(INT32_MIN + 1) overflows int32: the check must not.
+  for (uint32_t version : {1u, 2u})
+    for (int32_t code : {INT32_MIN, -100000}) {
+      SCOPED_TRACE("version " + std::to_string(version) + ", code " + std::to_string(code));
+      const Tree& tree = model_.points.trees[0];
+      // oldVersionBytes numbers the leaves itself; corrupt its output instead.
+      std::vector<uint8_t> bytes = oldVersionBytes(model_, version);
+      uint32_t header_size = 0;
+      std::memcpy(&header_size, bytes.data() + 28, 4);
+      const size_t first_node = 28 + 4 + header_size + 4 + 4;  // after the tree count and node count
+      size_t leaf = 0;
+      while (!tree.nodes[leaf].isLeaf()) ++leaf;
+      std::memcpy(bytes.data() + first_node + leaf * sizeof(SplitNode) + 12, &code, 4);
+      const uint32_t crc = static_cast<uint32_t>(crc32(0L, bytes.data() + 28, static_cast<uInt>(bytes.size() - 28)));
+      std::memcpy(bytes.data() + 24, &crc, 4);
+      auto r = deserializeModel(bytes.data(), bytes.size(), "old.model");
+      ASSERT_FALSE(r.ok());
+      EXPECT_EQ(r.error(), "old.model: invalid forest: leaf index out of range");
+    }
 }
 
 TEST_F(ModelFile, RejectsWrongMagic) {

@@ -7,6 +7,7 @@
 #include <zlib.h>
 
 #include <climits>
+#include <cstdint>
 #include <cstring>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -35,12 +36,9 @@ Model smallModel() {
   root.left = 1;
   root.feature.channel_p = 2;
   root.feature.channel_q = 0;
-  SplitNode left, right;
-  left.left = SplitNode::encodeLeaf(0);
-  right.left = SplitNode::encodeLeaf(1);
-  tree.nodes = {root, left, right};
-  tree.leaves = {LeafRange{0, 1}, LeafRange{1, 1}};
+  tree.nodes = {root, SplitNode::leaf({0, 1}), SplitNode::leaf({1, 1})};
   tree.modes = {LeafMode{}, LeafMode{}};
+  tree.descriptors = {Descriptor{}, Descriptor{}};
   model.points.trees = {tree};
   return model;
 }
@@ -85,10 +83,7 @@ std::string loadError(const std::vector<uint8_t>& bytes) {
 TEST(FuzzRegressionModel, EmptyForestArraysLoad) {
   Model model;
   Tree tree;
-  SplitNode leaf;
-  leaf.left = SplitNode::encodeLeaf(0);
-  tree.nodes = {leaf};
-  tree.leaves = {LeafRange{0, 0}};  // a leaf without modes: modes is empty
+  tree.nodes = {SplitNode::leaf({0, 0})};  // a leaf without modes: modes is empty
   model.points.trees = {tree};
   auto loaded = roundTrip(model);
   ASSERT_TRUE(loaded) << loaded.error();
@@ -96,13 +91,26 @@ TEST(FuzzRegressionModel, EmptyForestArraysLoad) {
 }
 
 // fuzz_model: UBSan, signed overflow in SplitNode::leafIndex() (-INT32_MIN)
-// while the loader validated leaf indices.
-TEST(FuzzRegressionModel, LeafCodeInt32MinIsRejected) {
+// while the loader validated leaf indices. Version 2 has no leaf index (any
+// negative `left` is a leaf holding its mode range); version-1 files still
+// have them, and test_forest checks INT32_MIN there.
+TEST(FuzzRegressionModel, LeafCodeInt32MinIsALeaf) {
   Model model = smallModel();
   model.points.trees[0].nodes[1].left = INT32_MIN;
   auto loaded = roundTrip(model);
-  ASSERT_FALSE(loaded);
-  EXPECT_EQ(loaded.error(), "test.model: invalid forest: leaf index out of range");
+  ASSERT_TRUE(loaded) << loaded.error();
+  EXPECT_TRUE(loaded->points.trees[0].nodes[1].isLeaf());
+  EXPECT_EQ(loaded->points.trees[0].nodes[1].leafModes().mode_count, 1u);
+}
+
+TEST(FuzzRegressionModel, LeafModeRangeOutOfBoundsIsRejected) {
+  for (const LeafRange range : {LeafRange{1, 2}, LeafRange{UINT32_MAX, 2}, LeafRange{0, UINT32_MAX}}) {
+    Model model = smallModel();
+    model.points.trees[0].nodes[2] = SplitNode::leaf(range);
+    auto loaded = roundTrip(model);
+    ASSERT_FALSE(loaded);
+    EXPECT_EQ(loaded.error(), "test.model: invalid forest: leaf mode range out of bounds");
+  }
 }
 
 // fuzz_model: ASan, heap-buffer-overflow in evaluateFeature: the loader let a

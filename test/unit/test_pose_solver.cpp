@@ -21,7 +21,6 @@ LeafMode isotropicMode(const Eigen::Vector3f& mean, float sigma) {
   LeafMode m;
   m.mean = mean;
   m.setCovariance(Eigen::Matrix3f::Identity() * sigma * sigma);
-  m.support = 10;
   return m;
 }
 

@@ -50,18 +50,28 @@ struct FeatureImage {
   size_t colour_stride = 0;
   size_t depth_stride = 0;
 
-  // `colour` CV_8UC3 and `depth` CV_32FC1 of the same size; both must outlive the view.
+  // `colour` CV_8UC3 and `depth` CV_32FC1 of the same size; both must outlive
+  // the view. `depth` may be empty where no depth feature is evaluated
+  // (training after the samples are drawn, when depth_feature_share is 0).
   static FeatureImage of(const cv::Mat& colour, const cv::Mat& depth);
 };
+
+// The second pixel q of `feature` for the sample at (u, v) with depth
+// `depth_p` > 0: p + delta / D(p), rounded and clamped to the image.
+inline void secondPixel(const PixelFeature& feature, const FeatureImage& image, int u, int v,
+                        float depth_p, int& qu, int& qv) {
+  const float inverse_depth = 1.0f / depth_p;
+  qu = u + static_cast<int>(feature.offset_u * inverse_depth + (feature.offset_u >= 0 ? 0.5f : -0.5f));
+  qv = v + static_cast<int>(feature.offset_v * inverse_depth + (feature.offset_v >= 0 ? 0.5f : -0.5f));
+  qu = qu < 0 ? 0 : (qu >= image.width ? image.width - 1 : qu);
+  qv = qv < 0 ? 0 : (qv >= image.height ? image.height - 1 : qv);
+}
 
 // f for the sample at integer pixel (u, v) with valid depth `depth_p` > 0.
 inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image, int u, int v,
                              float depth_p) {
-  const float inverse_depth = 1.0f / depth_p;
-  int qu = u + static_cast<int>(feature.offset_u * inverse_depth + (feature.offset_u >= 0 ? 0.5f : -0.5f));
-  int qv = v + static_cast<int>(feature.offset_v * inverse_depth + (feature.offset_v >= 0 ? 0.5f : -0.5f));
-  qu = qu < 0 ? 0 : (qu >= image.width ? image.width - 1 : qu);
-  qv = qv < 0 ? 0 : (qv >= image.height ? image.height - 1 : qv);
+  int qu, qv;
+  secondPixel(feature, image, u, v, depth_p, qu, qv);
   if (feature.type == FeatureType::Colour) {
     const int p = image.colour[v * image.colour_stride + u * 3 + feature.channel_p];
     const int q = image.colour[qv * image.colour_stride + qu * 3 + feature.channel_q];
@@ -69,6 +79,20 @@ inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& im
   }
   const float depth_q = image.depth[qv * image.depth_stride + qu];
   return (depth_q == depth_q ? depth_q : kFarDepth) - depth_p;  // NaN != NaN
+}
+
+// Starts loading the pixels evaluateFeature will read, for callers that
+// evaluate one feature on many samples scattered over many images: issued some
+// samples ahead, the cache misses overlap instead of following one another.
+inline void prefetchFeature(const PixelFeature& feature, const FeatureImage& image, int u, int v,
+                            float depth_p) {
+  int qu, qv;
+  secondPixel(feature, image, u, v, depth_p, qu, qv);
+  __builtin_prefetch(image.colour + v * image.colour_stride + u * 3);
+  if (feature.type == FeatureType::Colour)
+    __builtin_prefetch(image.colour + qv * image.colour_stride + qu * 3);
+  else
+    __builtin_prefetch(image.depth + qv * image.depth_stride + qu);
 }
 
 constexpr int kDescriptorPatch = 16;         // pixels per side

@@ -1,6 +1,6 @@
 #pragma once
 // Regression forests mapping a pixel to world coordinates, stored as flat
-// arrays (nodes, leaf ranges, modes) so prediction touches contiguous memory
+// arrays (nodes, modes, descriptors) so prediction touches contiguous memory
 // and a model loads with a handful of reads. Prediction backtracks through up
 // to `max_leaves` leaves per tree, visiting the untaken branches in order of
 // |f - tau| (how narrowly the sample missed them), and keeps, per tree, the
@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "relocalizer/forest/features.h"
@@ -16,16 +17,15 @@
 
 namespace relocalizer {
 
-// One mean-shift mode of the world coordinates that reached a leaf. A plain
-// fixed-size struct: leaves are ranges into one array of these.
+// One mean-shift mode of the world coordinates that reached a leaf: what
+// RANSAC and refinement read. A plain fixed-size struct: leaves are ranges
+// into one array of these; the modes' descriptors, read only to choose among
+// modes, are a parallel array (Tree::descriptors).
 struct LeafMode {
   Eigen::Vector3f mean = Eigen::Vector3f::Zero();  // world, metres
-  float support = 0.0f;  // training samples assigned to the mode
   // Inverse covariance, upper triangle (xx xy xz yy yz zz), 1/m^2: what the
   // Mahalanobis distances in RANSAC and refinement need.
   std::array<float, 6> information{};
-  float log_det_covariance = 0.0f;
-  Descriptor descriptor{};  // mean WHT descriptor of the mode's samples
 
   Eigen::Matrix3f informationMatrix() const;
   Eigen::Matrix3f covariance() const;
@@ -38,33 +38,45 @@ struct LeafMode {
            2.0f * (s[1] * d.x() * d.y() + s[2] * d.x() * d.z() + s[4] * d.y() * d.z());
   }
 };
-
-struct SplitNode {
-  PixelFeature feature;
-  float threshold = 0.0f;  // f < threshold goes left
-  // >= 0: index of the left child (the right child follows it);
-  // < 0: this node is leaf number -(left + 1).
-  int32_t left = -1;
-
-  bool isLeaf() const { return left < 0; }
-  int32_t leafIndex() const { return -(left + 1); }  // no overflow at INT32_MIN
-  static int32_t encodeLeaf(int32_t leaf) { return -leaf - 1; }
-};
-static_assert(sizeof(SplitNode) == 16, "SplitNode layout is part of the model format");
+static_assert(sizeof(LeafMode) == 36, "LeafMode layout is part of the model format");
 
 struct LeafRange {
   uint32_t first_mode = 0;
   uint32_t mode_count = 0;
 };
 
+// A split (feature, threshold, children) or a leaf. A leaf keeps its mode
+// range in the bytes a split uses for its feature, so reaching a leaf needs no
+// lookup in another array: prediction waits on one memory access fewer.
+struct SplitNode {
+  PixelFeature feature;    // splits only; leaves: their LeafRange (leafModes())
+  float threshold = 0.0f;  // f < threshold goes left
+  int32_t left = -1;       // >= 0: index of the left child (the right child follows it); < 0: a leaf
+
+  bool isLeaf() const { return left < 0; }
+  LeafRange leafModes() const {
+    LeafRange range;
+    std::memcpy(static_cast<void*>(&range), &feature, sizeof range);
+    return range;
+  }
+  static SplitNode leaf(const LeafRange& range) {
+    SplitNode node;
+    std::memcpy(static_cast<void*>(&node.feature), &range, sizeof range);
+    return node;
+  }
+};
+static_assert(sizeof(SplitNode) == 16, "SplitNode layout is part of the model format");
+static_assert(sizeof(LeafRange) == sizeof(PixelFeature), "a leaf's range replaces the feature");
+
 struct Tree {
-  std::vector<SplitNode> nodes;  // nodes[0] is the root
-  std::vector<LeafRange> leaves;
-  std::vector<LeafMode> modes;
+  std::vector<SplitNode> nodes;        // nodes[0] is the root; children follow their parent
+  std::vector<LeafMode> modes;         // leaves' modes, leaf by leaf
+  std::vector<Descriptor> descriptors;  // descriptors[m]: the mean WHT descriptor of modes[m]
 
   int depth() const;
-  // Leaf reached by plain descent (no backtracking).
-  int32_t descend(const FeatureImage& image, int u, int v, float depth) const;
+  size_t leafCount() const;
+  // Modes of the leaf reached by plain descent (no backtracking).
+  LeafRange descend(const FeatureImage& image, int u, int v, float depth) const;
 };
 
 struct Forest {
@@ -97,8 +109,9 @@ struct PredictionParams {
 ModeCandidate predictInTree(const Tree& tree, const FeatureImage& image, const Sample& sample,
                             const Descriptor& descriptor, int max_leaves);
 
-// Predictions for every sample, in parallel over samples. `descriptors[i]`
-// belongs to `samples[i]`; `out` is resized to match.
+// Predictions for every sample, in parallel over blocks of samples, each
+// block descending a tree in lock-step (the candidates are predictInTree's).
+// `descriptors[i]` belongs to `samples[i]`; `out` is resized to match.
 void predictForest(const Forest& forest, const FeatureImage& image,
                    const std::vector<Sample>& samples, const std::vector<Descriptor>& descriptors,
                    const PredictionParams& params, std::vector<Prediction>& out);

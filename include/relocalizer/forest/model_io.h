@@ -13,9 +13,19 @@
 //                      set summary (human readable with `strings` or `head -c`)
 //     forest points, forest lines, each:
 //       uint32 trees; per tree:
-//         uint32 n + SplitNode[n], uint32 n + LeafRange[n], uint32 n + LeafMode[n]
-//     surface (version >= 2): float voxel size, uint32 n + SurfaceElement[n]
+//         uint32 nodes n, uint32 modes m, uint64 length of the zlib stream, the
+//         stream of: SplitNode[n], LeafMode[m], Descriptor[m], each array
+//         stored byte plane by byte plane (byte 0 of every element, then byte
+//         1, ...), which lets deflate halve the model.
+//     surface: float voxel size, uint32 n + SurfaceElement[n]
 // Saving is deterministic: the same model gives the same bytes.
+//
+// Older versions still load, converted:
+//   1 (relocalizer 0.1.0): forests uncompressed, each tree as uint32 n +
+//     SplitNode[n] (leaves as indices into the next array), uint32 n +
+//     LeafRange[n], uint32 n + 92-byte modes with the descriptor inline; no
+//     surface (relocalization then skips the surface fit and check, and says so).
+//   2: version 1's forests, then the surface as in version 3.
 
 #include <cstdint>
 #include <string>
@@ -27,9 +37,7 @@
 
 namespace relocalizer {
 
-// 2 added the scene surface; version-1 files still load, with an empty surface
-// (relocalization then skips the surface fit and check, and says so).
-constexpr uint32_t kModelFormatVersion = 2;
+constexpr uint32_t kModelFormatVersion = 3;
 
 // What the forests were trained on.
 struct TrainingSummary {

@@ -17,7 +17,7 @@ namespace relocalizer {
 struct RelocalizerParams {
   int point_samples = 500;   // random pixels with depth per frame (speed-accuracy sweep, docs/benchmarks.md)
   int line_samples = 250;    // line samples per frame (at most)
-  int max_leaves = 8;        // backtracking leaves per tree
+  int max_leaves = 4;        // backtracking leaves per tree (8 until 0.2: twice the forest time, no better)
   bool use_points = true;    // use the point forest
   bool use_lines = true;     // use the line forest
   int min_valid_depth = 1000;  // frames with fewer valid depth pixels are refused
