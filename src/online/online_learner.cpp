@@ -43,6 +43,7 @@ std::string learningParamsError(const LearningParams& p) {
   if (p.jpeg_quality < 1 || p.jpeg_quality > 100)
     return "jpeg_quality must be 1-100 (got " + std::to_string(p.jpeg_quality) + ")";
   if (p.worker_threads < 1) return "worker_threads must be at least 1";
+  if (p.surface_min_frames < 1) return "surface_min_frames must be at least 1";
   if (!p.training.train_points && !p.training.train_lines)
     return "training must grow at least one forest (train_points or train_lines)";
   return {};
@@ -59,7 +60,11 @@ size_t modelBytes(const Model& model) {
 
 OnlineLearner::OnlineLearner(LearningParams params, RelocalizerParams relocalizer_params, Mode mode)
     : params_(std::move(params)),
-      relocalizer_params_(std::move(relocalizer_params)),
+      relocalizer_params_([&] {
+        RelocalizerParams r = std::move(relocalizer_params);
+        if (!params_.surface_gate) r.surface.min_agreement = 0.0f;
+        return r;
+      }()),
       mode_(mode),
       store_(params_.max_keyframes) {
   if (const std::string why = learningParamsError(params_); !why.empty())
@@ -147,10 +152,7 @@ Status OnlineLearner::retrain(std::unique_lock<std::mutex>& lock) {
     }
     Model model;
     model.params = params_.training;
-    // A voxel must be seen by min_frames key frames; with a handful of key
-    // frames that would leave almost no surface to check poses against.
-    model.params.surface.min_frames =
-        std::min(params_.training.surface.min_frames, std::max(1, static_cast<int>(images.size()) / 3));
+    model.params.surface.min_frames = params_.surface_min_frames;
     trainForests(images, model.params, model.points, model.lines);
     if (model.params.build_surface) model.surface = buildSurface(images, model.params.surface);
     TrainingSummary& summary = model.summary;

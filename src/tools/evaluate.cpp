@@ -77,6 +77,8 @@ int main(int argc, char** argv) {
                             "relocalizes every --frames frame)")
                  ->check(CLI::Range(1, 1000000))
                  ->capture_default_str());
+  learn_only(app.add_flag("--learn-surface-gate", learning.surface_gate,
+                          "Refuse poses off the learned surface (the node's learn_surface_gate)"));
   learn_only(app.add_option("--save-model", save_model,
                             "Write the learned model and its key frames (MODEL.keyframes) here"));
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
@@ -238,6 +240,7 @@ int main(int argc, char** argv) {
     learning_json = {{"learn_frames", learn_frames},
                      {"learn_min_motion", learn_min_motion},
                      {"max_keyframes", learning.max_keyframes},
+                     {"surface_gate", learning.surface_gate},
                      {"keyframes_added", status.keyframes_added},
                      {"keyframes_stored", status.keyframes_stored},
                      {"keyframes_evicted", status.keyframes_evicted},

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "../../src/ros/node_params.h"
+#include "relocalizer/forest/model_io.h"
 
 using relocalizer_ros::loadNodeParams;
 using relocalizer_ros::NodeParams;
@@ -76,6 +77,20 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
       {"/rate", [](ros::NodeHandle& nh) { nh.setParam("tf_rate", -1.0); }, "tf_rate' must be finite and not negative"},
       {"/queue", [](ros::NodeHandle& nh) { nh.setParam("sync_queue_size", 0); }, "sync_queue_size' must be at least 1"},
       {"/frames", [](ros::NodeHandle& nh) { nh.setParam("odom_frame", "map"); }, "odom_frame' equals map_frame"},
+      // Learning from TF the node publishes itself would feed its own answers back.
+      {"/learn_tf", [](ros::NodeHandle& nh) { nh.setParam("learn", true); }, "learn' is true but publish_tf is true"},
+      {"/save_no_learn", [](ros::NodeHandle& nh) { nh.setParam("save_on_exit", "/tmp/m.bin"); },
+       "save_on_exit' is set but learn is false"},
+      {"/motion", [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("learn_min_motion", "far");
+       }, "learn_min_motion'"},
+      {"/cap", [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("learn_max_keyframes", 1);
+       }, "learn_max_keyframes' must be at least 2"},
   };
   for (const Case& c : cases) {
     ros::NodeHandle nh(c.ns);
@@ -158,8 +173,10 @@ TEST(NodeParams, BadModelFilesStopTheNodeWithTheirReason) {
       {"truncated_preamble.bin", with([](auto& b) { b.resize(20); }), "truncated model file (header incomplete)"},
       {"wrong_magic.bin", with([](auto& b) { std::memcpy(b.data(), "PLTREES!", 8); }),
        "not a relocalizer model (wrong magic number; expected a file written by `train`)"},
-      {"future_version.bin", with([](auto& b) { b[8] = 2; }),
-       "model format version 2 is not supported (this build reads version 1); retrain or use a matching build"},
+      {"future_version.bin", with([](auto& b) { b[8] = relocalizer::kModelFormatVersion + 1; }),
+       "model format version " + std::to_string(relocalizer::kModelFormatVersion + 1) +
+           " is not supported (this build reads versions 1 to " +
+           std::to_string(relocalizer::kModelFormatVersion) + "); retrain or use a matching build"},
       {"checksum.bin", with([](auto& b) { b[b.size() - 7] ^= 0x40; }), "checksum mismatch: the model file is corrupt"},
       {"empty.bin", {}, "model file is empty"},
       // Files a user might pass by mistake: the bag, the node's YAML.

@@ -41,6 +41,16 @@ struct LearningParams {
   int jpeg_quality = 95;        // colour storage
   int worker_threads = 1;       // Background: threads of a retrain (at nice +worker_nice)
   int worker_nice = 10;         // Background: added niceness of the worker thread
+  // Key frames are >= 5 cm / 5 deg apart, so few of them see each voxel: the
+  // surface keeps voxels seen by this many (the 30 Hz default of 3 drops most
+  // of a key-frame surface; measured 77.0 % with 3, 83.5 % with 1 on redkitchen).
+  int surface_min_frames = 1;
+  // The surface agreement gate (surface_fit.h) assumes a surface that covers
+  // what a frame sees; a learned one covers only what the key frames so far
+  // saw, so the gate rejects right poses (after 100 redkitchen frames: 10 %
+  // with it, 43 % without). Off: answers are still refined by ICP and their
+  // agreement reported; the inlier evidence still decides.
+  bool surface_gate = false;
   TrainingParams training;      // both forests and the surface, as `train` uses them
 };
 
