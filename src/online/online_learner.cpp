@@ -78,6 +78,7 @@ OnlineLearner::~OnlineLearner() {
     stop_ = true;
   }
   wake_.notify_all();
+  progress_.notify_all();
   if (worker_.joinable()) worker_.join();
 }
 
@@ -153,7 +154,13 @@ Status OnlineLearner::retrain(std::unique_lock<std::mutex>& lock) {
     Model model;
     model.params = params_.training;
     model.params.surface.min_frames = params_.surface_min_frames;
-    trainForests(images, model.params, model.points, model.lines);
+    // Shutdown must not wait for a retrain of a full store (a minute): the
+    // progress callback, called as samples reach leaves, aborts it.
+    TrainingProgress progress;
+    progress.samples_done = [this](size_t) {
+      if (stop_) throw std::runtime_error("stopped");
+    };
+    trainForests(images, model.params, model.points, model.lines, progress);
     if (model.params.build_surface) model.surface = buildSurface(images, model.params.surface);
     TrainingSummary& summary = model.summary;
     summary.dataset = "online";

@@ -84,12 +84,11 @@ int main(int argc, char** argv) {
   if (!learn) return cli::fail(app, learn.error());
   const Dataset& test_data = **test;
   const Dataset& learn_data = **learn;
-  std::vector<RgbdFrame> test_frames;
-  for (size_t i = 0; i < test_data.size(); ++i) {
-    auto frame = test_data.load(i);
-    if (!frame) return cli::fail(app, frame.error());
-    if (frame->ground_truth) test_frames.push_back(std::move(*frame));
-  }
+  // Test frames are read when used, as the node receives one frame at a time:
+  // held in memory they would be most of the footprint measured.
+  std::vector<size_t> test_frames;
+  for (size_t i = 0; i < test_data.size(); ++i)
+    if (test_data.groundTruth(i)) test_frames.push_back(i);
   if (test_frames.empty()) return cli::fail(app, "--frames: no frame with ground truth");
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads) + 1);
 
@@ -113,7 +112,9 @@ int main(int argc, char** argv) {
       slot += std::chrono::duration_cast<Clock::duration>(period);
       auto model = learner.current();
       if (!model) continue;
-      const RgbdFrame& frame = test_frames[next++ % test_frames.size()];
+      auto loaded = test_data.load(test_frames[next++ % test_frames.size()]);
+      if (!loaded) continue;
+      const RgbdFrame& frame = *loaded;
       const auto t0 = Clock::now();
       const Relocalization r = model->relocalize(frame);
       const bool correct = r.success && translationError(r.pose, *frame.ground_truth) < 0.05 &&

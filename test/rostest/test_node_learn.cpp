@@ -64,7 +64,7 @@ TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
   ASSERT_GE(played, 50);
 
   // Tracking lost: frames now come without TF. Held-out frames of the room,
-  // each retried until the learner has a model; every answer must be right.
+  // each retried until the learned model answers; every answer must be right.
   const std::vector<FrameMessages> frames = loadFixtureFrames();
   int answered = 0;
   const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(90.0);
@@ -78,8 +78,9 @@ TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
             camera.publish(frame);
           },
           5.0);
-    } while (!response.success && contains(response.message, "no model yet") &&
-             ros::WallTime::now() < give_up);
+      // A young model may lack the evidence for these views ("no model yet",
+      // "weak evidence"); whatever it answers must be right.
+    } while (!response.success && ros::WallTime::now() < give_up);
     ASSERT_TRUE(response.success) << "frame " << i << ": " << response.message;
     EXPECT_LT(translationError(response.pose.pose.pose, frame.truth), 0.05) << "frame " << i;
     EXPECT_LT(rotationError(response.pose.pose.pose, frame.truth), 5.0) << "frame " << i;

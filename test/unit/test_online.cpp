@@ -256,3 +256,16 @@ TEST_F(OnlineRoom, BackgroundWorkerCatchesUpOnDrain) {
   }
   EXPECT_EQ(status.last_error, "");
 }
+
+// Shutdown while a retrain runs: the retrain is abandoned, not awaited, and
+// nothing it had is used after the learner is gone.
+TEST_F(OnlineRoom, DestroyingTheLearnerDuringARetrainIsSafe) {
+  auto learner = std::make_unique<OnlineLearner>(smallLearning(), fastRelocalizer(),
+                                                 OnlineLearner::Mode::Background);
+  for (const RgbdFrame& frame : learn_) ASSERT_TRUE(learner->addKeyFrame(frame, *frame.ground_truth).ok());
+  const std::shared_ptr<const Relocalizer> held = learner->current();
+  learner.reset();
+  if (held) {
+    EXPECT_FALSE(held->model().points.empty());  // a model handed out outlives its learner
+  }
+}

@@ -125,7 +125,7 @@ class OnlineLearner {
   long long trained_generation_ = 0;  // generation the newest (or running) retrain started from
   long long model_generation_ = 0;    // generation the current model was trained from
   bool drain_requested_ = false;
-  bool stop_ = false;
+  std::atomic<bool> stop_{false};  // also read by a running retrain, to abort it
   std::thread worker_;
 };
 
