@@ -52,6 +52,8 @@ int playLearnBag(CameraPublisher& camera) {
     if (m.getTopic() == "/camera/depth/image_raw") depth.publish(*m.instantiate<sensor_msgs::Image>());
     if (m.getTopic() == "/camera/rgb/camera_info") info.publish(*m.instantiate<sensor_msgs::CameraInfo>());
   }
+  // The publishers go with this scope; let the last frame's messages leave first.
+  ros::WallDuration(0.5).sleep();
   return frames;
 }
 
