@@ -44,6 +44,7 @@ std::string learningParamsError(const LearningParams& p) {
     return "jpeg_quality must be 1-100 (got " + std::to_string(p.jpeg_quality) + ")";
   if (p.worker_threads < 1) return "worker_threads must be at least 1";
   if (p.surface_min_frames < 1) return "surface_min_frames must be at least 1";
+  if (p.samples_budget_per_tree < 0) return "samples_budget_per_tree must not be negative";
   if (!p.training.train_points && !p.training.train_lines)
     return "training must grow at least one forest (train_points or train_lines)";
   return {};
@@ -154,6 +155,11 @@ Status OnlineLearner::retrain(std::unique_lock<std::mutex>& lock) {
     Model model;
     model.params = params_.training;
     model.params.surface.min_frames = params_.surface_min_frames;
+    if (params_.samples_budget_per_tree > 0)
+      for (ForestParams* forest : {&model.params.points, &model.params.lines})
+        forest->samples_per_image = std::clamp(
+            params_.samples_budget_per_tree / static_cast<int>(images.size()),
+            std::min(1000, forest->samples_per_image), forest->samples_per_image);
     // Shutdown must not wait for a retrain of a full store (a minute): the
     // progress callback, called as samples reach leaves, aborts it.
     TrainingProgress progress;

@@ -235,6 +235,24 @@ TEST_F(OnlineRoom, StoreStaysWithinItsCap) {
   EXPECT_EQ(learner.current()->model().summary.images, 4);
 }
 
+// The sample budget spreads a fixed number of samples per tree over the key
+// frames, and the model file records what was used.
+TEST_F(OnlineRoom, SampleBudgetSetsSamplesPerImage) {
+  LearningParams p = smallLearning();
+  p.training.points.samples_per_image = 3000;
+  p.training.lines.samples_per_image = 3000;
+  p.samples_budget_per_tree = 8000;
+  OnlineLearner learner(p, fastRelocalizer(), OnlineLearner::Mode::Inline);
+  for (size_t i = 0; i < 4; ++i) ASSERT_TRUE(learner.addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
+  ASSERT_TRUE(learner.drain().ok());
+  EXPECT_EQ(learner.current()->model().params.points.samples_per_image, 2000);  // 8000 / 4
+  EXPECT_EQ(learner.current()->model().params.lines.samples_per_image, 2000);
+  for (size_t i = 4; i < learn_.size(); ++i)
+    ASSERT_TRUE(learner.addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
+  ASSERT_TRUE(learner.drain().ok());
+  EXPECT_EQ(learner.current()->model().params.points.samples_per_image, 1000);  // 400, raised to the floor
+}
+
 // The worker thread: drain() waits for it, and the model it swaps in knows
 // every key frame; earlier models stay valid for whoever still holds them.
 TEST_F(OnlineRoom, BackgroundWorkerCatchesUpOnDrain) {

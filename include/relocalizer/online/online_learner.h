@@ -41,6 +41,12 @@ struct LearningParams {
   int jpeg_quality = 95;        // colour storage
   int worker_threads = 1;       // Background: threads of a retrain (at nice +worker_nice)
   int worker_nice = 10;         // Background: added niceness of the worker thread
+  // Samples per tree of a retrain, at most: samples_per_image becomes
+  // budget / key frames, between 1000 and the configured value (0: no budget).
+  // A retrain then costs about the same at 64 key frames as at 11, so the
+  // model lags a full store by seconds, not a minute; below 11 key frames
+  // nothing changes (measured: docs/online_learning.md).
+  int samples_budget_per_tree = 55000;
   // Key frames are >= 5 cm / 5 deg apart, so few of them see each voxel: the
   // surface keeps voxels seen by this many (the 30 Hz default of 3 drops most
   // of a key-frame surface; measured 77.0 % with 3, 83.5 % with 1 on redkitchen).
