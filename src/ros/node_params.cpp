@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "key_frames.h"
 #include "message_conversion.h"
 #include "relocalizer/core/config.h"
 
@@ -87,6 +88,14 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   check(read(nh, "service_timeout", p.service_timeout));
   check(read(nh, "input_timeout", p.input_timeout));
   check(read(nh, "threads", p.threads));
+  check(read(nh, "learn", p.learn));
+  check(read(nh, "save_on_exit", p.save_on_exit));
+  check(read(nh, "learn_min_motion", p.learn_min_motion));
+  check(read(nh, "learn_max_keyframes", p.learn_max_keyframes));
+  check(read(nh, "learn_first_retrain", p.learn_first_retrain));
+  check(read(nh, "learn_retrain_growth", p.learn_retrain_growth));
+  check(read(nh, "learn_surface_gate", p.learn_surface_gate));
+  check(read(nh, "learn_config", p.learn_config));
   if (!why.empty()) return makeError(why);
 
   auto ns = [&nh](const std::string& key) { return "'" + nh.resolveName(key) + "'"; };
@@ -99,7 +108,23 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   }
   p.map_frame = stripLeadingSlashes(p.map_frame);
   p.odom_frame = stripLeadingSlashes(p.odom_frame);
-  if (p.model.empty()) return makeError(ns("model") + " is not set (path to a model file from `train`)");
+  if (p.model.empty() && !p.learn)
+    return makeError(ns("model") + " is not set (path to a model file from `train`, or learn: true)");
+  if (p.learn && p.publish_tf)
+    return makeError(ns("learn") + " is true but publish_tf is true too: the node would learn from "
+                     "poses it published on TF itself; set publish_tf: false (SLAM owns " +
+                     p.map_frame + " -> camera while learning)");
+  if (!p.learn && !p.save_on_exit.empty())
+    return makeError(ns("save_on_exit") + " is set but learn is false: only a learned model is saved");
+  if (p.learn) {
+    if (auto motion = parseMinMotion(p.learn_min_motion); !motion)
+      return makeError(ns("learn_min_motion") + ": " + motion.error());
+    if (p.learn_max_keyframes < 2) return makeError(ns("learn_max_keyframes") + " must be at least 2");
+    if (p.learn_first_retrain < 1 || p.learn_first_retrain > p.learn_max_keyframes)
+      return makeError(ns("learn_first_retrain") + " must be between 1 and learn_max_keyframes");
+    if (!(p.learn_retrain_growth >= 0.0) || !std::isfinite(p.learn_retrain_growth))
+      return makeError(ns("learn_retrain_growth") + " must be a finite share >= 0");
+  }
   if (p.map_frame.empty()) return makeError(ns("map_frame") + " is empty");
   if (p.odom_frame == p.map_frame) return makeError(ns("odom_frame") + " equals map_frame");
   if (p.sync_queue_size < 1) return makeError(ns("sync_queue_size") + " must be at least 1");
@@ -137,6 +162,14 @@ std::string nodeParamsToJson(const NodeParams& p) {
             {"service_timeout", p.service_timeout},
             {"input_timeout", p.input_timeout},
             {"threads", p.threads},
+            {"learn", p.learn},
+            {"save_on_exit", p.save_on_exit},
+            {"learn_min_motion", p.learn_min_motion},
+            {"learn_max_keyframes", p.learn_max_keyframes},
+            {"learn_first_retrain", p.learn_first_retrain},
+            {"learn_retrain_growth", p.learn_retrain_growth},
+            {"learn_surface_gate", p.learn_surface_gate},
+            {"learn_config", p.learn_config},
             {"relocalizer", json::parse(relocalizer::relocalizerParamsToJson(p.relocalizer))}};
   return j.dump(2);
 }

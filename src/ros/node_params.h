@@ -34,6 +34,15 @@ struct NodeParams {
   double service_timeout = 2.0;   // seconds a call waits for a frame when it asks for <= 0
   double input_timeout = 3.0;     // seconds of images without a synchronised frame before it is reported
   int threads = 0;                // TBB threads inside a relocalization (0: every core)
+  // Online learning beside SLAM (docs/online_learning.md).
+  bool learn = false;             // learn the place from frames posed by TF map_frame -> camera
+  std::string save_on_exit;       // learn: write the model and its key frames here at shutdown
+  std::string learn_min_motion = "0.05,5";  // key frames: metres,degrees since the last one
+  int learn_max_keyframes = 64;   // cap on stored key frames
+  int learn_first_retrain = 2;    // key frames before the first model
+  double learn_retrain_growth = 0.25;  // retrain when the store grew by this share
+  bool learn_surface_gate = false;  // learned models: refuse poses off the learned surface
+  std::string learn_config;       // training YAML (as `train --config`); empty: config/forest.yaml defaults
   relocalizer::RelocalizerParams relocalizer;
 };
 

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "message_conversion.h"
+#include "relocalizer/forest/training_config.h"
 
 namespace relocalizer_ros {
 
@@ -51,6 +52,32 @@ relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
     ros::NodeHandle nh, ros::NodeHandle private_nh) {
   auto params = loadNodeParams(private_nh);
   if (!params) return relocalizer::makeError(params.error());
+  if (params->learn) {
+    relocalizer::LearningParams learning;
+    if (!params->learn_config.empty()) {
+      auto training = relocalizer::loadTrainingParams(params->learn_config);
+      if (!training)
+        return relocalizer::makeError("'" + private_nh.resolveName("learn_config") + "': " + training.error());
+      learning.training = *training;
+    }
+    learning.max_keyframes = params->learn_max_keyframes;
+    learning.first_retrain = params->learn_first_retrain;
+    learning.retrain_growth = params->learn_retrain_growth;
+    learning.surface_gate = params->learn_surface_gate;
+    auto learner = std::make_unique<relocalizer::OnlineLearner>(
+        learning, params->relocalizer, relocalizer::OnlineLearner::Mode::Background);
+    if (!params->model.empty()) {
+      relocalizer::Status resumed = relocalizer::makeError("not loaded");
+      try {
+        resumed = learner->resume(params->model);
+      } catch (const std::exception& e) {
+        resumed = relocalizer::makeError(params->model + ": cannot be loaded: " + e.what());
+      }
+      if (!resumed) return relocalizer::makeError(resumed.error());
+    }
+    return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(
+        std::move(nh), std::move(private_nh), std::move(*params), nullptr, std::move(learner)));
+  }
   relocalizer::Expected<std::unique_ptr<relocalizer::Relocalizer>> relocalizer =
       relocalizer::makeError("not loaded");
   try {
@@ -63,12 +90,14 @@ relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
   if (!relocalizer) return relocalizer::makeError(relocalizer.error());
   if (std::string why = (*relocalizer)->validationError(); !why.empty())
     return relocalizer::makeError(params->model + ": " + why);
-  return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(
-      std::move(nh), std::move(private_nh), std::move(*params), std::move(*relocalizer)));
+  return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(std::move(nh), std::move(private_nh),
+                                                              std::move(*params),
+                                                              std::move(*relocalizer), nullptr));
 }
 
 RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
-                                 std::unique_ptr<relocalizer::Relocalizer> relocalizer)
+                                 std::shared_ptr<const relocalizer::Relocalizer> relocalizer,
+                                 std::unique_ptr<relocalizer::OnlineLearner> learner)
     : nh_(std::move(nh)),
       private_nh_(std::move(private_nh)),
       params_(std::move(params)),
@@ -76,7 +105,8 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
                                               tbb::global_control::max_allowed_parallelism,
                                               static_cast<size_t>(params_.threads))
                                         : nullptr),
-      relocalizer_(std::move(relocalizer)),
+      fixed_model_(std::move(relocalizer)),
+      learner_(std::move(learner)),
       frames_(params_.mode == Mode::Continuous && params_.process_all
                   ? FrameBuffer<InputPtr>::Policy::Fifo
                   : FrameBuffer<InputPtr>::Policy::Latest),
@@ -102,12 +132,41 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   service_spinner_ = std::make_unique<ros::AsyncSpinner>(kServiceThreads, &service_queue_);
   service_spinner_->start();
 
+  if (learner_) {
+    auto save_options = ros::AdvertiseServiceOptions::create<relocalizer::SaveModel>(
+        "save_model",
+        boost::bind(&RelocalizerNode::onSaveModel, this, boost::placeholders::_1,
+                    boost::placeholders::_2),
+        ros::VoidConstPtr(), &service_queue_);
+    save_service_ = private_nh_.advertiseService(save_options);
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_);
+    const auto motion = parseMinMotion(params_.learn_min_motion);  // checked by loadNodeParams
+    key_frames_ = std::make_unique<KeyFrameSelector>(motion->first, motion->second);
+    learn_worker_ = std::thread(&RelocalizerNode::learnLoop, this);
+  }
   if (params_.mode == Mode::Continuous) worker_ = std::thread(&RelocalizerNode::workerLoop, this);
   if (params_.input_timeout > 0.0)
     watchdog_ = nh_.createWallTimer(ros::WallDuration(1.0), &RelocalizerNode::onWatchdog, this);
   subscribe();
 
-  const relocalizer::Model& model = relocalizer_->model();
+  const std::shared_ptr<const relocalizer::Relocalizer> current = currentModel();
+  std::string model_text;
+  if (current) {
+    const relocalizer::Model& model = current->model();
+    model_text = "model " + (params_.model.empty() ? std::string("(learned)") : params_.model) + " (" +
+                 std::to_string(model.points.trees.size()) + " point trees, " +
+                 std::to_string(model.lines.trees.size()) + " line trees)";
+  } else {
+    model_text = "no model yet";
+  }
+  if (learner_) {
+    const relocalizer::LearningStatus status = learner_->status();
+    model_text += std::string(", learning from TF ") + params_.map_frame + " -> camera (" +
+                  std::to_string(status.keyframes_stored) + " key frames so far, key frames at " +
+                  params_.learn_min_motion + " m,deg" +
+                  (params_.save_on_exit.empty() ? "" : ", saved to " + params_.save_on_exit + " on exit") + ")";
+  }
   const std::string tf_text =
       !params_.publish_tf ? "no TF"
       : params_.odom_frame.empty()
@@ -119,12 +178,69 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
           : std::string("continuous") +
                 (params_.max_rate > 0 ? " at up to " + seconds(params_.max_rate) + " Hz" : "") +
                 (params_.process_all ? ", every frame" : "");
-  ROS_INFO("relocalizer: model %s (%zu point trees, %zu line trees), %s, %s; frames from %s, %s, %s",
-           params_.model.c_str(), model.points.trees.size(), model.lines.trees.size(),
-           mode_text.c_str(), tf_text.c_str(), colour_sub_.getTopic().c_str(),
-           depth_sub_.getTopic().c_str(), info_sub_.getTopic().c_str());
-  if (const std::string limits = relocalizer_->limitations(); !limits.empty())
-    ROS_WARN("relocalizer: %s: %s", params_.model.c_str(), limits.c_str());
+  ROS_INFO("relocalizer: %s, %s, %s; frames from %s, %s, %s", model_text.c_str(), mode_text.c_str(),
+           tf_text.c_str(), colour_sub_.getTopic().c_str(), depth_sub_.getTopic().c_str(),
+           info_sub_.getTopic().c_str());
+  if (current)
+    if (const std::string limits = current->limitations(); !limits.empty())
+      ROS_WARN("relocalizer: %s: %s", params_.model.c_str(), limits.c_str());
+}
+
+std::shared_ptr<const relocalizer::Relocalizer> RelocalizerNode::currentModel() const {
+  return learner_ ? learner_->current() : fixed_model_;
+}
+
+void RelocalizerNode::learnLoop() {
+  while (true) {
+    auto entry = learn_frames_.take();
+    if (!entry) return;
+    const Input& input = *entry->value;
+    if (!input.error.empty()) continue;
+    const ros::Time stamp = input.colour->header.stamp;
+    const std::string camera_frame = stripLeadingSlashes(input.colour->header.frame_id);
+    geometry_msgs::TransformStamped slam;
+    try {
+      // SLAM's pose at the frame's own stamp (interpolated), never a later
+      // one: a frame whose stamp TF cannot cover was not tracked.
+      slam = tf_buffer_->lookupTransform(params_.map_frame, camera_frame, stamp,
+                                         ros::Duration(params_.tf_timeout));
+    } catch (const tf2::TransformException& e) {
+      ++frames_untracked_;
+      if (log_.allow("learn: no TF"))
+        ROS_INFO("relocalizer: not learning from the frame at %.3f: no pose %s -> %s from SLAM (%s)",
+                 stamp.toSec(), params_.map_frame.c_str(), camera_frame.c_str(), e.what());
+      continue;
+    }
+    const relocalizer::Pose pose = fromTransformMsg(slam.transform);
+    if (!key_frames_->keep(pose)) continue;
+    auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
+    if (!frame) {
+      if (log_.allow(frame.error())) ROS_WARN("relocalizer: not learning from a frame: %s", frame.error().c_str());
+      continue;
+    }
+    frame->id = static_cast<int>(entry->seq);
+    if (relocalizer::Status added = learner_->addKeyFrame(*frame, pose); !added && log_.allow(added.error()))
+      ROS_WARN("relocalizer: not learning from a key frame: %s", added.error().c_str());
+  }
+}
+
+bool RelocalizerNode::onSaveModel(relocalizer::SaveModel::Request& request,
+                                  relocalizer::SaveModel::Response& response) {
+  if (request.path.empty()) {
+    response.success = false;
+    response.message = "path is empty: name the model file to write";
+    return true;
+  }
+  const relocalizer::Status saved = learner_->save(request.path);
+  response.success = saved.ok();
+  const relocalizer::LearningStatus status = learner_->status();
+  response.message = saved ? "wrote " + request.path + " (trained on " +
+                                 std::to_string(status.keyframes_learned) + " key frames) and " +
+                                 relocalizer::keyFramesPath(request.path) + " (" +
+                                 std::to_string(status.keyframes_stored) + " key frames)"
+                           : saved.error();
+  ROS_INFO("relocalizer: ~save_model: %s", response.message.c_str());
+  return true;
 }
 
 RelocalizerNode::~RelocalizerNode() {
@@ -136,10 +252,22 @@ RelocalizerNode::~RelocalizerNode() {
   // Wake every waiter first, so neither the worker nor a service call blocks
   // the joins below.
   frames_.close();
+  learn_frames_.close();
   watchdog_.stop();
   service_.shutdown();
+  save_service_.shutdown();
   service_spinner_->stop();
   if (worker_.joinable()) worker_.join();
+  if (learn_worker_.joinable()) learn_worker_.join();
+  if (learner_ && !params_.save_on_exit.empty()) {
+    // The current model, not a final retrain: shutdown must stay quick, and
+    // the key frames saved with it let the next run retrain on all of them.
+    const relocalizer::Status saved = learner_->save(params_.save_on_exit);
+    if (saved)
+      ROS_INFO("relocalizer: saved the learned model to %s", params_.save_on_exit.c_str());
+    else
+      ROS_ERROR("relocalizer: save_on_exit: %s", saved.error().c_str());
+  }
 }
 
 void RelocalizerNode::subscribe() {
@@ -288,6 +416,7 @@ void RelocalizerNode::onSynchronised(const sensor_msgs::ImageConstPtr& colour,
   if (!input->error.empty() && log_.allow(input->error))
     ROS_WARN("relocalizer: unusable frame on %s: %s", colour_sub_.getTopic().c_str(),
              input->error.c_str());
+  if (learner_) learn_frames_.push(input);
   frames_.push(std::move(input));
   if (params_.process_all && params_.mode == Mode::Continuous &&
       frames_.pendingCount() > kBacklogWarning && log_.allow("backlog"))
@@ -407,7 +536,18 @@ RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const Input& input,
     publishOutcome(result, nullptr, nullptr, std::nullopt, true);
     return result;
   }
-  const relocalizer::Relocalization solved = relocalizer_->relocalize(*frame);
+  const std::shared_ptr<const relocalizer::Relocalizer> model = currentModel();
+  if (!model) {
+    const relocalizer::LearningStatus status = learner_->status();
+    result.message = "no model yet: learning has " + std::to_string(status.keyframes_stored) +
+                     " key frames, the first model needs " + std::to_string(params_.learn_first_retrain) +
+                     (status.retraining ? " (being trained now)" : "") +
+                     "; is SLAM publishing " + params_.map_frame + " -> camera on TF?";
+    result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
+    publishOutcome(result, nullptr, nullptr, std::nullopt, true);
+    return result;
+  }
+  const relocalizer::Relocalization solved = model->relocalize(*frame);
   result.success = solved.success;
   result.message = solved.message;
   result.point_inliers = static_cast<uint32_t>(solved.point_inliers);
@@ -455,6 +595,18 @@ void RelocalizerNode::publishOutcome(ResultMsg& result, const relocalizer::Pose*
   result.frames_dropped = params_.mode == Mode::Continuous ? saturate(frames_.dropped()) : 0;
   result.frames_failed = saturate(frames_failed_);
   result.time_jumps = saturate(time_jumps_);
+  if (learner_) {
+    const relocalizer::LearningStatus status = learner_->status();
+    result.learning = true;
+    result.keyframes_added = saturate(static_cast<uint64_t>(status.keyframes_added));
+    result.keyframes_stored = saturate(static_cast<uint64_t>(status.keyframes_stored));
+    result.keyframes_learned = saturate(static_cast<uint64_t>(status.keyframes_learned));
+    result.learning_backlog = saturate(static_cast<uint64_t>(status.backlog));
+    result.model_bytes = status.model_bytes;
+    result.keyframe_bytes = status.store_bytes;
+    result.frames_untracked = saturate(frames_untracked_);
+    result.learning_error = status.last_error;
+  }
   if (pose) {
     result.pose.header = result.header;
     result.pose.pose = toPoseWithCovarianceMsg(*pose, *covariance);

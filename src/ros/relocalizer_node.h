@@ -14,7 +14,11 @@
 //    there, so a waiting call never stalls the image callbacks. Calls that pick
 //    the same frame share one relocalization (the core is deterministic per
 //    frame), so concurrent calls get the same, well-defined answer cheaply.
-//  - the watchdog and TF re-broadcast wall timers (the node handle's queue).
+//  - the watchdog and TF re-broadcast wall timers (the node handle's queue);
+//  - learn mode: the learning thread takes the newest frame, looks up the
+//    SLAM pose map_frame -> camera at its stamp, keeps key frames and hands
+//    them to the learner, whose own low-priority worker retrains the model
+//    (online_learner.h). Relocalizations use whichever model is current.
 
 #include <image_transport/image_transport.h>
 #include <image_transport/subscriber_filter.h>
@@ -23,11 +27,14 @@
 #include <message_filters/sync_policies/exact_time.h>
 #include <message_filters/synchronizer.h>
 #include <relocalizer/Relocalize.h>
+#include <relocalizer/SaveModel.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <tbb/global_control.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
 
 #include <atomic>
 #include <future>
@@ -37,7 +44,9 @@
 #include <thread>
 
 #include "frame_buffer.h"
+#include "key_frames.h"
 #include "node_params.h"
+#include "relocalizer/online/online_learner.h"
 #include "relocalizer/pose/relocalizer.h"
 #include <relocalizer/RelocalizationResult.h>
 #include "throttled_log.h"
@@ -70,7 +79,14 @@ class RelocalizerNode {
   using ResultMsg = relocalizer::RelocalizationResult;
 
   RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
-                  std::unique_ptr<relocalizer::Relocalizer> relocalizer);
+                  std::shared_ptr<const relocalizer::Relocalizer> relocalizer,
+                  std::unique_ptr<relocalizer::OnlineLearner> learner);
+
+  // The model relocalizations use now: the loaded one, or the learner's newest
+  // (null while learning has produced none yet).
+  std::shared_ptr<const relocalizer::Relocalizer> currentModel() const;
+  void learnLoop();
+  bool onSaveModel(relocalizer::SaveModel::Request& request, relocalizer::SaveModel::Response& response);
 
   void subscribe();
   void makeSynchronizer();
@@ -110,7 +126,17 @@ class RelocalizerNode {
   ros::NodeHandle private_nh_;
   const NodeParams params_;
   std::unique_ptr<tbb::global_control> thread_limit_;
-  const std::unique_ptr<relocalizer::Relocalizer> relocalizer_;
+  const std::shared_ptr<const relocalizer::Relocalizer> fixed_model_;  // null in learn mode
+  // Learn mode: the learner, the frames waiting for the learning thread (the
+  // newest only: key frames are chosen by motion, so a skipped frame is
+  // covered by the next), SLAM's TF and the key-frame rule.
+  const std::unique_ptr<relocalizer::OnlineLearner> learner_;
+  FrameBuffer<InputPtr> learn_frames_{FrameBuffer<InputPtr>::Policy::Latest};
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<KeyFrameSelector> key_frames_;
+  std::thread learn_worker_;
+  std::atomic<uint64_t> frames_untracked_{0};  // learn mode: frames without the SLAM pose
 
   ros::Publisher pose_pub_;
   ros::Publisher result_pub_;
@@ -159,6 +185,7 @@ class RelocalizerNode {
   ros::CallbackQueue service_queue_;
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   ros::ServiceServer service_;
+  ros::ServiceServer save_service_;
   ros::WallTimer watchdog_;
 
   // Last members: destroyed first, so no callback outlives what it uses (the

@@ -1,8 +1,11 @@
 // evaluate: relocalizes every selected frame of a dataset (a folder or a rosbag)
 // with a trained model and reports accuracy and latency as the relocalization
-// literature does.
+// literature does. With --learn-frames the model is first learned online from
+// other frames of the dataset, as the node learns beside SLAM.
 
+#include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "cli_support.h"
@@ -11,6 +14,9 @@
 #include "relocalizer/core/statistics.h"
 #include "relocalizer/core/version.h"
 #include "relocalizer/eval/evaluation.h"
+#include "relocalizer/eval/plot.h"
+#include "relocalizer/forest/training_config.h"
+#include "relocalizer/online/online_learner.h"
 #include "relocalizer/pose/relocalizer.h"
 
 using namespace relocalizer;
@@ -21,12 +27,16 @@ int main(int argc, char** argv) {
       "5 cm / 5 deg and 2 cm / 2 deg, median errors, ATE RMSE, frames without a pose and latency "
       "per stage. With --output it writes poses.txt (TUM format), errors.csv, summary.json, "
       "trajectory.png and errors.png. The frames and their ground truth come from a dataset folder "
-      "(--dataset) or a rosbag (--bag) with the same pose source as train --bag.",
+      "(--dataset) or a rosbag (--bag) with the same pose source as train --bag. With "
+      "--learn-frames the model is learned online first (key frames, background retraining as in "
+      "the node's learn mode), from nothing or continuing --model, and a learning curve is added.",
       "evaluate"};
   std::string model_path, output, config, forests = "both";
   int threads = 0;
   bool prediction_quality = false;
-  app.add_option("-m,--model", model_path, "Model file written by train")->required();
+  app.add_option("-m,--model", model_path,
+                 "Model file written by train (required without --learn-frames); with "
+                 "--learn-frames a saved online model to continue (needs MODEL.keyframes)");
   cli::SourceOptions source_options;
   source_options.add(app, "Dataset folder with ground truth",
                      "Frame ids to evaluate, e.g. 100-199,300-399 (default: all); for a bag, ids "
@@ -42,7 +52,40 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--prediction-quality", prediction_quality,
                "Also report the share of forest predictions within 10 cm of the truth");
+  std::string learn_frames, learn_min_motion = "0.05,5", learn_config, save_model;
+  int curve_every = 50;
+  LearningParams learning;
+  const std::string group = "Online learning (--learn-frames)";
+  auto* learn_option =
+      app.add_option("--learn-frames", learn_frames,
+                     "Learn online from these frames of the --dataset folder, in order, using "
+                     "their ground truth as the SLAM pose; then relocalize --frames")
+          ->group(group);
+  const auto learn_only = [&](CLI::Option* option) { option->needs(learn_option)->group(group); };
+  learn_only(app.add_option("--learn-min-motion", learn_min_motion,
+                            "Key frames: METRES,DEGREES of motion since the last key frame "
+                            "(the node's learn_min_motion)")
+                 ->capture_default_str());
+  learn_only(app.add_option("--learn-config", learn_config,
+                            "Training YAML (as train --config) for the retrains"));
+  learn_only(app.add_option("--max-keyframes", learning.max_keyframes,
+                            "Cap on stored key frames (the node's learn_max_keyframes)")
+                 ->check(CLI::Range(2, 100000))
+                 ->capture_default_str());
+  learn_only(app.add_option("--curve-every", curve_every,
+                            "Learn frames between learning-curve points (each retrains and "
+                            "relocalizes every --frames frame)")
+                 ->check(CLI::Range(1, 1000000))
+                 ->capture_default_str());
+  learn_only(app.add_flag("--learn-surface-gate", learning.surface_gate,
+                          "Refuse poses off the learned surface (the node's learn_surface_gate)"));
+  learn_only(app.add_option("--save-model", save_model,
+                            "Write the learned model and its key frames (MODEL.keyframes) here"));
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+  if (model_path.empty() && learn_frames.empty())
+    return cli::fail(app, "--model is required (or --learn-frames to learn the model online)");
+  if (!learn_frames.empty() && !source_options.bag.empty())
+    return cli::fail(app, "--learn-frames learns from a --dataset folder, not from --bag");
 
   RelocalizerParams params;
   if (!config.empty()) {
@@ -57,27 +100,21 @@ int main(int argc, char** argv) {
   if (!source) return cli::fail(app, source.error());
   const cli::FrameSource& data = **source;
   const std::string& dataset_path = data.path();
-
-  auto relocalizer = Relocalizer::fromFile(model_path, params);
-  if (!relocalizer) return cli::fail(app, relocalizer.error());
   std::printf("%s\n", data.summary().c_str());
-  const Model& model = (*relocalizer)->model();
-  std::printf("model %s: %zu point trees, %zu line trees, trained on %d images of %s\n",
-              model_path.c_str(), model.points.trees.size(), model.lines.trees.size(),
-              model.summary.images, model.summary.dataset.c_str());
-  if (const std::string limits = (*relocalizer)->limitations(); !limits.empty())
-    std::printf("warning: %s\n", limits.c_str());
-
   const int thread_count = cli::resolveThreads(threads);
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, thread_count);
 
-  std::vector<EvaluationRecord> records;
-  int skipped = 0;
   // Prediction quality per forest, summed over frames: samples, chosen within 10 cm, any within.
   long quality[2][3] = {{0, 0, 0}, {0, 0, 0}};
   std::vector<float> chosen_errors[2];
-  {
-    ProgressBar bar("evaluating", data.size());
+  int skipped = 0;
+  // Every selected frame through one model; `measure` adds the prediction quality.
+  const auto evaluateAll = [&](const Relocalizer& relocalizer, bool measure,
+                               const std::string& label) -> Expected<std::vector<EvaluationRecord>> {
+    std::vector<EvaluationRecord> records;
+    const Model& model = relocalizer.model();
+    skipped = 0;
+    ProgressBar bar(label, data.size());
     for (size_t i = 0; i < data.size(); ++i) {
       bar.advance();
       if (!data.groundTruth(i)) {
@@ -85,12 +122,12 @@ int main(int argc, char** argv) {
         continue;
       }
       auto frame = data.load(i);
-      if (!frame) return cli::fail(app, frame.error());
-      const Relocalization result = (*relocalizer)->relocalize(*frame);
-      for (int lines = 0; prediction_quality && lines < 2; ++lines) {
+      if (!frame) return makeError(frame.error());
+      const Relocalization result = relocalizer.relocalize(*frame);
+      for (int lines = 0; measure && lines < 2; ++lines) {
         if ((lines ? model.lines : model.points).empty()) continue;
-        auto q = (*relocalizer)->measurePredictions(*frame, lines == 1);
-        if (!q) return cli::fail(app, q.error());
+        auto q = relocalizer.measurePredictions(*frame, lines == 1);
+        if (!q) return makeError(q.error());
         quality[lines][0] += q->samples;
         quality[lines][1] += q->chosen_within;
         quality[lines][2] += q->any_within;
@@ -109,6 +146,126 @@ int main(int argc, char** argv) {
       r.timings = result.timings;
       records.push_back(std::move(r));
     }
+    return records;
+  };
+
+  std::shared_ptr<const Relocalizer> relocalizer;
+  std::vector<EvaluationRecord> records;
+  nlohmann::json learning_json;
+  if (learn_frames.empty()) {
+    auto loaded = Relocalizer::fromFile(model_path, params);
+    if (!loaded) return cli::fail(app, loaded.error());
+    relocalizer = std::move(*loaded);
+  } else {
+    if (!learn_config.empty()) {
+      auto loaded = loadTrainingParams(learn_config);
+      if (!loaded) return cli::fail(app, loaded.error());
+      learning.training = *loaded;
+    }
+    auto motion = relocalizer_ros::parseMinMotion(learn_min_motion);
+    if (!motion) return cli::fail(app, "--learn-min-motion: " + motion.error());
+    auto learn_data = cli::DatasetArguments{source_options.dataset, source_options.format,
+                                            learn_frames, source_options.split}
+                          .open();
+    if (!learn_data) return cli::fail(app, learn_data.error());
+    const Dataset& learn = **learn_data;
+    std::printf("learning from %zu frames (%s), key frames at %s m,deg, at most %d stored\n",
+                learn.size(), learn_frames.c_str(), learn_min_motion.c_str(), learning.max_keyframes);
+    OnlineLearner learner(learning, params, OnlineLearner::Mode::Inline);
+    if (!model_path.empty())
+      if (Status resumed = learner.resume(model_path); !resumed) return cli::fail(app, resumed.error());
+    relocalizer_ros::KeyFrameSelector selector(motion->first, motion->second);
+    nlohmann::json curve = nlohmann::json::array();
+    Plot plot;
+    plot.title = "learning curve: " + std::filesystem::path(dataset_path).filename().string();
+    plot.x_label = "frames learned";
+    plot.y_label = "% within 5 cm / 5 deg";
+    plot.y_min = 0.0;
+    plot.y_max = 100.0;
+    PlotSeries series = PlotSeries::styled("online model", plotColour(0), true, 1);
+    double compress_seconds = 0.0, retrain_seconds = 0.0;
+    int without_pose = 0, learned = 0;
+    for (size_t i = 0; i < learn.size(); ++i) {
+      // A frame without a pose is SLAM having lost track: never learned from.
+      if (learn.groundTruth(i) && selector.keep(*learn.groundTruth(i))) {
+        auto frame = learn.load(i);
+        if (!frame) return cli::fail(app, frame.error());
+        const auto start = std::chrono::steady_clock::now();
+        if (Status added = learner.addKeyFrame(*frame, *learn.groundTruth(i)); !added)
+          return cli::fail(app, added.error());
+        compress_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      }
+      if (!learn.groundTruth(i)) ++without_pose;
+      ++learned;
+      if (learned % curve_every != 0 && i + 1 != learn.size()) continue;
+      const auto start = std::chrono::steady_clock::now();
+      if (Status drained = learner.drain(); !drained) return cli::fail(app, drained.error());
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const LearningStatus status = learner.status();
+      retrain_seconds = status.last_retrain_seconds;
+      relocalizer = learner.current();
+      double accuracy = 0.0;
+      if (relocalizer) {
+        auto evaluated = evaluateAll(*relocalizer, false, "curve " + std::to_string(learned));
+        if (!evaluated) return cli::fail(app, evaluated.error());
+        records = std::move(*evaluated);
+        accuracy = summarizeEvaluation(records).accuracy.within_5cm_5deg;
+      }
+      std::printf("after %4d frames: %3d key frames (%d stored), retrain %.1f s, %.1f %% within 5 cm / 5 deg\n",
+                  learned, status.keyframes_added, status.keyframes_stored, seconds, 100.0 * accuracy);
+      curve.push_back({{"frames_learned", learned},
+                       {"keyframes", status.keyframes_added},
+                       {"keyframes_stored", status.keyframes_stored},
+                       {"retrain_seconds", seconds},
+                       {"within_5cm_5deg", accuracy}});
+      series.x.push_back(learned);
+      series.y.push_back(100.0 * accuracy);
+    }
+    const LearningStatus status = learner.status();
+    if (!relocalizer)
+      return cli::fail(app, "learned no model: only " + std::to_string(status.keyframes_added) +
+                                " key frames in --learn-frames " + learn_frames);
+    if (without_pose) std::printf("%d learn frames without ground truth were not learned from\n", without_pose);
+    const double per_keyframe_retrain = retrain_seconds / std::max(1, status.keyframes_learned);
+    const double per_keyframe_compress = compress_seconds / std::max(1, status.keyframes_added);
+    std::printf("update time per key frame: %.1f ms to store (caller's thread), %.2f s of retraining "
+                "(%d threads; the last retrain took %.1f s for %d key frames); model %.1f MB, key frames %.1f MB\n",
+                1000.0 * per_keyframe_compress, per_keyframe_retrain, thread_count, retrain_seconds,
+                status.keyframes_learned, status.model_bytes / 1e6, status.store_bytes / 1e6);
+    if (!save_model.empty()) {
+      if (Status saved = learner.save(save_model); !saved) return cli::fail(app, saved.error(), 1);
+      std::printf("wrote %s and %s\n", save_model.c_str(), keyFramesPath(save_model).c_str());
+    }
+    plot.series.push_back(series);
+    learning_json = {{"learn_frames", learn_frames},
+                     {"learn_min_motion", learn_min_motion},
+                     {"max_keyframes", learning.max_keyframes},
+                     {"surface_gate", learning.surface_gate},
+                     {"keyframes_added", status.keyframes_added},
+                     {"keyframes_stored", status.keyframes_stored},
+                     {"keyframes_evicted", status.keyframes_evicted},
+                     {"store_seconds_per_keyframe", per_keyframe_compress},
+                     {"retrain_seconds_per_keyframe", per_keyframe_retrain},
+                     {"last_retrain_seconds", retrain_seconds},
+                     {"model_bytes", status.model_bytes},
+                     {"store_bytes", status.store_bytes},
+                     {"curve", curve}};
+    if (!output.empty()) {
+      std::filesystem::create_directories(output);
+      if (!plot.save(output + "/learning_curve.png"))
+        return cli::fail(app, output + "/learning_curve.png: cannot write", 1);
+    }
+  }
+  const Model& model = relocalizer->model();
+  std::printf("model %s: %zu point trees, %zu line trees, trained on %d images of %s\n",
+              model_path.empty() ? "(learned online)" : model_path.c_str(), model.points.trees.size(),
+              model.lines.trees.size(), model.summary.images, model.summary.dataset.c_str());
+  if (const std::string limits = relocalizer->limitations(); !limits.empty())
+    std::printf("warning: %s\n", limits.c_str());
+  if (learn_frames.empty() || prediction_quality) {
+    auto evaluated = evaluateAll(*relocalizer, prediction_quality, "evaluating");
+    if (!evaluated) return cli::fail(app, evaluated.error());
+    records = std::move(*evaluated);
   }
   if (records.empty()) return cli::fail(app, dataset_path + ": no selected frame has ground truth");
   if (skipped) std::printf("skipped %d frames without ground truth\n", skipped);
@@ -139,6 +296,7 @@ int main(int argc, char** argv) {
     out.title = std::filesystem::path(dataset_path).filename().string() + " (" + forests + ")";
     nlohmann::json extra;
     extra["model"] = model_path;
+    if (!learning_json.is_null()) extra["learning"] = learning_json;
     extra["dataset"] = dataset_path;
     extra["frame_selection"] = source_options.frames;
     if (!source_options.bag.empty()) {
@@ -154,8 +312,8 @@ int main(int argc, char** argv) {
     out.extra_json = extra.dump();
     if (const Status written = writeEvaluationOutputs(output, records, summary, out); !written)
       return cli::fail(app, written.error(), 1);
-    std::printf("wrote poses.txt, errors.csv, summary.json, trajectory.png, errors.png to %s\n",
-                output.c_str());
+    std::printf("wrote poses.txt, errors.csv, summary.json, trajectory.png, errors.png%s to %s\n",
+                learn_frames.empty() ? "" : ", learning_curve.png", output.c_str());
   }
   return 0;
 }

@@ -10,6 +10,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/image_encodings.h>
 #include <std_msgs/String.h>
+#include <tf2_msgs/TFMessage.h>
 
 #include <chrono>
 #include <filesystem>
@@ -48,6 +49,25 @@ geometry_msgs::PoseStamped poseMsg(const Pose& pose, const std_msgs::Header& hea
   return msg;
 }
 
+// Where --tf puts odom in the map: not the identity, so a consumer that mixes
+// up map and odom, or composes the chain the wrong way round, is caught.
+Pose mapToOdom() {
+  Pose pose = Pose::Identity();
+  pose.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(0.5, -0.3, 0.1);
+  return pose;
+}
+
+geometry_msgs::TransformStamped transformMsg(const Pose& pose, const ros::Time& stamp,
+                                             const std::string& parent, const std::string& child) {
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  t.transform = relocalizer_ros::toTransformMsg(pose);
+  return t;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -55,7 +75,7 @@ int main(int argc, char** argv) {
       "Writes the selected frames of a dataset as a rosbag: /camera/rgb/image_raw (bgr8), "
       "/camera/depth/image_raw (16UC1 millimetres or 32FC1 metres, registered to colour), "
       "/camera/rgb/camera_info, the camera-to-world ground truth on /ground_truth/pose "
-      "(PoseStamped, frame map) and a JSON description of the source on /dataset/info. Every "
+      "(PoseStamped, frame map), with --tf also on /tf, and a JSON description of the source on /dataset/info. Every "
       "header carries the frame's stamp and its dataset id as seq. Stamps are the dataset's, "
       "or synthesized at --rate (7-Scenes and 12-Scenes stamps are frame numbers, so they are "
       "synthesized at 30 Hz unless --rate says otherwise).",
@@ -74,6 +94,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--frame-id", frame_id, "frame_id of the colour and depth images")
       ->capture_default_str();
+  bool tf = false;
+  app.add_flag("--tf", tf,
+               "Also write the ground truth on /tf as a SLAM system with odometry publishes it: "
+               "map -> odom (fixed, not the identity) and odom -> FRAME_ID at each frame's stamp");
   app.add_option("--compression", compression, "none | lz4 | bz2")
       ->check(CLI::IsMember({"none", "lz4", "bz2"}))
       ->capture_default_str();
@@ -131,6 +155,13 @@ int main(int argc, char** argv) {
         truth_header.frame_id = "map";
         bag.write("/ground_truth/pose", header.stamp, poseMsg(*data.groundTruth(i), truth_header));
         ++with_truth;
+        if (tf) {
+          tf2_msgs::TFMessage message;
+          message.transforms.push_back(transformMsg(mapToOdom(), header.stamp, "map", "odom"));
+          message.transforms.push_back(transformMsg(mapToOdom().inverse() * *data.groundTruth(i),
+                                                    header.stamp, "odom", frame_id));
+          bag.write("/tf", header.stamp, message);
+        }
       }
       bag.write("/camera/rgb/camera_info", header.stamp, cameraInfoMsg(frame->camera, header));
       // REP 118: 16UC1 millimetres with 0 for no reading, or 32FC1 metres with NaN.

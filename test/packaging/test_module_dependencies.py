@@ -19,9 +19,9 @@ CMAKE = SOURCE / "CMakeLists.txt"
 TABLE_HEADER = ["module", "concern", "folders", "libraries", "may use"]
 # The only modules that speak ROS; every other module builds without ROS.
 ROS_MODULES = {"ros", "tools"}
-# What the node executable and the nodelet may carry: the method and the ROS layer.
+# What the node executable and the nodelet may carry: the method, online learning and the ROS layer.
 NODE_TARGETS = ("relocalizer_node", "relocalizer_nodelet")
-NODE_MODULES = {"core", "surface", "forest", "pose", "ros"}
+NODE_MODULES = {"core", "surface", "forest", "pose", "online", "ros"}
 SOURCE_SUFFIXES = (".h", ".hpp", ".cpp")
 
 

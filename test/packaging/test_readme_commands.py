@@ -11,6 +11,12 @@ from README.md itself:
   `rostopic echo` line (continuous mode), while `rosbag play` plays the fixture
   frames; the pose must be within 5 cm / 5 degrees of a ground-truth pose;
 - every `roslaunch relocalizer replay.launch ...` line is run verbatim;
+- every `roslaunch relocalizer relocalizer.launch learn:=true ...` line is launched
+  verbatim while the fixture's training frames play with their poses on /tf (the
+  rostest fixture's learn.bag), then the test frames play without TF and the README's
+  `rosservice call /relocalizer/relocalize` line must place them (retried while the
+  model is too young to answer; its first answer must be right), and its `rosservice call /relocalizer/save_model` line must write
+  the model and its key frames;
 - every tool named by a `rosrun relocalizer <tool>` line answers `--help` through
   rosrun, and `rosrun relocalizer train --help` is run exactly as written.
 
@@ -231,7 +237,7 @@ class ReadmeCommandsTest(unittest.TestCase):
     def test_relocalizer_launch_lines_answer_the_readme_service_call(self):
         calls = self.readme_lines("rosservice call /relocalizer/relocalize")
         launches = [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
-                    if "mode:=continuous" not in c]
+                    if "mode:=continuous" not in c and "learn:=true" not in c]
         self.assertTrue(launches, "README.md has no on-demand relocalizer.launch line")
         for launch in launches:
             with self.subTest(launch=launch):
@@ -265,6 +271,45 @@ class ReadmeCommandsTest(unittest.TestCase):
                 p, q = pose["position"], pose["orientation"]
                 self.assert_near_ground_truth([p["x"], p["y"], p["z"]],
                                               [q["x"], q["y"], q["z"], q["w"]], echo)
+                self.shell.stop_all()
+
+    def test_learn_launch_line_learns_from_tf_relocalizes_and_saves(self):
+        calls = self.readme_lines("rosservice call /relocalizer/relocalize")
+        saves = self.readme_lines("rosservice call /relocalizer/save_model")
+        for launch in [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
+                       if "learn:=true" in c]:
+            with self.subTest(launch=launch):
+                self.shell.start(launch, "roslaunch.log")
+                self.shell.wait_until("rostopic list", "/relocalizer/result")
+                # What SLAM publishes while it tracks: images and map -> odom -> camera.
+                played = self.shell.run(f'rosbag play --quiet -d 1 "{FIXTURE}/learn.bag"', timeout=120)
+                self.assertEqual(played.returncode, 0, played.stdout + played.stderr)
+                # Tracking lost: frames without TF; the learned model must place them.
+                self.shell.start("rosbag play --loop --quiet test.bag", "rosbag_play.log")
+                for call in sorted(set(calls)):
+                    deadline = time.monotonic() + 120
+                    while True:
+                        result = self.shell.run(call, timeout=60)
+                        self.assertEqual(result.returncode, 0, f"`{call}`:\n{result.stdout}{result.stderr}")
+                        answer = yaml.safe_load(result.stdout)
+                        # A young model may still lack the evidence for these views
+                        # ("no model yet", "weak evidence"); the first answer must be right.
+                        if answer["success"] or time.monotonic() > deadline:
+                            break
+                        time.sleep(1.0)
+                    self.assertTrue(answer["success"], f"`{call}` after `{launch}`: {answer['message']}"
+                                    + self.shell.logs())
+                    pose = answer["pose"]["pose"]["pose"]
+                    p, q = pose["position"], pose["orientation"]
+                    self.assert_near_ground_truth([p["x"], p["y"], p["z"]],
+                                                  [q["x"], q["y"], q["z"], q["w"]], call)
+                for save in saves:
+                    result = self.shell.run(save, timeout=60)
+                    self.assertEqual(result.returncode, 0, result.stdout + result.stderr)
+                    self.assertTrue(yaml.safe_load(result.stdout)["success"], result.stdout)
+                    path = re.search(r"path: \$PWD/(\S+?)[}\"]", save).group(1)
+                    self.assertTrue((self.shell.work / path).is_file(), save)
+                    self.assertTrue((self.shell.work / (path + ".keyframes")).is_file(), save)
                 self.shell.stop_all()
 
     def test_replay_launch_line_prints_the_evaluation(self):

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the rostests' data from nothing: a small synthetic room, a small model
-# trained on it, a bag of its test frames (make_bag) and the offline
+# trained on it, a bag of its test frames (make_bag), a bag of its training
+# frames with TF for learn mode and the offline
 # `evaluate` output the replay test compares against.
 #   make_fixture.sh TOOL_DIR FIXTURE_DIR
 set -euo pipefail
@@ -12,6 +13,8 @@ mkdir -p "$out"
 "$tools/synthesize" --output "$out/scene" --train-frames 60 --test-frames 20 --width 320 --height 240 >/dev/null
 "$tools/train" --dataset "$out/scene/train" --config "$here/fixture_forest.yaml" --output "$out/model.bin" >/dev/null
 "$tools/make_bag" --dataset "$out/scene/test" --output "$out/test.bag" >/dev/null
+# Learn mode: the training frames with their poses on TF, as recorded beside SLAM.
+"$tools/make_bag" --dataset "$out/scene/train" --tf --output "$out/learn.bag" >/dev/null
 "$tools/evaluate" --model "$out/model.bin" --dataset "$out/scene/test" --output "$out/evaluate" >/dev/null
 touch "$out/fixture.stamp"
 echo "rostest fixture in $out"

@@ -77,6 +77,20 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
       {"/rate", [](ros::NodeHandle& nh) { nh.setParam("tf_rate", -1.0); }, "tf_rate' must be finite and not negative"},
       {"/queue", [](ros::NodeHandle& nh) { nh.setParam("sync_queue_size", 0); }, "sync_queue_size' must be at least 1"},
       {"/frames", [](ros::NodeHandle& nh) { nh.setParam("odom_frame", "map"); }, "odom_frame' equals map_frame"},
+      // Learning from TF the node publishes itself would feed its own answers back.
+      {"/learn_tf", [](ros::NodeHandle& nh) { nh.setParam("learn", true); }, "learn' is true but publish_tf is true"},
+      {"/save_no_learn", [](ros::NodeHandle& nh) { nh.setParam("save_on_exit", "/tmp/m.bin"); },
+       "save_on_exit' is set but learn is false"},
+      {"/motion", [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("learn_min_motion", "far");
+       }, "learn_min_motion'"},
+      {"/cap", [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("learn_max_keyframes", 1);
+       }, "learn_max_keyframes' must be at least 2"},
   };
   for (const Case& c : cases) {
     ros::NodeHandle nh(c.ns);

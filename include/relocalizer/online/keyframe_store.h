@@ -1,0 +1,75 @@
+#pragma once
+// The key frames an online learner has seen, compressed and capped, so that a
+// long run stops growing: every retrain reads them all, and a place carried
+// over to the next run is its key frames (the model is derived from them).
+//
+// Colour is kept as JPEG (quality 95 loses nothing measurable for training,
+// docs/online_learning.md) and depth as 16-bit PNG millimetres: about 185 KB a
+// Kinect frame instead of 2.1 MB raw. When the store is full, the key frame
+// most redundant by pose goes: the older of the two closest key frames, so the
+// place keeps its coverage and a changed place is refreshed.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/forest/training.h"
+
+namespace relocalizer {
+
+struct StoredKeyFrame {
+  int id = -1;  // frame id (dataset) or sequence number (node)
+  double stamp = 0.0;
+  CameraIntrinsics camera;
+  Pose pose = Pose::Identity();  // camera-to-world
+  std::vector<uint8_t> colour_jpeg;
+  std::vector<uint8_t> depth_png;  // CV_16UC1 millimetres
+  size_t bytes() const { return colour_jpeg.size() + depth_png.size() + sizeof(*this); }
+};
+
+// Compresses a posed frame; fails on frames that cannot be relocalized
+// (frameValidationError) or cannot be encoded.
+Expected<StoredKeyFrame> compressKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world,
+                                          int jpeg_quality = 95);
+// Back to a training image (colour BGR8, depth float metres with NaN).
+Expected<TrainingImage> decompressKeyFrame(const StoredKeyFrame& key_frame);
+
+// Distance in "motion rule units": metres / 0.05 + degrees / 5, so one unit is
+// the key-frame motion rule's step.
+double keyFrameDistance(const Pose& a, const Pose& b);
+
+class KeyFrameStore {
+ public:
+  using Entry = std::shared_ptr<const StoredKeyFrame>;
+
+  explicit KeyFrameStore(int capacity) : capacity_(capacity) {}
+
+  // Adds at the end; when over capacity evicts the most redundant key frame
+  // and returns true.
+  bool add(Entry key_frame);
+  const std::vector<Entry>& entries() const { return entries_; }
+  size_t size() const { return entries_.size(); }
+  size_t bytes() const;
+  int capacity() const { return capacity_; }
+
+ private:
+  int capacity_;
+  std::vector<Entry> entries_;  // in arrival order
+};
+
+// The key-frame file beside a model (`<model>.keyframes`): magic "PLKEYFRM",
+// uint32 version, uint32 count, uint64 body length, uint32 CRC-32 of the body,
+// then per key frame id, stamp, intrinsics, the 3x4 pose and both images'
+// bytes. Written to a temporary name and renamed, so a reader never sees half.
+std::string keyFramesPath(const std::string& model_path);
+Status saveKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames, const std::string& path);
+Expected<std::vector<StoredKeyFrame>> loadKeyFrames(const std::string& path);
+
+// Writes `bytes` to `path` via a temporary file in the same folder and a
+// rename, so `path` holds either the old or the new content.
+Status writeFileAtomically(const std::string& path, const std::vector<uint8_t>& bytes);
+
+}  // namespace relocalizer

@@ -1,0 +1,213 @@
+#include "relocalizer/online/keyframe_store.h"
+
+#include <unistd.h>
+#include <zlib.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <opencv2/imgcodecs.hpp>
+
+namespace relocalizer {
+
+namespace {
+
+constexpr char kMagic[8] = {'P', 'L', 'K', 'E', 'Y', 'F', 'R', 'M'};
+constexpr uint32_t kVersion = 1;
+constexpr size_t kHeaderBytes = 8 + 4 + 4 + 8 + 4;
+
+template <typename T>
+void put(std::vector<uint8_t>& out, const T& value) {
+  const auto* p = reinterpret_cast<const uint8_t*>(&value);
+  out.insert(out.end(), p, p + sizeof(T));
+}
+
+void putBytes(std::vector<uint8_t>& out, const std::vector<uint8_t>& bytes) {
+  put(out, static_cast<uint32_t>(bytes.size()));
+  out.insert(out.end(), bytes.begin(), bytes.end());
+}
+
+class Reader {
+ public:
+  Reader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+  template <typename T>
+  bool get(T& value) {
+    if (size_ - pos_ < sizeof(T)) return false;
+    std::memcpy(&value, data_ + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return true;
+  }
+  bool getBytes(std::vector<uint8_t>& bytes) {
+    uint32_t n = 0;
+    if (!get(n) || size_ - pos_ < n) return false;
+    bytes.assign(data_ + pos_, data_ + pos_ + n);
+    pos_ += n;
+    return true;
+  }
+  bool atEnd() const { return pos_ == size_; }
+
+ private:
+  const uint8_t* data_;
+  size_t size_;
+  size_t pos_ = 0;
+};
+
+}  // namespace
+
+Expected<StoredKeyFrame> compressKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world,
+                                          int jpeg_quality) {
+  if (const std::string why = frameValidationError(frame); !why.empty())
+    return makeError("key frame " + std::to_string(frame.id) + ": " + why);
+  StoredKeyFrame key_frame;
+  key_frame.id = frame.id;
+  key_frame.stamp = frame.stamp;
+  key_frame.camera = frame.camera;
+  key_frame.pose = camera_to_world;
+  if (!cv::imencode(".jpg", frame.colour, key_frame.colour_jpeg,
+                    {cv::IMWRITE_JPEG_QUALITY, jpeg_quality}) ||
+      !cv::imencode(".png", depthToMillimetres(frame.depth), key_frame.depth_png,
+                    {cv::IMWRITE_PNG_COMPRESSION, 1}))
+    return makeError("key frame " + std::to_string(frame.id) + ": image encoding failed");
+  return key_frame;
+}
+
+Expected<TrainingImage> decompressKeyFrame(const StoredKeyFrame& key_frame) {
+  TrainingImage image;
+  image.colour = cv::imdecode(key_frame.colour_jpeg, cv::IMREAD_COLOR);
+  const cv::Mat depth_mm = cv::imdecode(key_frame.depth_png, cv::IMREAD_ANYDEPTH);
+  const std::string name = "key frame " + std::to_string(key_frame.id);
+  if (image.colour.empty() || depth_mm.type() != CV_16UC1)
+    return makeError(name + ": stored colour or depth image does not decode");
+  if (image.colour.size() != depth_mm.size() || image.colour.cols != key_frame.camera.width ||
+      image.colour.rows != key_frame.camera.height)
+    return makeError(name + ": stored image size disagrees with its intrinsics");
+  auto metres = depthToMetres(depth_mm, 1000.0);
+  if (!metres) return makeError(name + ": " + metres.error());
+  image.depth = *metres;
+  image.camera = key_frame.camera;
+  image.pose = key_frame.pose;
+  return image;
+}
+
+double keyFrameDistance(const Pose& a, const Pose& b) {
+  return translationError(a, b) / 0.05 + rotationErrorDegrees(a, b) / 5.0;
+}
+
+bool KeyFrameStore::add(Entry key_frame) {
+  entries_.push_back(std::move(key_frame));
+  if (static_cast<int>(entries_.size()) <= std::max(capacity_, 1)) return false;
+  // O(n^2) over at most a few hundred poses, once per key frame: negligible
+  // beside compressing the frame.
+  double best = std::numeric_limits<double>::infinity();
+  size_t evict = 0;
+  for (size_t i = 0; i < entries_.size(); ++i)
+    for (size_t j = i + 1; j < entries_.size(); ++j) {
+      const double d = keyFrameDistance(entries_[i]->pose, entries_[j]->pose);
+      if (d < best) {
+        best = d;
+        evict = i;  // the older of the pair
+      }
+    }
+  entries_.erase(entries_.begin() + static_cast<std::ptrdiff_t>(evict));
+  return true;
+}
+
+size_t KeyFrameStore::bytes() const {
+  size_t total = 0;
+  for (const Entry& e : entries_) total += e->bytes();
+  return total;
+}
+
+std::string keyFramesPath(const std::string& model_path) { return model_path + ".keyframes"; }
+
+Status writeFileAtomically(const std::string& path, const std::vector<uint8_t>& bytes) {
+  const std::string temporary = path + ".tmp" + std::to_string(::getpid());
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) return makeError(path + ": cannot open " + temporary + " for writing");
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    out.flush();
+    if (!out) {
+      std::error_code ignored;
+      std::filesystem::remove(temporary, ignored);
+      return makeError(path + ": write failed (disk full?)");
+    }
+  }
+  std::error_code error;
+  std::filesystem::rename(temporary, path, error);
+  if (error) {
+    std::filesystem::remove(temporary, error);
+    return makeError(path + ": cannot rename the written file into place: " + error.message());
+  }
+  return okStatus();
+}
+
+Status saveKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames, const std::string& path) {
+  std::vector<uint8_t> body;
+  for (const auto& k : key_frames) {
+    put(body, static_cast<int32_t>(k->id));
+    put(body, k->stamp);
+    for (double v : {k->camera.fx, k->camera.fy, k->camera.cx, k->camera.cy}) put(body, v);
+    put(body, static_cast<int32_t>(k->camera.width));
+    put(body, static_cast<int32_t>(k->camera.height));
+    const Eigen::Matrix<double, 3, 4> m = k->pose.matrix().topRows<3>();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) put(body, m(r, c));
+    putBytes(body, k->colour_jpeg);
+    putBytes(body, k->depth_png);
+  }
+  std::vector<uint8_t> file(kMagic, kMagic + 8);
+  put(file, kVersion);
+  put(file, static_cast<uint32_t>(key_frames.size()));
+  put(file, static_cast<uint64_t>(body.size()));
+  put(file, static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size()))));
+  file.insert(file.end(), body.begin(), body.end());
+  return writeFileAtomically(path, file);
+}
+
+Expected<std::vector<StoredKeyFrame>> loadKeyFrames(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return makeError(path + ": cannot open key-frame file");
+  const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (file.size() < kHeaderBytes || std::memcmp(file.data(), kMagic, 8) != 0)
+    return makeError(path + ": not a key-frame file (bad magic)");
+  Reader header(file.data() + 8, kHeaderBytes - 8);
+  uint32_t version = 0, count = 0, crc = 0;
+  uint64_t length = 0;
+  header.get(version);
+  header.get(count);
+  header.get(length);
+  header.get(crc);
+  if (version != kVersion)
+    return makeError(path + ": key-frame file version " + std::to_string(version) +
+                     " is not supported (this build reads version " + std::to_string(kVersion) + ")");
+  const uint8_t* body = file.data() + kHeaderBytes;
+  if (length != file.size() - kHeaderBytes)
+    return makeError(path + ": key-frame file is truncated or has trailing bytes");
+  if (crc32(0L, body, static_cast<uInt>(length)) != crc)
+    return makeError(path + ": key-frame file is corrupt (CRC mismatch)");
+  Reader r(body, length);
+  std::vector<StoredKeyFrame> key_frames(count);
+  for (StoredKeyFrame& k : key_frames) {
+    int32_t id = 0, width = 0, height = 0;
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    bool ok = r.get(id) && r.get(k.stamp) && r.get(k.camera.fx) && r.get(k.camera.fy) &&
+              r.get(k.camera.cx) && r.get(k.camera.cy) && r.get(width) && r.get(height);
+    for (int row = 0; ok && row < 3; ++row)
+      for (int c = 0; ok && c < 4; ++c) ok = r.get(m(row, c));
+    ok = ok && r.getBytes(k.colour_jpeg) && r.getBytes(k.depth_png);
+    if (!ok) return makeError(path + ": key-frame file ends inside a key frame");
+    k.id = id;
+    k.camera.width = width;
+    k.camera.height = height;
+    auto pose = poseFromMatrix(m);
+    if (!pose) return makeError(path + ": key frame " + std::to_string(id) + ": " + pose.error());
+    k.pose = *pose;
+  }
+  if (!r.atEnd()) return makeError(path + ": key-frame file has bytes after its last key frame");
+  return key_frames;
+}
+
+}  // namespace relocalizer
