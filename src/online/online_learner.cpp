@@ -54,8 +54,8 @@ size_t modelBytes(const Model& model) {
   size_t bytes = model.surface.elements().size() * sizeof(SurfaceElement);
   for (const Forest* forest : {&model.points, &model.lines})
     for (const Tree& tree : forest->trees)
-      bytes += tree.nodes.size() * sizeof(SplitNode) + tree.leaves.size() * sizeof(LeafRange) +
-               tree.modes.size() * sizeof(LeafMode);
+      bytes += tree.nodes.size() * sizeof(SplitNode) + tree.modes.size() * sizeof(LeafMode) +
+               tree.descriptors.size() * sizeof(Descriptor);
   return bytes;
 }
 
