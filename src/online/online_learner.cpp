@@ -45,6 +45,7 @@ std::string learningParamsError(const LearningParams& p) {
   if (p.worker_threads < 1) return "worker_threads must be at least 1";
   if (p.surface_min_frames < 1) return "surface_min_frames must be at least 1";
   if (p.samples_budget_per_tree < 0) return "samples_budget_per_tree must not be negative";
+  if (p.min_backtracking_leaves < 1) return "min_backtracking_leaves must be at least 1";
   if (!p.training.train_points && !p.training.train_lines)
     return "training must grow at least one forest (train_points or train_lines)";
   return {};
@@ -64,6 +65,7 @@ OnlineLearner::OnlineLearner(LearningParams params, RelocalizerParams relocalize
       relocalizer_params_([&] {
         RelocalizerParams r = std::move(relocalizer_params);
         if (!params_.surface_gate) r.surface.min_agreement = 0.0f;
+        r.max_leaves = std::max(r.max_leaves, params_.min_backtracking_leaves);
         return r;
       }()),
       mode_(mode),
