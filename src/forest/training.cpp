@@ -38,13 +38,15 @@ std::vector<int> chooseImages(int total, int wanted, std::mt19937& rng) {
   return all;
 }
 
-TreeSamples::Item makeItem(int image, const Sample& s, const Pose& pose) {
+TreeSamples::Item makeItem(int image, const Sample& s, const TrainingImage& source) {
   TreeSamples::Item item;
   item.image = image;
+  const cv::Vec3b& colour = source.colour.at<cv::Vec3b>(s.v, s.u);
+  item.colour = {colour[0], colour[1], colour[2]};
   item.u = s.u;
   item.v = s.v;
   item.depth = s.depth;
-  item.world = (pose.cast<float>() * s.camera_point);
+  item.world = (source.pose.cast<float>() * s.camera_point);
   return item;
 }
 
@@ -98,7 +100,7 @@ void drawFromImage(TreeDraw& draw, const std::vector<TrainingImage>& images, int
       drawn.push_back(all[order[k]]);
     }
   }
-  for (const Sample& s : drawn) draw.samples.items.push_back(makeItem(i, s, images[i].pose));
+  for (const Sample& s : drawn) draw.samples.items.push_back(makeItem(i, s, images[i]));
 }
 
 // Every tree's samples for the forests in `kinds`. Each tree draws from its

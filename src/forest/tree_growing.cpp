@@ -74,7 +74,10 @@ class TreeGrower {
   Tree grow();
 
  private:
-  float evaluate(const PixelFeature& f, const TreeSamples::Item& item) const;
+  // Inlined into the loops that issue prefetches: called out of line, its
+  // miss no longer overlaps with the prefetches (a point tree took 28 s
+  // instead of 19).
+  __attribute__((always_inline)) float evaluate(const PixelFeature& f, const TreeSamples::Item& item) const;
 
   PixelFeature randomFeature();
 
@@ -124,6 +127,7 @@ class TreeGrower {
   // to a bin is the same arithmetic as LabelStats::add of the label.
   std::vector<LabelStats> moments_;
   std::vector<uint32_t> bin_of_;
+  std::vector<uint8_t> goes_left_;
   std::vector<float> thresholds_;
   std::vector<LabelStats> bins_;
   std::vector<Eigen::Vector3f> points_;
@@ -175,8 +179,15 @@ Tree TreeGrower::grow() {
   return tree;
 }
 
-float TreeGrower::evaluate(const PixelFeature& f, const TreeSamples::Item& item) const {
-  return evaluateFeature(f, views_[item.image], item.u, item.v, item.depth);
+inline float TreeGrower::evaluate(const PixelFeature& f, const TreeSamples::Item& item) const {
+  if (f.type != FeatureType::Colour) return evaluateFeature(f, views_[item.image], item.u, item.v, item.depth);
+  // evaluateFeature's arithmetic, with I(p) from the item instead of the image.
+  const FeatureImage& image = views_[item.image];
+  int qu, qv;
+  secondPixel(f, image, item.u, item.v, item.depth, qu, qv);
+  const int p = item.colour[f.channel_p];
+  const int q = image.colour[qv * image.colour_stride + qu * 3 + f.channel_q];
+  return static_cast<float>(p - q);
 }
 
 PixelFeature TreeGrower::randomFeature() {
@@ -244,7 +255,7 @@ void TreeGrower::scoreFeature(const PixelFeature& feature, const NodeTask& task,
   for (size_t i = 0; i < subset; ++i) {
     if (i + kAhead < subset) {
       const TreeSamples::Item& ahead = items[i + kAhead];
-      prefetchFeature(feature, views_[ahead.image], ahead.u, ahead.v, ahead.depth);
+      prefetchSecondPixel(feature, views_[ahead.image], ahead.u, ahead.v, ahead.depth);
     }
     values_[i] = evaluate(feature, items[i]);
   }
@@ -286,12 +297,32 @@ void TreeGrower::scoreFeature(const PixelFeature& feature, const NodeTask& task,
 }
 
 size_t TreeGrower::partition(const NodeTask& task, const PixelFeature& feature, float threshold) {
-  const auto first = items_.begin() + static_cast<std::ptrdiff_t>(task.begin);
-  const auto last = items_.begin() + static_cast<std::ptrdiff_t>(task.end);
-  const auto split = std::partition(first, last, [&](const TreeSamples::Item& item) {
-    return evaluate(feature, item) < threshold;
-  });
-  return static_cast<size_t>(split - items_.begin());
+  // Each sample's side first, with the same prefetching as the split search,
+  // then a two-ended swap pass over the sides: the moves std::partition makes,
+  // as it too tests each sample once, so the order (and the tree) is the same.
+  constexpr size_t kAhead = 16;
+  const size_t n = task.end - task.begin;
+  TreeSamples::Item* items = items_.data() + task.begin;
+  goes_left_.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    if (i + kAhead < n) {
+      const TreeSamples::Item& ahead = items[i + kAhead];
+      prefetchSecondPixel(feature, views_[ahead.image], ahead.u, ahead.v, ahead.depth);
+    }
+    goes_left_[i] = evaluate(feature, items[i]) < threshold;
+  }
+  size_t first = 0, last = n;
+  while (true) {
+    while (first != last && goes_left_[first]) ++first;
+    if (first == last) break;
+    --last;
+    while (first != last && !goes_left_[last]) --last;
+    if (first == last) break;
+    std::swap(items[first], items[last]);
+    std::swap(goes_left_[first], goes_left_[last]);
+    ++first;
+  }
+  return task.begin + first;
 }
 
 void TreeGrower::makeLeaf(Tree& tree, const NodeTask& task) {

@@ -81,14 +81,14 @@ inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& im
   return (depth_q == depth_q ? depth_q : kFarDepth) - depth_p;  // NaN != NaN
 }
 
-// Starts loading the pixels evaluateFeature will read, for callers that
-// evaluate one feature on many samples scattered over many images: issued some
-// samples ahead, the cache misses overlap instead of following one another.
-inline void prefetchFeature(const PixelFeature& feature, const FeatureImage& image, int u, int v,
-                            float depth_p) {
+// Starts loading the second pixel q that evaluateFeature will read, for
+// callers that evaluate one feature on many samples scattered over many images
+// and keep each sample's own pixel I(p) at hand: issued some samples ahead, the
+// cache misses overlap instead of following one another.
+inline void prefetchSecondPixel(const PixelFeature& feature, const FeatureImage& image, int u, int v,
+                                float depth_p) {
   int qu, qv;
   secondPixel(feature, image, u, v, depth_p, qu, qv);
-  __builtin_prefetch(image.colour + v * image.colour_stride + u * 3);
   if (feature.type == FeatureType::Colour)
     __builtin_prefetch(image.colour + qv * image.colour_stride + qu * 3);
   else
