@@ -6,6 +6,10 @@
 
 namespace relocalizer {
 
+namespace {
+constexpr float kExpfZeroBelow = -104.0f;
+}
+
 std::vector<Mode3D> meanShiftModes(const std::vector<Eigen::Vector3f>& points,
                                    const MeanShiftParams& params, std::vector<int>* assignment) {
   const int n = static_cast<int>(points.size());
@@ -23,7 +27,11 @@ std::vector<Mode3D> meanShiftModes(const std::vector<Eigen::Vector3f>& points,
       Eigen::Vector3f weighted = Eigen::Vector3f::Zero();
       float total = 0.0f;
       for (const auto& p : points) {
-        const float w = std::exp(-(p - x).squaredNorm() * inv_two_sigma2);
+        const float exponent = -(p - x).squaredNorm() * inv_two_sigma2;
+        // expf is exactly 0 below -104 (under the smallest subnormal), where
+        // libm takes its slow underflow path: the same sums without the call.
+        if (exponent < kExpfZeroBelow) continue;
+        const float w = std::exp(exponent);
         weighted += w * p;
         total += w;
       }
