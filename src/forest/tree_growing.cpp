@@ -23,12 +23,6 @@ void LabelStats::add(const Eigen::Vector3f& x) {
   square[5] += c * c;
 }
 
-void LabelStats::add(const LabelStats& other) {
-  count += other.count;
-  sum += other.sum;
-  for (int i = 0; i < 6; ++i) square[i] += other.square[i];
-}
-
 Eigen::Matrix3d LabelStats::covariance() const {
   if (count <= 0.0) return Eigen::Matrix3d::Zero();
   const Eigen::Vector3d mean = sum / count;
