@@ -91,6 +91,12 @@ for v in "${versions[@]}"; do
   /usr/bin/time -f "%e %M" -o "$dir/evaluate.time" "${tools_of[$v]}/evaluate" --model "$dir/bench.model" \
     "${test_args[@]}" --threads "$threads" --output "$dir/evaluation" > "$dir/evaluate.log"
 done
+# The previous release had no surface stage (depth ICP and surface check): the
+# same pipeline as theirs, for the accuracy comparison.
+echo "bench: now: evaluating without the surface stage (config/surface_off.yaml)"
+"${tools_of[now]}/evaluate" --model "$(run_dir now)/bench.model" "${test_args[@]}" --threads "$threads" \
+  --config "$root/config/surface_off.yaml" --output "$(run_dir now)/evaluation_surface_off" \
+  > "$(run_dir now)/evaluate_surface_off.log"
 if [ "${versions[0]}" = previous ]; then
   echo "bench: now: evaluating the previous release's model (format version 1)"
   "${tools_of[now]}/evaluate" --model "$(run_dir previous)/bench.model" "${test_args[@]}" \

@@ -67,6 +67,10 @@ def figures(run, threads):
         f["acc5"] = 100 * summary["within_5cm_5deg"]
         f["acc2"] = 100 * summary["within_2cm_2deg"]
         f["median_cm"] = summary.get("median_translation_cm")
+    no_surface = load_json(os.path.join(run, "evaluation_surface_off", "summary.json"))
+    if no_surface:
+        f["acc5_off"] = 100 * no_surface["within_5cm_5deg"]
+        f["acc2_off"] = 100 * no_surface["within_2cm_2deg"]
     node = load_json(os.path.join(run, "node.json"))
     if node:
         f["node_latency"] = node.get("latency_ms_median")
@@ -108,6 +112,8 @@ def main():
         ("acc5", "ACCURACY within 5 cm / 5 deg", "%", "{:.1f}", ">= 79.5 %", lambda x: x >= 79.5),
         ("acc2", "ACCURACY within 2 cm / 2 deg", "%", "{:.1f}", ">= 61.5 %", lambda x: x >= 61.5),
         ("median_cm", "median translation error", "cm", "{:.2f}", None, None),
+        ("acc5_off", "  5 cm / 5 deg without the surface stage", "%", "{:.1f}", ">= 79.5 %", lambda x: x >= 79.5),
+        ("acc2_off", "  2 cm / 2 deg without the surface stage", "%", "{:.1f}", ">= 61.5 %", lambda x: x >= 61.5),
         ("node_latency", "node, 30 Hz replay, publish to ~result, median", "ms", "{:.1f}", None, None),
         ("node_answered", "node, frames answered", "%", "{:.1f}", None, None),
         ("node_rss", "node peak RSS", "MiB", "{:.0f}", None, None),
