@@ -3,6 +3,8 @@
 
 #include "relocalizer/data/dataset.h"
 
+#include "relocalizer/core/id_ranges.h"
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>

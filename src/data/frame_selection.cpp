@@ -1,5 +1,7 @@
 #include "relocalizer/data/frame_selection.h"
 
+#include "relocalizer/core/id_ranges.h"
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -48,12 +50,6 @@ std::string parseItem(const std::string& item, std::pair<int, int>& range) {
   if (range.second < range.first)
     return "range end " + end + " is before its start " + start;
   return {};
-}
-
-std::string formatRange(const std::pair<int, int>& range) {
-  return range.first == range.second
-             ? std::to_string(range.first)
-             : std::to_string(range.first) + "-" + std::to_string(range.second);
 }
 
 // Sorts and merges overlapping or adjacent ranges so contains() can binary
@@ -111,31 +107,7 @@ bool FrameSelection::contains(int id) const {
 }
 
 std::string FrameSelection::str() const {
-  if (all_) return "all";
-  std::string out;
-  for (const auto& range : ranges_) {
-    if (!out.empty()) out += ',';
-    out += formatRange(range);
-  }
-  return out;
-}
-
-std::string formatIdRanges(std::vector<int> ids) {
-  if (ids.empty()) return "none";
-  std::sort(ids.begin(), ids.end());
-  std::vector<std::pair<int, int>> ranges;
-  for (int id : ids) {
-    if (!ranges.empty() && static_cast<long long>(id) - 1 <= ranges.back().second)
-      ranges.back().second = std::max(ranges.back().second, id);
-    else
-      ranges.emplace_back(id, id);
-  }
-  std::string out;
-  for (const auto& range : ranges) {
-    if (!out.empty()) out += ',';
-    out += formatRange(range);
-  }
-  return out;
+  return all_ ? "all" : joinIdRanges(ranges_);
 }
 
 }  // namespace relocalizer

@@ -1,6 +1,8 @@
 #include "relocalizer/forest/model_io.h"
 
+#include "relocalizer/core/byte_io.h"
 #include "relocalizer/core/json_fields.h"
+#include "relocalizer/core/version.h"
 
 #include <zlib.h>
 
@@ -176,58 +178,6 @@ json headerJson(const Model& m) {
           {"surface", {{"elements", m.surface.elements().size()}, {"voxel_size", m.surface.voxelSize()}}}};
 }
 
-class Writer {
- public:
-  explicit Writer(std::vector<uint8_t>& out) : out_(out) {}
-  void bytes(const void* data, size_t n) {
-    const auto* p = static_cast<const uint8_t*>(data);
-    out_.insert(out_.end(), p, p + n);
-  }
-  template <typename T>
-  void value(const T& v) {
-    bytes(&v, sizeof(T));
-  }
-  template <typename T>
-  void array(const std::vector<T>& v) {
-    value(static_cast<uint32_t>(v.size()));
-    bytes(v.data(), v.size() * sizeof(T));
-  }
-
- private:
-  std::vector<uint8_t>& out_;
-};
-
-class Reader {
- public:
-  Reader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
-  bool bytes(void* out, size_t n) {
-    if (n > size_ - offset_) return false;
-    if (n == 0) return true;  // `out` may be null (an empty vector's data())
-    std::memcpy(out, data_ + offset_, n);
-    offset_ += n;
-    return true;
-  }
-  template <typename T>
-  bool value(T& v) {
-    return bytes(&v, sizeof(T));
-  }
-  template <typename T>
-  bool array(std::vector<T>& v) {
-    uint32_t n = 0;
-    if (!value(n) || static_cast<size_t>(n) * sizeof(T) > size_ - offset_) return false;
-    v.resize(n);
-    return bytes(v.data(), n * sizeof(T));
-  }
-  size_t remaining() const { return size_ - offset_; }
-  const uint8_t* position() const { return data_ + offset_; }
-  void skip(size_t n) { offset_ += std::min(n, remaining()); }
-
- private:
-  const uint8_t* data_;
-  size_t size_;
-  size_t offset_ = 0;
-};
-
 // A tree's arrays as version 2 stores them: each array byte plane by byte
 // plane (byte 0 of every element, then byte 1, ...), so that the bytes that
 // change little from one element to the next (float exponents, the high bytes
@@ -296,7 +246,7 @@ std::string validateTree(const Tree& t) {
   return {};
 }
 
-bool readTreeCount(Reader& r, uint32_t& trees, std::string& why) {
+bool readTreeCount(ByteReader& r, uint32_t& trees, std::string& why) {
   if (!r.value(trees)) return false;
   if (trees > kMaxTrees) {
     why = "forest has " + std::to_string(trees) + " trees, more than " + std::to_string(kMaxTrees);
@@ -307,7 +257,7 @@ bool readTreeCount(Reader& r, uint32_t& trees, std::string& why) {
 
 // Reads the tree streams of one forest (the counts and stored sizes first, so
 // that the streams can be inflated in parallel).
-bool readTrees(Reader& r, Forest& forest, std::string& why) {
+bool readTrees(ByteReader& r, Forest& forest, std::string& why) {
   uint32_t trees = 0;
   if (!readTreeCount(r, trees, why)) return false;
   struct Stream {
@@ -361,7 +311,7 @@ bool readTrees(Reader& r, Forest& forest, std::string& why) {
 // A version-1 or -2 forest, converted: each leaf's range moves into its node, each
 // mode's descriptor into the descriptor array; support and log-determinant,
 // which nothing reads, are dropped.
-bool readTreesV1(Reader& r, Forest& forest, std::string& why) {
+bool readTreesV1(ByteReader& r, Forest& forest, std::string& why) {
   uint32_t trees = 0;
   if (!readTreeCount(r, trees, why)) return false;
   forest.trees.resize(trees);
@@ -392,12 +342,12 @@ bool readTreesV1(Reader& r, Forest& forest, std::string& why) {
   return true;
 }
 
-void writeSurface(Writer& w, const SurfaceModel& surface) {
+void writeSurface(ByteWriter& w, const SurfaceModel& surface) {
   w.value(surface.voxelSize());
   w.array(surface.elements());
 }
 
-bool readSurface(Reader& r, SurfaceModel& surface, std::string& why) {
+bool readSurface(ByteReader& r, SurfaceModel& surface, std::string& why) {
   float voxel_size = 0.0f;
   std::vector<SurfaceElement> elements;
   if (!r.value(voxel_size) || !r.array(elements)) return false;
@@ -432,7 +382,7 @@ std::string modelHeaderJson(const Model& model, int indent) { return headerJson(
 
 std::vector<uint8_t> serializeModel(const Model& model) {
   std::vector<uint8_t> body;
-  Writer w(body);
+  ByteWriter w(body);
   const std::string header = headerJson(model).dump();
   w.value(static_cast<uint32_t>(header.size()));
   w.bytes(header.data(), header.size());
@@ -447,7 +397,7 @@ std::vector<uint8_t> serializeModel(const Model& model) {
 
   std::vector<uint8_t> out;
   out.reserve(kPreambleSize + body.size());
-  Writer p(out);
+  ByteWriter p(out);
   p.bytes(kMagic, sizeof kMagic);
   p.value(kModelFormatVersion);
   p.value(static_cast<uint32_t>(0));
@@ -462,7 +412,7 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
   if (size < sizeof kMagic || std::memcmp(data, kMagic, sizeof kMagic) != 0)
     return makeError(where + "not a relocalizer model (wrong magic number; expected a file "
                              "written by `train`)");
-  Reader r(data, size);
+  ByteReader r(data, size);
   char magic[8];
   uint32_t version = 0, reserved = 0, crc = 0;
   uint64_t body_size = 0;
@@ -487,7 +437,7 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
   if (computed != crc)
     return makeError(where + "checksum mismatch: the model file is corrupt");
 
-  Reader b(body, body_size);
+  ByteReader b(body, body_size);
   uint32_t header_size = 0;
   if (!b.value(header_size) || header_size > b.remaining())
     return makeError(where + "truncated model file (header JSON)");
@@ -520,6 +470,17 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
                                           : "invalid surface: " + why));
   if (b.remaining() != 0) return makeError(where + "unexpected bytes after the forests and surface");
   return model;
+}
+
+void summarizeTrainingImages(const std::vector<TrainingImage>& images, TrainingSummary& summary) {
+  summary.images = static_cast<int>(images.size());
+  summary.software_version = kSoftwareVersion;
+  if (images.empty()) return;
+  summary.scene_min = summary.scene_max = images.front().pose.translation().cast<float>();
+  for (const auto& image : images) {
+    summary.scene_min = summary.scene_min.cwiseMin(image.pose.translation().cast<float>());
+    summary.scene_max = summary.scene_max.cwiseMax(image.pose.translation().cast<float>());
+  }
 }
 
 Status saveModel(const Model& model, const std::string& path) {

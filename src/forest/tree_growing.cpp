@@ -73,6 +73,11 @@ class TreeGrower {
   // instead of 19).
   __attribute__((always_inline)) float evaluate(const PixelFeature& f, const TreeSamples::Item& item) const;
 
+  // use(i, value) for every sample of items[0, n), with the pixel of the
+  // sample some places ahead prefetched.
+  template <typename Use>
+  void forEachValue(const PixelFeature& feature, const TreeSamples::Item* items, size_t n, Use use) const;
+
   PixelFeature randomFeature();
 
   // Splits the node's samples by the best of params_.feature_candidates random
@@ -174,14 +179,22 @@ Tree TreeGrower::grow() {
 }
 
 inline float TreeGrower::evaluate(const PixelFeature& f, const TreeSamples::Item& item) const {
-  if (f.type != FeatureType::Colour) return evaluateFeature(f, views_[item.image], item.u, item.v, item.depth);
-  // evaluateFeature's arithmetic, with I(p) from the item instead of the image.
-  const FeatureImage& image = views_[item.image];
-  int qu, qv;
-  secondPixel(f, image, item.u, item.v, item.depth, qu, qv);
-  const int p = item.colour[f.channel_p];
-  const int q = image.colour[qv * image.colour_stride + qu * 3 + f.channel_q];
-  return static_cast<float>(p - q);
+  return evaluateFeature(f, views_[item.image], item.u, item.v, item.depth, item.colour.data());
+}
+
+template <typename Use>
+void TreeGrower::forEachValue(const PixelFeature& feature, const TreeSamples::Item* items, size_t n,
+                              Use use) const {
+  // The samples' pixels are scattered over hundreds of images, nearly all
+  // cache misses: prefetching kAhead samples ahead keeps several in flight.
+  constexpr size_t kAhead = 16;
+  for (size_t i = 0; i < n; ++i) {
+    if (i + kAhead < n) {
+      const TreeSamples::Item& ahead = items[i + kAhead];
+      prefetchSecondPixel(feature, views_[ahead.image], ahead.u, ahead.v, ahead.depth);
+    }
+    use(i, evaluate(feature, items[i]));
+  }
 }
 
 PixelFeature TreeGrower::randomFeature() {
@@ -242,17 +255,8 @@ void TreeGrower::scoreFeature(const PixelFeature& feature, const NodeTask& task,
                               const LabelStats& parent, double parent_entropy, double min_side,
                               std::uniform_int_distribution<size_t>& pick_value,
                               SplitChoice& best) {
-  // The samples' pixels are scattered over hundreds of images, nearly all
-  // cache misses: prefetching kAhead samples ahead keeps several in flight.
-  constexpr size_t kAhead = 16;
-  const TreeSamples::Item* items = items_.data() + task.begin;
-  for (size_t i = 0; i < subset; ++i) {
-    if (i + kAhead < subset) {
-      const TreeSamples::Item& ahead = items[i + kAhead];
-      prefetchSecondPixel(feature, views_[ahead.image], ahead.u, ahead.v, ahead.depth);
-    }
-    values_[i] = evaluate(feature, items[i]);
-  }
+  forEachValue(feature, items_.data() + task.begin, subset,
+               [this](size_t i, float value) { values_[i] = value; });
   const size_t t_count = thresholds_.size();
   for (size_t t = 0; t < t_count; ++t) thresholds_[t] = values_[pick_value(rng_)];
   std::sort(thresholds_.begin(), thresholds_.end());
@@ -294,17 +298,11 @@ size_t TreeGrower::partition(const NodeTask& task, const PixelFeature& feature, 
   // Each sample's side first, with the same prefetching as the split search,
   // then a two-ended swap pass over the sides: the moves std::partition makes,
   // as it too tests each sample once, so the order (and the tree) is the same.
-  constexpr size_t kAhead = 16;
   const size_t n = task.end - task.begin;
   TreeSamples::Item* items = items_.data() + task.begin;
   goes_left_.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    if (i + kAhead < n) {
-      const TreeSamples::Item& ahead = items[i + kAhead];
-      prefetchSecondPixel(feature, views_[ahead.image], ahead.u, ahead.v, ahead.depth);
-    }
-    goes_left_[i] = evaluate(feature, items[i]) < threshold;
-  }
+  forEachValue(feature, items, n,
+               [this, threshold](size_t i, float value) { goes_left_[i] = value < threshold; });
   size_t first = 0, last = n;
   while (true) {
     while (first != last && goes_left_[first]) ++first;

@@ -1,5 +1,7 @@
 #include "relocalizer/online/keyframe_store.h"
 
+#include "relocalizer/core/byte_io.h"
+
 #include <unistd.h>
 #include <zlib.h>
 
@@ -17,42 +19,6 @@ namespace {
 constexpr char kMagic[8] = {'P', 'L', 'K', 'E', 'Y', 'F', 'R', 'M'};
 constexpr uint32_t kVersion = 1;
 constexpr size_t kHeaderBytes = 8 + 4 + 4 + 8 + 4;
-
-template <typename T>
-void put(std::vector<uint8_t>& out, const T& value) {
-  const auto* p = reinterpret_cast<const uint8_t*>(&value);
-  out.insert(out.end(), p, p + sizeof(T));
-}
-
-void putBytes(std::vector<uint8_t>& out, const std::vector<uint8_t>& bytes) {
-  put(out, static_cast<uint32_t>(bytes.size()));
-  out.insert(out.end(), bytes.begin(), bytes.end());
-}
-
-class Reader {
- public:
-  Reader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
-  template <typename T>
-  bool get(T& value) {
-    if (size_ - pos_ < sizeof(T)) return false;
-    std::memcpy(&value, data_ + pos_, sizeof(T));
-    pos_ += sizeof(T);
-    return true;
-  }
-  bool getBytes(std::vector<uint8_t>& bytes) {
-    uint32_t n = 0;
-    if (!get(n) || size_ - pos_ < n) return false;
-    bytes.assign(data_ + pos_, data_ + pos_ + n);
-    pos_ += n;
-    return true;
-  }
-  bool atEnd() const { return pos_ == size_; }
-
- private:
-  const uint8_t* data_;
-  size_t size_;
-  size_t pos_ = 0;
-};
 
 }  // namespace
 
@@ -146,24 +112,26 @@ Status writeFileAtomically(const std::string& path, const std::vector<uint8_t>& 
 
 Status saveKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames, const std::string& path) {
   std::vector<uint8_t> body;
+  ByteWriter b(body);
   for (const auto& k : key_frames) {
-    put(body, static_cast<int32_t>(k->id));
-    put(body, k->stamp);
-    for (double v : {k->camera.fx, k->camera.fy, k->camera.cx, k->camera.cy}) put(body, v);
-    put(body, static_cast<int32_t>(k->camera.width));
-    put(body, static_cast<int32_t>(k->camera.height));
+    b.value(static_cast<int32_t>(k->id));
+    b.value(k->stamp);
+    for (double v : {k->camera.fx, k->camera.fy, k->camera.cx, k->camera.cy}) b.value(v);
+    b.value(static_cast<int32_t>(k->camera.width));
+    b.value(static_cast<int32_t>(k->camera.height));
     const Eigen::Matrix<double, 3, 4> m = k->pose.matrix().topRows<3>();
     for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 4; ++c) put(body, m(r, c));
-    putBytes(body, k->colour_jpeg);
-    putBytes(body, k->depth_png);
+      for (int c = 0; c < 4; ++c) b.value(m(r, c));
+    b.array(k->colour_jpeg);
+    b.array(k->depth_png);
   }
   std::vector<uint8_t> file(kMagic, kMagic + 8);
-  put(file, kVersion);
-  put(file, static_cast<uint32_t>(key_frames.size()));
-  put(file, static_cast<uint64_t>(body.size()));
-  put(file, static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size()))));
-  file.insert(file.end(), body.begin(), body.end());
+  ByteWriter f(file);
+  f.value(kVersion);
+  f.value(static_cast<uint32_t>(key_frames.size()));
+  f.value(static_cast<uint64_t>(body.size()));
+  f.value(static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size()))));
+  f.bytes(body.data(), body.size());
   return writeFileAtomically(path, file);
 }
 
@@ -173,13 +141,13 @@ Expected<std::vector<StoredKeyFrame>> loadKeyFrames(const std::string& path) {
   const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (file.size() < kHeaderBytes || std::memcmp(file.data(), kMagic, 8) != 0)
     return makeError(path + ": not a key-frame file (bad magic)");
-  Reader header(file.data() + 8, kHeaderBytes - 8);
+  ByteReader header(file.data() + 8, kHeaderBytes - 8);
   uint32_t version = 0, count = 0, crc = 0;
   uint64_t length = 0;
-  header.get(version);
-  header.get(count);
-  header.get(length);
-  header.get(crc);
+  header.value(version);
+  header.value(count);
+  header.value(length);
+  header.value(crc);
   if (version != kVersion)
     return makeError(path + ": key-frame file version " + std::to_string(version) +
                      " is not supported (this build reads version " + std::to_string(kVersion) + ")");
@@ -188,16 +156,16 @@ Expected<std::vector<StoredKeyFrame>> loadKeyFrames(const std::string& path) {
     return makeError(path + ": key-frame file is truncated or has trailing bytes");
   if (crc32(0L, body, static_cast<uInt>(length)) != crc)
     return makeError(path + ": key-frame file is corrupt (CRC mismatch)");
-  Reader r(body, length);
+  ByteReader r(body, length);
   std::vector<StoredKeyFrame> key_frames(count);
   for (StoredKeyFrame& k : key_frames) {
     int32_t id = 0, width = 0, height = 0;
     Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    bool ok = r.get(id) && r.get(k.stamp) && r.get(k.camera.fx) && r.get(k.camera.fy) &&
-              r.get(k.camera.cx) && r.get(k.camera.cy) && r.get(width) && r.get(height);
+    bool ok = r.value(id) && r.value(k.stamp) && r.value(k.camera.fx) && r.value(k.camera.fy) &&
+              r.value(k.camera.cx) && r.value(k.camera.cy) && r.value(width) && r.value(height);
     for (int row = 0; ok && row < 3; ++row)
-      for (int c = 0; ok && c < 4; ++c) ok = r.get(m(row, c));
-    ok = ok && r.getBytes(k.colour_jpeg) && r.getBytes(k.depth_png);
+      for (int c = 0; ok && c < 4; ++c) ok = r.value(m(row, c));
+    ok = ok && r.array(k.colour_jpeg) && r.array(k.depth_png);
     if (!ok) return makeError(path + ": key-frame file ends inside a key frame");
     k.id = id;
     k.camera.width = width;
@@ -206,7 +174,7 @@ Expected<std::vector<StoredKeyFrame>> loadKeyFrames(const std::string& path) {
     if (!pose) return makeError(path + ": key frame " + std::to_string(id) + ": " + pose.error());
     k.pose = *pose;
   }
-  if (!r.atEnd()) return makeError(path + ": key-frame file has bytes after its last key frame");
+  if (r.remaining() != 0) return makeError(path + ": key-frame file has bytes after its last key frame");
   return key_frames;
 }
 

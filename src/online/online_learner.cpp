@@ -10,29 +10,9 @@
 #include <chrono>
 #include <cmath>
 
-#include "relocalizer/core/version.h"
+#include "relocalizer/core/id_ranges.h"
 
 namespace relocalizer {
-
-namespace {
-
-// "0,3,7-9": the key-frame ids a model was trained on, for its header.
-std::string idList(const std::vector<KeyFrameStore::Entry>& entries) {
-  std::vector<int> ids;
-  for (const auto& e : entries) ids.push_back(e->id);
-  std::sort(ids.begin(), ids.end());
-  std::string text;
-  for (size_t i = 0; i < ids.size();) {
-    size_t j = i;
-    while (j + 1 < ids.size() && ids[j + 1] == ids[j] + 1) ++j;
-    text += (text.empty() ? "" : ",") + std::to_string(ids[i]) +
-            (j > i ? "-" + std::to_string(ids[j]) : "");
-    i = j + 1;
-  }
-  return text;
-}
-
-}  // namespace
 
 std::string learningParamsError(const LearningParams& p) {
   if (p.max_keyframes < 2) return "max_keyframes must be at least 2 (got " + std::to_string(p.max_keyframes) + ")";
@@ -173,15 +153,11 @@ Status OnlineLearner::retrain(std::unique_lock<std::mutex>& lock) {
     TrainingSummary& summary = model.summary;
     summary.dataset = "online";
     summary.format = "key frames learned online";
-    summary.frames = idList(entries);
-    summary.images = static_cast<int>(images.size());
+    std::vector<int> ids;
+    for (const auto& entry : entries) ids.push_back(entry->id);
+    summary.frames = formatIdRanges(ids);
+    summarizeTrainingImages(images, summary);
     summary.threads = mode_ == Mode::Background ? params_.worker_threads : 0;
-    summary.software_version = kSoftwareVersion;
-    summary.scene_min = summary.scene_max = images.front().pose.translation().cast<float>();
-    for (const auto& image : images) {
-      summary.scene_min = summary.scene_min.cwiseMin(image.pose.translation().cast<float>());
-      summary.scene_max = summary.scene_max.cwiseMax(image.pose.translation().cast<float>());
-    }
     summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     auto relocalizer = std::make_shared<Relocalizer>(std::move(model), relocalizer_params_);
     if (const std::string why = relocalizer->validationError(); !why.empty()) throw std::runtime_error(why);

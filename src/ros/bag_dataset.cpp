@@ -24,6 +24,7 @@
 #include "bag_text.h"
 #include "key_frames.h"
 #include "message_conversion.h"
+#include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/data/stamp_association.h"
 #include "stamp_search.h"

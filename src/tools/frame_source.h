@@ -10,6 +10,7 @@
 #include "../ros/bag_dataset.h"
 #include "../ros/key_frames.h"
 #include "dataset_arguments.h"
+#include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/frame_selection.h"
 
 namespace relocalizer::cli {

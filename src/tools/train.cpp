@@ -13,7 +13,6 @@
 #include "cli_support.h"
 #include "frame_source.h"
 #include "relocalizer/core/progress.h"
-#include "relocalizer/core/version.h"
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/forest/training.h"
 #include "relocalizer/forest/training_config.h"
@@ -134,15 +133,9 @@ int main(int argc, char** argv) {
   summary.format = data.formatDescription();
   // A bag's frames are chosen by poses and key-frame selection too: record the ids used.
   summary.frames = source_options.bag.empty() ? source_options.frames : data.usedIds();
-  summary.images = static_cast<int>(images.size());
+  summarizeTrainingImages(images, summary);
   summary.seconds = seconds;
   summary.threads = thread_count;
-  summary.software_version = kSoftwareVersion;
-  summary.scene_min = summary.scene_max = images.front().pose.translation().cast<float>();
-  for (const auto& image : images) {
-    summary.scene_min = summary.scene_min.cwiseMin(image.pose.translation().cast<float>());
-    summary.scene_max = summary.scene_max.cwiseMax(image.pose.translation().cast<float>());
-  }
   // The images are the bulk of training's memory; serialising needs about the
   // model's size again.
   images = {};

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/frame_selection.h"
 
 using relocalizer::FrameSelection;

@@ -28,6 +28,7 @@
 #include "../unit/support.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/data/dataset.h"
+#include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/forest/model_io.h"
 

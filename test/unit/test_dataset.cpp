@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "relocalizer/data/dataset.h"
+#include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/frame_selection.h"
 #include "support.h"
 

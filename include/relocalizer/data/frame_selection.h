@@ -36,8 +36,4 @@ class FrameSelection {
   std::vector<std::pair<int, int>> ranges_;  // sorted, disjoint, inclusive
 };
 
-// Compact form of a set of frame ids ("0-99,200-299"), for summaries and error
-// messages that must show which frames exist without listing hundreds of them.
-std::string formatIdRanges(std::vector<int> ids);
-
 }  // namespace relocalizer

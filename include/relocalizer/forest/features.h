@@ -67,18 +67,26 @@ inline void secondPixel(const PixelFeature& feature, const FeatureImage& image, 
   qv = qv < 0 ? 0 : (qv >= image.height ? image.height - 1 : qv);
 }
 
-// f for the sample at integer pixel (u, v) with valid depth `depth_p` > 0.
+// f for the sample at integer pixel (u, v) with valid depth `depth_p` > 0,
+// whose colour (BGR) the caller already holds in `colour_p`: training keeps
+// it with each sample, so a colour feature reads one image pixel, not two.
 inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image, int u, int v,
-                             float depth_p) {
+                             float depth_p, const uint8_t* colour_p) {
   int qu, qv;
   secondPixel(feature, image, u, v, depth_p, qu, qv);
   if (feature.type == FeatureType::Colour) {
-    const int p = image.colour[v * image.colour_stride + u * 3 + feature.channel_p];
+    const int p = colour_p[feature.channel_p];
     const int q = image.colour[qv * image.colour_stride + qu * 3 + feature.channel_q];
     return static_cast<float>(p - q);
   }
   const float depth_q = image.depth[qv * image.depth_stride + qu];
   return (depth_q == depth_q ? depth_q : kFarDepth) - depth_p;  // NaN != NaN
+}
+
+// f for the sample at integer pixel (u, v) with valid depth `depth_p` > 0.
+inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image, int u, int v,
+                             float depth_p) {
+  return evaluateFeature(feature, image, u, v, depth_p, image.colour + v * image.colour_stride + u * 3);
 }
 
 // Starts loading the second pixel q that evaluateFeature will read, for

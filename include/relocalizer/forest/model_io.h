@@ -52,6 +52,10 @@ struct TrainingSummary {
   std::string software_version;
 };
 
+// The part of a summary that follows from the training images: their count,
+// the bounds of their camera centres, and this build's software version.
+void summarizeTrainingImages(const std::vector<TrainingImage>& images, TrainingSummary& summary);
+
 struct Model {
   TrainingParams params;
   TrainingSummary summary;
