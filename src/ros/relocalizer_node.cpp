@@ -24,25 +24,33 @@ std::string seconds(double value) {
   return text;
 }
 
+// Seconds with millisecond precision, from integer nanoseconds (no double
+// rounding, no ros::Time arithmetic on stamps that may be absurd).
+std::string formatStamp(int64_t stamp_ns) {
+  char text[40];
+  std::snprintf(text, sizeof(text), "%lld.%03lld", static_cast<long long>(stamp_ns / 1'000'000'000),
+                static_cast<long long>((stamp_ns % 1'000'000'000) / 1'000'000));
+  return text;
+}
+
 uint32_t saturate(uint64_t value) {
   return value > UINT32_MAX ? UINT32_MAX : static_cast<uint32_t>(value);
 }
 
-// Services run on their own queue; this many calls can wait or compute at once
-// before roscpp queues further ones.
-constexpr int kServiceThreads = 4;
+// Service calls that can wait or compute at once; further ones queue, and
+// their wait counts from their arrival. Far more than any SLAM stack makes.
+constexpr size_t kServiceThreads = 64;
 // A process_all backlog this long means the source outruns the node: the
 // replay player paces itself, rosbag play does not.
 constexpr size_t kBacklogWarning = 30;
-// After one input's stamps went back, how long the others may take to follow
-// before their messages are no longer dropped as old-timeline stragglers.
-constexpr std::chrono::seconds kJumpWindow{5};
 // Time jumps are logged one line each, at most this often (a source whose
 // stamps jitter backwards on every frame must not flood the log).
 constexpr std::chrono::seconds kJumpLogPeriod{1};
-// Longest wait a service call can ask for (longer ones, and infinity, wait this
-// long): keeps the deadline arithmetic finite.
-constexpr double kMaxServiceTimeout = 1e6;
+// Longest wait a service call can ask for (longer ones wait this long): a
+// caller that has gone away must not hold a thread for days.
+constexpr double kMaxServiceTimeout = 60.0;
+// A call that waited this long for a thread before it ran says so.
+constexpr double kQueuedReportSeconds = 0.1;
 
 const char* const kInputNames[3] = {"colour", "depth", "camera_info"};
 
@@ -110,7 +118,8 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
       frames_(params_.mode == Mode::Continuous && params_.process_all
                   ? FrameBuffer<InputPtr>::Policy::Fifo
                   : FrameBuffer<InputPtr>::Policy::Latest),
-      start_ns_(steadyNanoseconds()) {
+      start_ns_(steadyNanoseconds()),
+      service_calls_(kServiceThreads) {
   pose_pub_ = private_nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 1, true);
   result_pub_ = private_nh_.advertise<ResultMsg>("result", 10);
   if (params_.publish_tf) {
@@ -127,17 +136,15 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
       "relocalize",
       boost::bind(&RelocalizerNode::onRelocalize, this, boost::placeholders::_1,
                   boost::placeholders::_2),
-      ros::VoidConstPtr(), &service_queue_);
+      ros::VoidConstPtr(), &service_calls_);
   service_ = private_nh_.advertiseService(service_options);
-  service_spinner_ = std::make_unique<ros::AsyncSpinner>(kServiceThreads, &service_queue_);
-  service_spinner_->start();
 
   if (learner_) {
     auto save_options = ros::AdvertiseServiceOptions::create<relocalizer::SaveModel>(
         "save_model",
         boost::bind(&RelocalizerNode::onSaveModel, this, boost::placeholders::_1,
                     boost::placeholders::_2),
-        ros::VoidConstPtr(), &service_queue_);
+        ros::VoidConstPtr(), &service_calls_);
     save_service_ = private_nh_.advertiseService(save_options);
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_);
@@ -231,6 +238,8 @@ bool RelocalizerNode::onSaveModel(relocalizer::SaveModel::Request& request,
     response.message = "path is empty: name the model file to write";
     return true;
   }
+  // One save at a time: two saves of one path would share its temporary files.
+  std::lock_guard<std::mutex> lock(save_mutex_);
   const relocalizer::Status saved = learner_->save(request.path);
   response.success = saved.ok();
   const relocalizer::LearningStatus status = learner_->status();
@@ -256,7 +265,7 @@ RelocalizerNode::~RelocalizerNode() {
   watchdog_.stop();
   service_.shutdown();
   save_service_.shutdown();
-  service_spinner_->stop();
+  service_calls_.stop();
   if (worker_.joinable()) worker_.join();
   if (learn_worker_.joinable()) learn_worker_.join();
   if (learner_ && !params_.save_on_exit.empty()) {
@@ -279,7 +288,18 @@ void RelocalizerNode::subscribe() {
   depth_sub_.subscribe(*image_transport_, "depth/image", queue, hints);
   info_sub_.subscribe(nh_, "rgb/camera_info", queue);
 
-  makeSynchronizer();
+  InputSynchronizer::Options options;
+  options.approximate = params_.approx_sync;
+  options.queue_size = static_cast<uint32_t>(params_.sync_queue_size);
+  options.max_interval = params_.max_interval;
+  InputSynchronizer::Events events;
+  events.on_set = [this](const sensor_msgs::ImageConstPtr& colour, const sensor_msgs::ImageConstPtr& depth,
+                         const sensor_msgs::CameraInfoConstPtr& info) { onSynchronised(colour, depth, info); };
+  events.on_jump = [this](const StampGate::Jump& jump) { onTimeJump(jump); };
+  events.on_drop = [this](int input, StampGate::Drop why, int64_t stamp_ns) {
+    onStampDropped(input, why, stamp_ns);
+  };
+  inputs_ = std::make_unique<InputSynchronizer>(options, std::move(events));
   // Per-topic counts, so "no frame" can say which input is missing; then the
   // time check and the synchronizer.
   colour_sub_.registerCallback([this](const sensor_msgs::ImageConstPtr& image) {
@@ -302,82 +322,62 @@ void RelocalizerNode::subscribe() {
   });
 }
 
-void RelocalizerNode::makeSynchronizer() {
-  // Not connected to the subscribers: onInput() adds each message, so a
-  // synchronizer can be replaced without touching the subscriber signals
-  // (which hold their own lock while they call us).
-  const uint32_t queue = static_cast<uint32_t>(params_.sync_queue_size);
-  const auto callback = boost::bind(&RelocalizerNode::onSynchronised, this, boost::placeholders::_1,
-                                    boost::placeholders::_2, boost::placeholders::_3);
-  if (params_.approx_sync) {
-    approximate_sync_ =
-        std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(ApproximatePolicy(queue));
-    if (params_.max_interval > 0.0)
-      approximate_sync_->setMaxIntervalDuration(ros::Duration(params_.max_interval));
-    approximate_sync_->registerCallback(callback);
-  } else {
-    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(ExactPolicy(queue));
-    exact_sync_->registerCallback(callback);
-  }
-}
-
 template <int I, typename M>
 void RelocalizerNode::onInput(const boost::shared_ptr<M const>& message) {
   std::lock_guard<std::mutex> lock(input_mutex_);
-  if (!acceptStamp(I, message->header.stamp)) return;
-  if (approximate_sync_)
-    approximate_sync_->template add<I>(message);
-  else
-    exact_sync_->template add<I>(message);
-}
-
-bool RelocalizerNode::acceptStamp(int index, const ros::Time& stamp) {
-  InputStamps& input = stamps_[index];
-  const bool went_back = input.seen && stamp < input.last;
-  const ros::Time before = input.last;
-  input.seen = true;
-  input.last = stamp;
-  if (jump_open_ && Clock::now() - jump_started_ > kJumpWindow) jump_open_ = false;
-  if (jump_open_ && !input.crossed) {
-    // Another input has already gone back. This one is still on the old
-    // timeline (a message sent before the jump, arriving on its own
-    // connection after it): it would only block the new sets, so drop it.
-    if (!went_back) {
-      ++stale_messages_;
-      return false;
-    }
-    // Now it has followed: the same jump, not a new one.
-    input.crossed = true;
-    jump_open_ = !(stamps_[0].crossed && stamps_[1].crossed && stamps_[2].crossed);
-    return true;
+  try {
+    inputs_->add<I>(message, Clock::now());
+  } catch (const std::exception& e) {
+    // The stamp gate keeps message_filters' arithmetic in range (fuzz_stamps
+    // checks it); should anything else throw, one message is lost, not the node.
+    ++messages_dropped_;
+    if (log_.allow("synchronizer error"))
+      ROS_ERROR("relocalizer: dropped a message on %s: %s", inputTopic(I).c_str(), e.what());
   }
-  if (went_back) resetForTimeJump(index, before, stamp);
-  return true;
 }
 
-void RelocalizerNode::resetForTimeJump(int index, const ros::Time& before, const ros::Time& after) {
-  // The ApproximateTime policy compares stamps across its queues and keeps
-  // what it has published as history, so a set of older stamps could be
-  // dropped, paired with old-timeline messages or never completed; a fresh
-  // synchronizer has no past. Likewise the frames waiting to be relocalized
-  // are from the old timeline, and tf2 would refuse the new timeline's
-  // odom -> camera as older than what it holds.
+std::string RelocalizerNode::inputTopic(int input) const {
+  return input == 0 ? colour_sub_.getTopic() : input == 1 ? depth_sub_.getTopic() : info_sub_.getTopic();
+}
+
+void RelocalizerNode::onStampDropped(int input, StampGate::Drop why, int64_t stamp_ns) {
+  ++messages_dropped_;
+  const std::string stamp = formatStamp(stamp_ns);
+  std::string text;
+  switch (why) {
+    case StampGate::Drop::BeyondRange:
+      text = "stamped " + stamp + " s, at or past 2^31 s (the year 2038), where ROS time arithmetic "
+             "overflows: an uninitialised driver stamp?";
+      break;
+    case StampGate::Drop::OutOfOrder:
+      text = "stamped " + stamp + " s, before the previous message on it (out of order by less than " +
+             seconds(1e-9 * StampGate::kMinJumpNs) + " s, too little for a jump)";
+      break;
+    case StampGate::Drop::Unconfirmed:
+      text = "stamped " + stamp + " s, off the other messages' timeline, and no later message "
+             "followed it there: a glitch, not a jump";
+      break;
+    case StampGate::Drop::OldTimeline:  // expected after every jump: counted, not logged
+    case StampGate::Drop::None: return;
+  }
+  const std::string key = "stamp drop " + std::to_string(static_cast<int>(why));
+  if (log_.allow(key))
+    ROS_WARN("relocalizer: dropped a %s message on %s %s", kInputNames[input], inputTopic(input).c_str(),
+             text.c_str());
+}
+
+void RelocalizerNode::onTimeJump(const StampGate::Jump& jump) {
+  // The frames waiting to be relocalized are from the old timeline, and tf2
+  // would refuse the new timeline's odom -> camera as older than what it holds.
   const uint64_t jumps = ++time_jumps_;
-  makeSynchronizer();
   const size_t dropped = frames_.clear();
   if (transforms_) transforms_->reset();
-  jump_open_ = true;
-  jump_started_ = Clock::now();
-  for (int i = 0; i < 3; ++i) stamps_[i].crossed = (i == index) || !stamps_[i].seen;
 
-  const std::string topic = index == 0   ? colour_sub_.getTopic()
-                            : index == 1 ? depth_sub_.getTopic()
-                                         : info_sub_.getTopic();
-  char text[256];
-  std::snprintf(text, sizeof(text), "stamps went back in time by %.3f s on %s (%s, %.3f after %.3f)",
-                (before - after).toSec(), topic.c_str(), kInputNames[index], after.toSec(),
-                before.toSec());
-  const std::string what = text;
+  const int64_t step = jump.to_ns - jump.from_ns;
+  const std::string what = std::string(step < 0 ? "stamps went back in time by " : "stamps jumped forward by ") +
+                           seconds(1e-9 * static_cast<double>(step < 0 ? -step : step)) + " s on " +
+                           inputTopic(jump.input) + " (" + kInputNames[jump.input] + ", " +
+                           formatStamp(jump.to_ns) + " after " + formatStamp(jump.from_ns) + ")";
   const std::string done = std::string("; a looping bag or a restarted source? synchronizer reset, ") +
                            std::to_string(dropped) + " pending frame" + (dropped == 1 ? "" : "s") +
                            " dropped" + (transforms_ && !params_.odom_frame.empty() ? ", TF buffer cleared" : "");
@@ -394,7 +394,9 @@ void RelocalizerNode::resetForTimeJump(int index, const ros::Time& before, const
   }
   if (params_.mode == Mode::Continuous) {
     // Continuous consumers follow ~result only; tell them as the watchdog does.
-    ResultMsg result = failure(after, what + "; synchronizer and frame buffer reset");
+    ros::Time stamp;
+    stamp.fromNSec(static_cast<uint64_t>(jump.to_ns));
+    ResultMsg result = failure(stamp, what + "; synchronizer and frame buffer reset");
     publishOutcome(result, nullptr, nullptr, std::nullopt, false);
   }
 }
@@ -595,6 +597,7 @@ void RelocalizerNode::publishOutcome(ResultMsg& result, const relocalizer::Pose*
   result.frames_dropped = params_.mode == Mode::Continuous ? saturate(frames_.dropped()) : 0;
   result.frames_failed = saturate(frames_failed_);
   result.time_jumps = saturate(time_jumps_);
+  result.messages_dropped = saturate(messages_dropped_);
   if (learner_) {
     const relocalizer::LearningStatus status = learner_->status();
     result.learning = true;
@@ -651,18 +654,28 @@ bool RelocalizerNode::onRelocalize(relocalizer::Relocalize::Request& request,
       ROS_WARN("relocalizer: %s: %s", service_.getService().c_str(), result.message.c_str());
     publishOutcome(result, nullptr, nullptr, std::nullopt, false);
   } else {
-    const double timeout = std::min(request.timeout > 0.0 ? request.timeout : params_.service_timeout,
-                                    kMaxServiceTimeout);
-    const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                             std::chrono::duration<double>(timeout));
+    const double asked = request.timeout > 0.0 ? request.timeout : params_.service_timeout;
+    const double timeout = std::min(asked, kMaxServiceTimeout);
+    // The wait counts from the call's arrival: time spent queued behind other
+    // calls is part of what the caller waited.
+    const Clock::time_point arrival = ServiceCallQueue::callArrival();
+    const auto deadline =
+        arrival + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout));
+    const double queued = std::chrono::duration<double>(Clock::now() - arrival).count();
     const uint64_t after = request.wait_for_next ? frames_.lastSeq() : 0;
     auto entry = frames_.newest(after, deadline);
     if (entry) {
       result = processShared(entry->seq, entry->value);
     } else {
+      const std::string capped = asked > kMaxServiceTimeout ? " (the longest wait a call can ask for; it asked " +
+                                                                   seconds(asked) + " s)"
+                                                             : "";
+      const std::string behind = queued >= kQueuedReportSeconds
+                                     ? ", " + seconds(queued) + " s of it queued behind other calls"
+                                     : "";
       result = failure(ros::Time::now(), std::string(request.wait_for_next ? "no new" : "no") +
-                                             " synchronised frame within " + seconds(timeout) +
-                                             " s; " + inputStatus());
+                                             " synchronised frame within " + seconds(timeout) + " s" + capped +
+                                             behind + "; " + inputStatus());
       if (log_.allow("service without frame"))
         ROS_WARN("relocalizer: %s: %s", service_.getService().c_str(), result.message.c_str());
       publishOutcome(result, nullptr, nullptr, std::nullopt, false);

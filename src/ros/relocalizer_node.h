@@ -6,12 +6,13 @@
 // Threads:
 //  - subscription callbacks (the node handle's queue): O(1) header checks and a
 //    hand-over to the FrameBuffer; they never wait for a relocalization. They
-//    feed the synchronizer by hand (not connected to the subscribers), under
-//    one mutex, so that it can be replaced when the stamps go backwards;
+//    feed the InputSynchronizer (stamp checks, then message_filters) under
+//    one mutex;
 //  - the continuous worker (continuous mode): takes the pending frame, at most
 //    max_rate times a second, and relocalizes it;
-//  - the service queue's own spinner: calls wait for a frame and relocalize it
-//    there, so a waiting call never stalls the image callbacks. Calls that pick
+//  - the service calls' own threads (ServiceCallQueue: one per waiting call):
+//    calls wait for a frame and relocalize it there, so a waiting call never
+//    stalls the image callbacks or another call. Calls that pick
 //    the same frame share one relocalization (the core is deterministic per
 //    frame), so concurrent calls get the same, well-defined answer cheaply.
 //  - the watchdog and TF re-broadcast wall timers (the node handle's queue);
@@ -23,12 +24,8 @@
 #include <image_transport/image_transport.h>
 #include <image_transport/subscriber_filter.h>
 #include <message_filters/subscriber.h>
-#include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/sync_policies/exact_time.h>
-#include <message_filters/synchronizer.h>
 #include <relocalizer/Relocalize.h>
 #include <relocalizer/SaveModel.h>
-#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -44,8 +41,10 @@
 #include <thread>
 
 #include "frame_buffer.h"
+#include "input_synchronizer.h"
 #include "key_frames.h"
 #include "node_params.h"
+#include "service_call_queue.h"
 #include "relocalizer/online/online_learner.h"
 #include "relocalizer/pose/relocalizer.h"
 #include <relocalizer/RelocalizationResult.h>
@@ -89,15 +88,14 @@ class RelocalizerNode {
   bool onSaveModel(relocalizer::SaveModel::Request& request, relocalizer::SaveModel::Response& response);
 
   void subscribe();
-  void makeSynchronizer();
-  // Every input message passes here: time-jump check, then the synchronizer.
+  // Every input message passes here: stamp checks, then the synchronizer.
   template <int I, typename M>
   void onInput(const boost::shared_ptr<M const>& message);
-  // Whether the message of input `index` (0 colour, 1 depth, 2 camera_info)
-  // goes on to the synchronizer; detects and handles a jump back in time.
-  // Called with input_mutex_ held.
-  bool acceptStamp(int index, const ros::Time& stamp);
-  void resetForTimeJump(int index, const ros::Time& before, const ros::Time& after);
+  // The input stamps moved to another timeline (called with input_mutex_ held,
+  // before the new timeline's first message is synchronised).
+  void onTimeJump(const StampGate::Jump& jump);
+  void onStampDropped(int input, StampGate::Drop why, int64_t stamp_ns);
+  std::string inputTopic(int input) const;
   void onSynchronised(const sensor_msgs::ImageConstPtr& colour,
                       const sensor_msgs::ImageConstPtr& depth,
                       const sensor_msgs::CameraInfoConstPtr& info);
@@ -148,6 +146,7 @@ class RelocalizerNode {
   std::atomic<uint64_t> frames_processed_{0};
   std::atomic<uint64_t> frames_failed_{0};
   std::atomic<uint64_t> time_jumps_{0};  // also the epoch of new inputs
+  std::atomic<uint64_t> messages_dropped_{0};  // input messages refused for their stamps
   std::atomic<uint64_t> colour_count_{0}, depth_count_{0}, info_count_{0};
   // The counts at the last synchronised set: what arrived since says which
   // input is missing now, whatever worked before.
@@ -163,40 +162,24 @@ class RelocalizerNode {
 
   std::thread worker_;
 
-  // Input stamps, per input (colour, depth, camera_info); guarded by input_mutex_.
-  // A jump back in time is seen on each input in turn (they are separate
-  // connections): the first one that goes back resets the synchronizer, the
-  // frame buffer and TF; until every input has gone back too (or
-  // kJumpWindow passes), messages still on the old timeline are dropped, so
+  // The inputs' synchronizer and what its jumps report; guarded by input_mutex_.
+  // A jump is seen on each input in turn (they are separate connections):
   // one jump is one reset and one report.
   std::mutex input_mutex_;
-  struct InputStamps {
-    bool seen = false;
-    ros::Time last;
-    bool crossed = true;  // has gone back in the current jump (or none is open)
-  };
-  InputStamps stamps_[3];
-  bool jump_open_ = false;
-  std::chrono::steady_clock::time_point jump_started_;
-  uint64_t stale_messages_ = 0;  // old-timeline messages dropped during jumps
+  std::unique_ptr<InputSynchronizer> inputs_;
   std::chrono::steady_clock::time_point last_jump_log_;
   uint64_t unlogged_jumps_ = 0;
 
-  ros::CallbackQueue service_queue_;
-  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  // Service calls: a thread each, so none waits behind another; saves one at a time.
+  ServiceCallQueue service_calls_;
+  std::mutex save_mutex_;
   ros::ServiceServer service_;
   ros::ServiceServer save_service_;
   ros::WallTimer watchdog_;
 
   // Last members: destroyed first, so no callback outlives what it uses (the
   // subscribers' callbacks feed the synchronizer).
-  using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
-      sensor_msgs::Image, sensor_msgs::Image, sensor_msgs::CameraInfo>;
-  using ExactPolicy = message_filters::sync_policies::ExactTime<
-      sensor_msgs::Image, sensor_msgs::Image, sensor_msgs::CameraInfo>;
   std::unique_ptr<image_transport::ImageTransport> image_transport_;
-  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
-  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
   image_transport::SubscriberFilter colour_sub_;
   image_transport::SubscriberFilter depth_sub_;
   message_filters::Subscriber<sensor_msgs::CameraInfo> info_sub_;

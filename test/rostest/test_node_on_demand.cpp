@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <limits>
+#include <thread>
 
 #include "node_test_support.h"
 
@@ -331,6 +332,61 @@ TEST(OnDemand, ZeroOrNegativeTimeoutMeansTheServiceTimeoutAndNonFiniteIsRefused)
     EXPECT_EQ(srv.response.message, std::string("timeout must be a finite number of seconds (got ") + text +
                                         "); 0 or less means ~service_timeout (2.00 s)");
     EXPECT_LT((ros::WallTime::now() - start).toSec(), 1.0);
+  }
+}
+
+// Issue 23, B2: calls that wait long for a frame held every service thread,
+// so later calls were answered only when those waits ended (four calls asking
+// for 1e300 s held them for 11.6 days), and 50 calls asking for 1 s were
+// answered after up to 12.9 s while saying "within 1.00 s".
+TEST(OnDemand, CallsWaitingForAFrameHoldUpNoOtherCall) {
+  ASSERT_TRUE(ros::service::waitForService("/relocalizer/relocalize", ros::Duration(30)));
+  struct Call {
+    std::thread thread;
+    std::atomic<bool> done{false};
+    bool called = false;
+    relocalizer::Relocalize srv;
+    double seconds = 0.0;
+  };
+  auto start = [](Call& call, double timeout) {
+    call.srv.request.timeout = timeout;
+    call.srv.request.wait_for_next = true;
+    call.thread = std::thread([&call] {
+      const ros::WallTime begin = ros::WallTime::now();
+      call.called = ros::service::call("/relocalizer/relocalize", call.srv);
+      call.seconds = (ros::WallTime::now() - begin).toSec();
+      call.done = true;
+    });
+  };
+  std::vector<Call> long_calls(4);
+  for (Call& call : long_calls) start(call, 1e300);
+  ros::WallDuration(0.5).sleep();
+  std::vector<Call> short_calls(50);
+  for (Call& call : short_calls) start(call, 1.0);
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
+  auto all_done = [](const std::vector<Call>& calls) {
+    return std::all_of(calls.begin(), calls.end(), [](const Call& c) { return c.done.load(); });
+  };
+  while (!all_done(short_calls) && ros::WallTime::now() < end) ros::WallDuration(0.05).sleep();
+  // A frame ends the long waits (and, on a node where they hold every thread,
+  // lets the short calls run at last, so the test ends either way).
+  auto send = sending((*g_frames)[3]);
+  while (!(all_done(long_calls) && all_done(short_calls))) {
+    send();
+    ros::WallDuration(0.1).sleep();
+  }
+  for (Call& call : short_calls) {
+    call.thread.join();
+    ASSERT_TRUE(call.called);
+    EXPECT_FALSE(call.srv.response.success);
+    EXPECT_TRUE(contains(call.srv.response.message, "no new synchronised frame within 1.00 s"))
+        << call.srv.response.message;
+    EXPECT_LT(call.seconds, 3.0) << "a 1 s call waited behind others: " << call.srv.response.message;
+  }
+  for (Call& call : long_calls) {
+    call.thread.join();
+    ASSERT_TRUE(call.called);
+    EXPECT_TRUE(call.srv.response.success) << call.srv.response.message;
   }
 }
 
