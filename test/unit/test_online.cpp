@@ -18,6 +18,7 @@
 #include <future>
 #include <limits>
 
+#include "relocalizer/core/byte_io.h"
 #include "relocalizer/eval/metrics.h"
 #include "relocalizer/online/online_learner.h"
 #include "relocalizer/sim/synthetic_scene.h"
@@ -28,6 +29,11 @@ using namespace relocalizer;
 namespace {
 
 const CameraIntrinsics kCamera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
+
+void writeBytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                              static_cast<std::streamsize>(bytes.size()));
+}
 
 // Small forests: the room needs no more, and a retrain of 20 key frames stays
 // a few seconds.
@@ -138,18 +144,21 @@ TEST_F(OnlineRoom, KeyFrameFileRoundTripsAndRefusesCorruption) {
     ASSERT_TRUE(k.ok());
     store.add(std::make_shared<const StoredKeyFrame>(std::move(*k)));
   }
-  ASSERT_TRUE(saveKeyFrames(store.entries(), path).ok());
+  const ModelFileId model{0x12345678u, 4242};
+  writeBytes(path, serializeKeyFrames(store.entries(), model));
   auto loaded = loadKeyFrames(path);
   ASSERT_TRUE(loaded.ok()) << loaded.error();
-  ASSERT_EQ(loaded->size(), 2u);
+  ASSERT_TRUE(loaded->model.has_value());
+  EXPECT_EQ(*loaded->model, model);
+  ASSERT_EQ(loaded->key_frames.size(), 2u);
   for (size_t i = 0; i < 2; ++i) {
-    EXPECT_EQ((*loaded)[i].id, store.entries()[i]->id);
-    EXPECT_EQ((*loaded)[i].colour_jpeg, store.entries()[i]->colour_jpeg);
-    EXPECT_EQ((*loaded)[i].depth_png, store.entries()[i]->depth_png);
-    EXPECT_TRUE((*loaded)[i].pose.isApprox(store.entries()[i]->pose));
-    EXPECT_EQ((*loaded)[i].camera.width, 320);
+    const StoredKeyFrame& k = loaded->key_frames[i];
+    EXPECT_EQ(k.id, store.entries()[i]->id);
+    EXPECT_EQ(k.colour_jpeg, store.entries()[i]->colour_jpeg);
+    EXPECT_EQ(k.depth_png, store.entries()[i]->depth_png);
+    EXPECT_TRUE(k.pose.isApprox(store.entries()[i]->pose));
+    EXPECT_EQ(k.camera.width, 320);
   }
-  EXPECT_FALSE(std::filesystem::exists(path + ".tmp" + std::to_string(::getpid())));
 
   std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
   file.seekp(200);
@@ -466,7 +475,7 @@ TEST_F(OnlineRoom, KeyFrameCountIsBoundedByTheFile) {
   ASSERT_TRUE(k.ok());
   store.add(std::make_shared<const StoredKeyFrame>(std::move(*k)));
   for (const uint32_t count : {4000000u, 0xFFFFFFFFu}) {
-    ASSERT_TRUE(saveKeyFrames(store.entries(), path).ok());
+    writeBytes(path, serializeKeyFrames(store.entries(), ModelFileId{}));
     std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
     file.seekp(12);  // magic, version, then the count
     file.write(reinterpret_cast<const char*>(&count), sizeof count);
@@ -515,4 +524,37 @@ TEST_F(OnlineRoom, LearnerRefusesImplausibleSlamPoses) {
   }
   EXPECT_EQ(learner.status().keyframes_added, 0);
   EXPECT_TRUE(learner.addKeyFrame(frame, *frame.ground_truth).ok());
+}
+
+// Key-frame files from before the model identity (version 1) still load and
+// continue their place as they did.
+TEST_F(OnlineRoom, VersionOneKeyFrameFilesStillLoadAndResume) {
+  relocalizer::testing::TempDir dir;
+  const std::string model = dir.str() + "/place.model";
+  ASSERT_TRUE(trainedLearner(learn_, 0, 2)->save(model).ok());
+  // Version 1 is version 2 without the 12 bytes of model identity that open the body.
+  std::ifstream in(keyFramesPath(model), std::ios::binary);
+  std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  constexpr size_t kHeader = 28, kIdentity = 12;
+  const std::vector<uint8_t> body(file.begin() + kHeader + kIdentity, file.end());
+  const uint32_t version = 1, count = 2, crc = crc32Of(body.data(), body.size());
+  const uint64_t length = body.size();
+  std::vector<uint8_t> v1(file.begin(), file.begin() + 8);  // the magic
+  ByteWriter w(v1);
+  w.value(version);
+  w.value(count);
+  w.value(length);
+  w.value(crc);
+  w.bytes(body.data(), body.size());
+  writeBytes(keyFramesPath(model), v1);
+
+  auto loaded = loadKeyFrames(keyFramesPath(model));
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  EXPECT_FALSE(loaded->model.has_value());
+  EXPECT_EQ(loaded->key_frames.size(), static_cast<size_t>(count));
+  OnlineLearner resumed(smallLearning(), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  ASSERT_TRUE(resumed.resume(model).ok());
+  EXPECT_NE(resumed.current(), nullptr);
+  EXPECT_EQ(resumed.status().last_error, "");
 }
