@@ -118,7 +118,7 @@ std::string replaceableError(const std::string& path, std::string_view magic, co
   struct stat info {};
   if (::lstat(path.c_str(), &info) != 0) {
     if (errno == ENOENT) return {};  // a new file; a missing folder is reported by the write
-    return path + ": cannot inspect the existing file: " + systemReason(errno);
+    return path + ": cannot check what is there: " + systemReason(errno);
   }
   if (S_ISLNK(info.st_mode))
     return path + ": is a symbolic link; refusing to replace it (name the file itself or a new path)";
