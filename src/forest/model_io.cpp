@@ -1,6 +1,7 @@
 #include "relocalizer/forest/model_io.h"
 
 #include "relocalizer/core/byte_io.h"
+#include "relocalizer/core/file_io.h"
 #include "relocalizer/core/json_fields.h"
 #include "relocalizer/core/version.h"
 
@@ -25,7 +26,6 @@ using detail::readField;
 
 using nlohmann::json;
 
-constexpr char kMagic[8] = {'P', 'L', 'F', 'O', 'R', 'E', 'S', 'T'};
 constexpr size_t kPreambleSize = 8 + 4 + 4 + 8 + 4;
 
 // Versions 1 and 2 stored leaves as an index into a range array and 92-byte
@@ -398,18 +398,18 @@ std::vector<uint8_t> serializeModel(const Model& model) {
   std::vector<uint8_t> out;
   out.reserve(kPreambleSize + body.size());
   ByteWriter p(out);
-  p.bytes(kMagic, sizeof kMagic);
+  p.bytes(kModelMagic.data(), kModelMagic.size());
   p.value(kModelFormatVersion);
   p.value(static_cast<uint32_t>(0));
   p.value(static_cast<uint64_t>(body.size()));
-  p.value(static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size()))));
+  p.value(crc32Of(body.data(), body.size()));
   out.insert(out.end(), body.begin(), body.end());
   return out;
 }
 
 Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::string& source) {
   const std::string where = source + ": ";
-  if (size < sizeof kMagic || std::memcmp(data, kMagic, sizeof kMagic) != 0)
+  if (size < kModelMagic.size() || std::memcmp(data, kModelMagic.data(), kModelMagic.size()) != 0)
     return makeError(where + "not a relocalizer model (wrong magic number; expected a file "
                              "written by `train`)");
   ByteReader r(data, size);
@@ -427,14 +427,7 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
     return makeError(where + "truncated model file (" + std::to_string(r.remaining()) + " of " +
                      std::to_string(body_size) + " body bytes present)");
   const uint8_t* body = data + kPreambleSize;
-  uLong computed = 0;
-  // zlib takes 32-bit lengths; feed large bodies in chunks.
-  for (uint64_t offset = 0; offset < body_size;) {
-    const uInt chunk = static_cast<uInt>(std::min<uint64_t>(body_size - offset, 1u << 30));
-    computed = crc32(computed, body + offset, chunk);
-    offset += chunk;
-  }
-  if (computed != crc)
+  if (crc32Of(body, body_size) != crc)
     return makeError(where + "checksum mismatch: the model file is corrupt");
 
   ByteReader b(body, body_size);
@@ -472,6 +465,16 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
   return model;
 }
 
+uint32_t crc32Of(const uint8_t* data, size_t size) {
+  uLong crc = crc32(0L, Z_NULL, 0);
+  for (size_t offset = 0; offset < size;) {
+    const uInt chunk = static_cast<uInt>(std::min<size_t>(size - offset, 1u << 30));
+    crc = crc32(crc, data + offset, chunk);
+    offset += chunk;
+  }
+  return static_cast<uint32_t>(crc);
+}
+
 void summarizeTrainingImages(const std::vector<TrainingImage>& images, TrainingSummary& summary) {
   summary.images = static_cast<int>(images.size());
   summary.software_version = kSoftwareVersion;
@@ -493,24 +496,9 @@ Status saveModel(const Model& model, const std::string& path) {
 }
 
 Expected<Model> loadModel(const std::string& path) {
-  // A directory "opens" as a stream and reports a size near 2^63 (the buffer
-  // below would throw std::bad_alloc); a FIFO would block for good.
-  std::error_code status_error;
-  const auto status = std::filesystem::status(path, status_error);
-  if (!status_error && std::filesystem::is_directory(status))
-    return makeError(path + ": is a directory, not a model file");
-  if (!status_error && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
-    return makeError(path + ": is not a regular file (a device or a pipe?), not a model file");
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) return makeError(path + ": cannot open model file");
-  const std::streamoff size = in.tellg();
-  if (size <= 0) return makeError(path + ": model file is empty");
-  // One read into a sized buffer: a byte-wise stream copy of a 70 MB model
-  // costs a second of start-up.
-  std::vector<uint8_t> bytes(static_cast<size_t>(size));
-  in.seekg(0);
-  if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) return makeError(path + ": read failed");
-  return deserializeModel(bytes.data(), bytes.size(), path);
+  auto bytes = readRegularFile(path, "model file");
+  if (!bytes) return makeError(bytes.error());
+  return deserializeModel(bytes->data(), bytes->size(), path);
 }
 
 }  // namespace relocalizer

@@ -1,14 +1,11 @@
 #include "relocalizer/online/keyframe_store.h"
 
 #include "relocalizer/core/byte_io.h"
-
-#include <unistd.h>
-#include <zlib.h>
+#include "relocalizer/core/file_io.h"
+#include "relocalizer/forest/model_io.h"
 
 #include <cmath>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 
@@ -16,9 +13,11 @@ namespace relocalizer {
 
 namespace {
 
-constexpr char kMagic[8] = {'P', 'L', 'K', 'E', 'Y', 'F', 'R', 'M'};
-constexpr uint32_t kVersion = 1;
 constexpr size_t kHeaderBytes = 8 + 4 + 4 + 8 + 4;
+// The fixed part of one key frame (id, stamp, fx fy cx cy, width, height, the
+// 3x4 pose, both images' lengths): a count in the header, which the CRC does
+// not cover, can claim no more key frames than the body has room for.
+constexpr size_t kMinKeyFrameBytes = 4 + 8 + 4 * 8 + 4 + 4 + 12 * 8 + 4 + 4;
 
 }  // namespace
 
@@ -88,31 +87,16 @@ size_t KeyFrameStore::bytes() const {
 
 std::string keyFramesPath(const std::string& model_path) { return model_path + ".keyframes"; }
 
-Status writeFileAtomically(const std::string& path, const std::vector<uint8_t>& bytes) {
-  const std::string temporary = path + ".tmp" + std::to_string(::getpid());
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) return makeError(path + ": cannot open " + temporary + " for writing");
-    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    out.flush();
-    if (!out) {
-      std::error_code ignored;
-      std::filesystem::remove(temporary, ignored);
-      return makeError(path + ": write failed (disk full?)");
-    }
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) {
-    std::filesystem::remove(temporary, error);
-    return makeError(path + ": cannot rename the written file into place: " + error.message());
-  }
-  return okStatus();
+ModelFileId modelFileId(const std::vector<uint8_t>& model_file) {
+  return {crc32Of(model_file.data(), model_file.size()), model_file.size()};
 }
 
-Status saveKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames, const std::string& path) {
+std::vector<uint8_t> serializeKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames,
+                                        const ModelFileId& model) {
   std::vector<uint8_t> body;
   ByteWriter b(body);
+  b.value(model.crc);
+  b.value(model.size);
   for (const auto& k : key_frames) {
     b.value(static_cast<int32_t>(k->id));
     b.value(k->stamp);
@@ -125,21 +109,21 @@ Status saveKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames, const 
     b.array(k->colour_jpeg);
     b.array(k->depth_png);
   }
-  std::vector<uint8_t> file(kMagic, kMagic + 8);
+  std::vector<uint8_t> file(kKeyFrameMagic.begin(), kKeyFrameMagic.end());
   ByteWriter f(file);
-  f.value(kVersion);
+  f.value(kKeyFrameFormatVersion);
   f.value(static_cast<uint32_t>(key_frames.size()));
   f.value(static_cast<uint64_t>(body.size()));
-  f.value(static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size()))));
+  f.value(crc32Of(body.data(), body.size()));
   f.bytes(body.data(), body.size());
-  return writeFileAtomically(path, file);
+  return file;
 }
 
-Expected<std::vector<StoredKeyFrame>> loadKeyFrames(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return makeError(path + ": cannot open key-frame file");
-  const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (file.size() < kHeaderBytes || std::memcmp(file.data(), kMagic, 8) != 0)
+Expected<KeyFrameFile> loadKeyFrames(const std::string& path) {
+  auto read = readRegularFile(path, "key-frame file");
+  if (!read) return makeError(read.error());
+  const std::vector<uint8_t>& file = *read;
+  if (file.size() < kHeaderBytes || std::memcmp(file.data(), kKeyFrameMagic.data(), 8) != 0)
     return makeError(path + ": not a key-frame file (bad magic)");
   ByteReader header(file.data() + 8, kHeaderBytes - 8);
   uint32_t version = 0, count = 0, crc = 0;
@@ -148,16 +132,28 @@ Expected<std::vector<StoredKeyFrame>> loadKeyFrames(const std::string& path) {
   header.value(count);
   header.value(length);
   header.value(crc);
-  if (version != kVersion)
+  if (version < 1 || version > kKeyFrameFormatVersion)
     return makeError(path + ": key-frame file version " + std::to_string(version) +
-                     " is not supported (this build reads version " + std::to_string(kVersion) + ")");
+                     " is not supported (this build reads versions 1 to " +
+                     std::to_string(kKeyFrameFormatVersion) + ")");
   const uint8_t* body = file.data() + kHeaderBytes;
   if (length != file.size() - kHeaderBytes)
     return makeError(path + ": key-frame file is truncated or has trailing bytes");
-  if (crc32(0L, body, static_cast<uInt>(length)) != crc)
-    return makeError(path + ": key-frame file is corrupt (CRC mismatch)");
+  if (crc32Of(body, length) != crc) return makeError(path + ": key-frame file is corrupt (CRC mismatch)");
   ByteReader r(body, length);
-  std::vector<StoredKeyFrame> key_frames(count);
+  KeyFrameFile loaded;
+  if (version >= 2) {
+    ModelFileId model;
+    if (!r.value(model.crc) || !r.value(model.size))
+      return makeError(path + ": key-frame file ends inside its model identity");
+    loaded.model = model;
+  }
+  if (count > r.remaining() / kMinKeyFrameBytes)
+    return makeError(path + ": key-frame file claims " + std::to_string(count) + " key frames, but its " +
+                     std::to_string(r.remaining()) + " bytes hold at most " +
+                     std::to_string(r.remaining() / kMinKeyFrameBytes) + " (damaged header)");
+  std::vector<StoredKeyFrame>& key_frames = loaded.key_frames;
+  key_frames.resize(count);
   for (StoredKeyFrame& k : key_frames) {
     int32_t id = 0, width = 0, height = 0;
     Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
@@ -175,7 +171,7 @@ Expected<std::vector<StoredKeyFrame>> loadKeyFrames(const std::string& path) {
     k.pose = *pose;
   }
   if (r.remaining() != 0) return makeError(path + ": key-frame file has bytes after its last key frame");
-  return key_frames;
+  return loaded;
 }
 
 }  // namespace relocalizer

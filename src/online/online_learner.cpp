@@ -9,7 +9,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 
+#include "relocalizer/core/file_io.h"
 #include "relocalizer/core/id_ranges.h"
 
 namespace relocalizer {
@@ -28,6 +30,25 @@ std::string learningParamsError(const LearningParams& p) {
   if (p.min_backtracking_leaves < 1) return "min_backtracking_leaves must be at least 1";
   if (!p.training.train_points && !p.training.train_lines)
     return "training must grow at least one forest (train_points or train_lines)";
+  return {};
+}
+
+std::string slamPoseError(const Pose& pose) {
+  if (!pose.matrix().allFinite()) return "SLAM pose is not finite (NaN or Inf)";
+  const Eigen::Matrix3d r = pose.linear();
+  // SLAM's quaternions arrive as doubles, normalised to far better than this.
+  constexpr double kTolerance = 1e-3;
+  const double off_orthonormal = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (off_orthonormal > kTolerance || std::abs(r.determinant() - 1.0) > kTolerance)
+    return "SLAM pose's rotation is not a rotation (det " + std::to_string(r.determinant()) +
+           ", off orthonormal by " + std::to_string(off_orthonormal) + ")";
+  const double distance = pose.translation().norm();
+  if (distance > kMaxSlamPoseDistance) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%.3g", distance);
+    return std::string("SLAM pose is ") + text + " m from the map origin (at most " +
+           std::to_string(static_cast<int>(kMaxSlamPoseDistance)) + " m is learned)";
+  }
   return {};
 }
 
@@ -69,31 +90,56 @@ Status OnlineLearner::resume(Model model, std::vector<StoredKeyFrame> key_frames
   if (key_frames.empty()) return makeError("cannot resume learning: the saved place has no key frames");
   auto relocalizer = std::make_shared<Relocalizer>(std::move(model), relocalizer_params_);
   if (const std::string why = relocalizer->validationError(); !why.empty()) return makeError(why);
+  return adoptKeyFrames(std::move(key_frames), std::move(relocalizer), {});
+}
+
+Status OnlineLearner::adoptKeyFrames(std::vector<StoredKeyFrame> key_frames,
+                                     std::shared_ptr<const Relocalizer> model, std::string note) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (generation_ != 0) return makeError("resume() must come before the first key frame");
   for (StoredKeyFrame& k : key_frames) {
     if (store_.add(std::make_shared<const StoredKeyFrame>(std::move(k)))) ++status_.keyframes_evicted;
     ++generation_;
   }
-  trained_generation_ = model_generation_ = generation_;
   status_.keyframes_added = static_cast<int>(generation_);
+  status_.last_error = std::move(note);
+  if (!model) return okStatus();  // nothing learned yet: the first retrain is due
+  trained_generation_ = model_generation_ = generation_;
   status_.keyframes_learned = static_cast<int>(store_.size());
-  status_.model_bytes = modelBytes(relocalizer->model());
-  current_ = std::move(relocalizer);
+  status_.model_bytes = modelBytes(model->model());
+  current_ = std::move(model);
   return okStatus();
 }
 
 Status OnlineLearner::resume(const std::string& model_path) {
-  auto model = loadModel(model_path);
+  auto model_file = readRegularFile(model_path, "model file");
+  if (!model_file) return makeError(model_file.error());
+  auto model = deserializeModel(model_file->data(), model_file->size(), model_path);
   if (!model) return makeError(model.error());
-  auto key_frames = loadKeyFrames(keyFramesPath(model_path));
-  if (!key_frames)
+  const std::string key_frames_path = keyFramesPath(model_path);
+  auto saved = loadKeyFrames(key_frames_path);
+  if (!saved)
     return makeError("cannot continue learning " + model_path + " without its key frames: " +
-                     key_frames.error() + " (a model saved by ~save_model or evaluate --save-model has them)");
-  return resume(std::move(*model), std::move(*key_frames));
+                     saved.error() + " (a model saved by ~save_model or evaluate --save-model has them)");
+  // Version-1 key frames carry no identity and resume as they always did.
+  if (saved->model && *saved->model != modelFileId(*model_file)) {
+    // Retrain rather than refuse: the key frames are the place and the model
+    // is derived from them, so they lose nothing; the model beside them is
+    // from an older save and would answer as if it knew frames it never saw.
+    // Refusing would leave the user only the choice of starting over.
+    if (saved->key_frames.empty()) return makeError(key_frames_path + ": the saved place has no key frames");
+    const size_t count = saved->key_frames.size();
+    return adoptKeyFrames(std::move(saved->key_frames), nullptr,
+                          key_frames_path + " was saved with another model than " + model_path +
+                              " (a save was interrupted between the two files): not using that model, "
+                              "retraining on the " + std::to_string(count) + " key frames");
+  }
+  return resume(std::move(*model), std::move(saved->key_frames));
 }
 
 Status OnlineLearner::addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world) {
+  if (const std::string why = slamPoseError(camera_to_world); !why.empty())
+    return makeError("key frame " + std::to_string(frame.id) + ": " + why);
   auto compressed = compressKeyFrame(frame, camera_to_world, params_.jpeg_quality);
   if (!compressed) return makeError(compressed.error());
   {
@@ -239,10 +285,15 @@ Status OnlineLearner::save(const std::string& path) const {
     entries = store_.entries();
   }
   if (!model) return makeError(path + ": nothing to save yet: no model has been learned (too few key frames)");
-  // Key frames first: they are the place; a model older than them is only
-  // retrained sooner when the place is continued.
-  if (Status saved = saveKeyFrames(entries, keyFramesPath(path)); !saved) return saved;
-  return writeFileAtomically(path, serializeModel(model->model()));
+  std::vector<uint8_t> model_file = serializeModel(model->model());
+  const ModelFileId model_id = modelFileId(model_file);
+  // Key frames first: renamed before the model they name, a save interrupted
+  // in between leaves key frames that resume() sees belong to another model.
+  std::vector<FileReplacement> files;
+  files.push_back({keyFramesPath(path), kKeyFrameMagic, "relocalizer key-frame file",
+                   serializeKeyFrames(entries, model_id)});
+  files.push_back({path, kModelMagic, "relocalizer model file", std::move(model_file)});
+  return replaceFiles(files);
 }
 
 }  // namespace relocalizer

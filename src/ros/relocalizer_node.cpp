@@ -3,6 +3,7 @@
 #include <boost/bind/bind.hpp>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 
 #include "message_conversion.h"
@@ -219,6 +220,15 @@ void RelocalizerNode::learnLoop() {
       continue;
     }
     const relocalizer::Pose pose = fromTransformMsg(slam.transform);
+    // Before the key-frame rule, which would otherwise measure later frames
+    // against this pose; counted as untracked, since SLAM gave no usable pose.
+    if (const std::string why = relocalizer::slamPoseError(pose); !why.empty()) {
+      ++frames_untracked_;
+      if (log_.allow("learn: bad SLAM pose"))
+        ROS_WARN("relocalizer: not learning from the frame at %.3f: %s -> %s: %s", stamp.toSec(),
+                 params_.map_frame.c_str(), camera_frame.c_str(), why.c_str());
+      continue;
+    }
     if (!key_frames_->keep(pose)) continue;
     auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
     if (!frame) {
@@ -238,14 +248,18 @@ bool RelocalizerNode::onSaveModel(relocalizer::SaveModel::Request& request,
     response.message = "path is empty: name the model file to write";
     return true;
   }
+  // Relative to the node's working folder (ROS_HOME), which the caller does
+  // not know: the answer names the file absolutely.
+  std::error_code ignored;
+  const std::string path = std::filesystem::absolute(request.path, ignored).lexically_normal().string();
   // One save at a time: two saves of one path would share its temporary files.
   std::lock_guard<std::mutex> lock(save_mutex_);
-  const relocalizer::Status saved = learner_->save(request.path);
+  const relocalizer::Status saved = learner_->save(path);
   response.success = saved.ok();
   const relocalizer::LearningStatus status = learner_->status();
-  response.message = saved ? "wrote " + request.path + " (trained on " +
+  response.message = saved ? "wrote " + path + " (trained on " +
                                  std::to_string(status.keyframes_learned) + " key frames) and " +
-                                 relocalizer::keyFramesPath(request.path) + " (" +
+                                 relocalizer::keyFramesPath(path) + " (" +
                                  std::to_string(status.keyframes_stored) + " key frames)"
                            : saved.error();
   ROS_INFO("relocalizer: ~save_model: %s", response.message.c_str());

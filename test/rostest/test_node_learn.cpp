@@ -8,6 +8,9 @@
 #include <rosbag/view.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <filesystem>
 
 #include "node_test_support.h"
@@ -123,9 +126,34 @@ TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
   EXPECT_TRUE(model.ok()) << (model.ok() ? "" : model.error());
   auto key_frames = relocalizer::loadKeyFrames(relocalizer::keyFramesPath(path));
   ASSERT_TRUE(key_frames.ok()) << key_frames.error();
-  EXPECT_GE(key_frames->size(), 10u);
+  EXPECT_GE(key_frames->key_frames.size(), 10u);
   std::filesystem::remove(path);
   std::filesystem::remove(relocalizer::keyFramesPath(path));
+
+  // A relative path is the node's working folder's, which the caller cannot
+  // know: the answer names the absolute path it wrote.
+  const std::string name = "relocalizer_learn_test_" + std::to_string(::getpid()) + ".model";
+  save.request.path = name;
+  ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
+  EXPECT_TRUE(save.response.success) << save.response.message;
+  ASSERT_TRUE(contains(save.response.message, "wrote /")) << save.response.message;
+  const std::string written = save.response.message.substr(6, save.response.message.find(" (") - 6);
+  EXPECT_EQ(std::filesystem::path(written).filename().string(), name);
+  EXPECT_TRUE(std::filesystem::is_regular_file(written)) << written;
+  std::filesystem::remove(written);
+  std::filesystem::remove(relocalizer::keyFramesPath(written));
+
+  // Any peer may call ~save_model: it must not replace what is not the
+  // node's own file (here a FIFO; as root, /dev/null would do the same).
+  const std::string fifo = "/tmp/relocalizer_learn_test_" + std::to_string(::getpid()) + ".fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  save.request.path = fifo;
+  ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
+  EXPECT_FALSE(save.response.success);
+  EXPECT_TRUE(contains(save.response.message, fifo + ": is not a regular file")) << save.response.message;
+  EXPECT_EQ(std::filesystem::status(fifo).type(), std::filesystem::file_type::fifo);
+  std::filesystem::remove(fifo);
+  std::filesystem::remove(relocalizer::keyFramesPath(fifo));
   save.request.path = "";
   ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
   EXPECT_FALSE(save.response.success);

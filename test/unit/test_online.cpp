@@ -5,9 +5,20 @@
 
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <future>
+#include <limits>
 
+#include "relocalizer/core/byte_io.h"
 #include "relocalizer/eval/metrics.h"
 #include "relocalizer/online/online_learner.h"
 #include "relocalizer/sim/synthetic_scene.h"
@@ -18,6 +29,11 @@ using namespace relocalizer;
 namespace {
 
 const CameraIntrinsics kCamera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
+
+void writeBytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                              static_cast<std::streamsize>(bytes.size()));
+}
 
 // Small forests: the room needs no more, and a retrain of 20 key frames stays
 // a few seconds.
@@ -128,18 +144,21 @@ TEST_F(OnlineRoom, KeyFrameFileRoundTripsAndRefusesCorruption) {
     ASSERT_TRUE(k.ok());
     store.add(std::make_shared<const StoredKeyFrame>(std::move(*k)));
   }
-  ASSERT_TRUE(saveKeyFrames(store.entries(), path).ok());
+  const ModelFileId model{0x12345678u, 4242};
+  writeBytes(path, serializeKeyFrames(store.entries(), model));
   auto loaded = loadKeyFrames(path);
   ASSERT_TRUE(loaded.ok()) << loaded.error();
-  ASSERT_EQ(loaded->size(), 2u);
+  ASSERT_TRUE(loaded->model.has_value());
+  EXPECT_EQ(*loaded->model, model);
+  ASSERT_EQ(loaded->key_frames.size(), 2u);
   for (size_t i = 0; i < 2; ++i) {
-    EXPECT_EQ((*loaded)[i].id, store.entries()[i]->id);
-    EXPECT_EQ((*loaded)[i].colour_jpeg, store.entries()[i]->colour_jpeg);
-    EXPECT_EQ((*loaded)[i].depth_png, store.entries()[i]->depth_png);
-    EXPECT_TRUE((*loaded)[i].pose.isApprox(store.entries()[i]->pose));
-    EXPECT_EQ((*loaded)[i].camera.width, 320);
+    const StoredKeyFrame& k = loaded->key_frames[i];
+    EXPECT_EQ(k.id, store.entries()[i]->id);
+    EXPECT_EQ(k.colour_jpeg, store.entries()[i]->colour_jpeg);
+    EXPECT_EQ(k.depth_png, store.entries()[i]->depth_png);
+    EXPECT_TRUE(k.pose.isApprox(store.entries()[i]->pose));
+    EXPECT_EQ(k.camera.width, 320);
   }
-  EXPECT_FALSE(std::filesystem::exists(path + ".tmp" + std::to_string(::getpid())));
 
   std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
   file.seekp(200);
@@ -286,4 +305,256 @@ TEST_F(OnlineRoom, DestroyingTheLearnerDuringARetrainIsSafe) {
   if (held) {
     EXPECT_FALSE(held->model().points.empty());  // a model handed out outlives its learner
   }
+}
+
+// Saving and loading a place (issue 23): what a careless or hostile path, an
+// interrupted save or a damaged key-frame file used to do, each reproduced.
+
+namespace {
+
+// A learner whose model was trained on `learn_[first, first + count)`.
+std::unique_ptr<OnlineLearner> trainedLearner(const std::vector<RgbdFrame>& frames, size_t first, size_t count) {
+  auto learner = std::make_unique<OnlineLearner>(smallLearning(), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  for (size_t i = first; i < first + count; ++i)
+    EXPECT_TRUE(learner->addKeyFrame(frames[i], *frames[i].ground_truth).ok());
+  EXPECT_TRUE(learner->drain().ok());
+  return learner;
+}
+
+std::string readText(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+// A pid no process has: a child that has exited and been reaped.
+pid_t deadPid() {
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  ::waitpid(child, nullptr, 0);
+  return child;
+}
+
+}  // namespace
+
+// B3: any peer could make ~save_model replace a symlink, a FIFO, a device or
+// any file the node can write (~/.bashrc) with a model.
+TEST_F(OnlineRoom, SaveRefusesTargetsThatAreNotItsOwnFiles) {
+  relocalizer::testing::TempDir dir;
+  auto learner = trainedLearner(learn_, 0, 2);
+  const std::string victim = dir.str() + "/victim";
+  std::ofstream(victim) << "alias ls='ls --color'\n";
+
+  const std::string link = dir.str() + "/link.model";
+  std::filesystem::create_symlink(victim, link);
+  Status saved = learner->save(link);
+  ASSERT_FALSE(saved.ok());
+  EXPECT_TRUE(contains(saved.error(), link + ": is a symbolic link")) << saved.error();
+  EXPECT_TRUE(std::filesystem::is_symlink(link));
+
+  const std::string fifo = dir.str() + "/fifo.model";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  saved = learner->save(fifo);
+  ASSERT_FALSE(saved.ok());
+  EXPECT_TRUE(contains(saved.error(), fifo + ": is not a regular file")) << saved.error();
+  EXPECT_EQ(std::filesystem::status(fifo).type(), std::filesystem::file_type::fifo);
+
+  saved = learner->save(victim);
+  ASSERT_FALSE(saved.ok());
+  EXPECT_TRUE(contains(saved.error(), victim + ": exists and is not a relocalizer model")) << saved.error();
+  EXPECT_EQ(readText(victim), "alias ls='ls --color'\n");
+
+  // The key-frame companion is checked as strictly, before anything is written.
+  const std::string model = dir.str() + "/place.model";
+  std::filesystem::create_symlink(victim, keyFramesPath(model));
+  saved = learner->save(model);
+  ASSERT_FALSE(saved.ok());
+  EXPECT_TRUE(contains(saved.error(), keyFramesPath(model) + ": is a symbolic link")) << saved.error();
+  EXPECT_FALSE(std::filesystem::exists(model));
+  EXPECT_EQ(readText(victim), "alias ls='ls --color'\n");
+
+  // Its own files it replaces: saving twice to one path is the normal case.
+  std::filesystem::remove(keyFramesPath(model));
+  ASSERT_TRUE(learner->save(model).ok());
+  const Status again = learner->save(model);
+  EXPECT_TRUE(again.ok()) << again.error();
+}
+
+// Weak messages: a directory gave "cannot rename ...: Success" and left
+// DIR.keyframes behind; a missing folder, /proc or a too long name gave no reason.
+TEST_F(OnlineRoom, FailedSavesSayWhy) {
+  relocalizer::testing::TempDir dir;
+  auto learner = trainedLearner(learn_, 0, 2);
+
+  const std::string folder = dir.str() + "/folder";
+  std::filesystem::create_directory(folder);
+  Status saved = learner->save(folder);
+  ASSERT_FALSE(saved.ok());
+  EXPECT_TRUE(contains(saved.error(), folder + ": is a directory")) << saved.error();
+  EXPECT_FALSE(std::filesystem::exists(keyFramesPath(folder)));
+
+  const std::string missing = dir.str() + "/no/such/folder/place.model";
+  saved = learner->save(missing);
+  ASSERT_FALSE(saved.ok());
+  EXPECT_TRUE(contains(saved.error(), std::strerror(ENOENT))) << saved.error();
+  EXPECT_TRUE(contains(saved.error(), missing)) << saved.error();
+
+  const std::string long_name = dir.str() + "/" + std::string(250, 'm');
+  saved = learner->save(long_name);
+  ASSERT_FALSE(saved.ok());
+  EXPECT_TRUE(contains(saved.error(), std::strerror(ENAMETOOLONG))) << saved.error();
+
+  // Whatever /proc answers to this user, the message must carry it.
+  const std::string in_proc = "/proc/relocalizer_test.model";
+  const int probe = ::open((in_proc + ".probe").c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
+  const int probe_errno = errno;
+  ASSERT_LT(probe, 0);
+  saved = learner->save(in_proc);
+  ASSERT_FALSE(saved.ok());
+  EXPECT_TRUE(contains(saved.error(), std::strerror(probe_errno))) << saved.error();
+}
+
+// B4: temporaries of a save that was killed were left behind for good.
+TEST_F(OnlineRoom, SaveRemovesTemporariesThatAKilledSaveLeft) {
+  relocalizer::testing::TempDir dir;
+  auto learner = trainedLearner(learn_, 0, 2);
+  const std::string model = dir.str() + "/place.model";
+  const std::string dead = std::to_string(deadPid());
+  std::ofstream(model + ".tmp" + dead) << "half a model";
+  std::ofstream(keyFramesPath(model) + ".tmp" + dead) << "half the key frames";
+  // Someone else's file that only looks similar stays.
+  std::ofstream(model + ".tmp" + dead + "x") << "not ours";
+  ASSERT_TRUE(learner->save(model).ok());
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
+    names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"place.model", "place.model.keyframes",
+                                             "place.model.tmp" + dead + "x"}));
+}
+
+// B4: killed between the two renames, new key frames sat beside the old model
+// and learn mode resumed the pair as if the model knew them. Built here as the
+// crash leaves it: the newer save's key frames, the older save's model.
+TEST_F(OnlineRoom, ResumingAMismatchedPairRetrainsOnTheKeyFrames) {
+  relocalizer::testing::TempDir dir;
+  const std::string model = dir.str() + "/place.model";
+  const std::string old_model = dir.str() + "/old.model";
+  ASSERT_TRUE(trainedLearner(learn_, 0, 2)->save(model).ok());
+  std::filesystem::copy_file(model, old_model);
+  ASSERT_TRUE(trainedLearner(learn_, 0, 4)->save(model).ok());
+  std::filesystem::copy_file(old_model, model, std::filesystem::copy_options::overwrite_existing);
+
+  OnlineLearner resumed(smallLearning(), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  ASSERT_TRUE(resumed.resume(model).ok());
+  EXPECT_EQ(resumed.current(), nullptr);  // the old model is not served as if it knew them
+  const LearningStatus status = resumed.status();
+  EXPECT_EQ(status.keyframes_stored, 4);
+  EXPECT_TRUE(contains(status.last_error, model)) << status.last_error;
+  EXPECT_TRUE(contains(status.last_error, keyFramesPath(model))) << status.last_error;
+  ASSERT_TRUE(resumed.drain().ok());
+  ASSERT_NE(resumed.current(), nullptr);
+  EXPECT_EQ(resumed.current()->model().summary.images, 4);
+
+  // A pair from one save resumes as saved: its model serves at once.
+  OnlineLearner matched(smallLearning(), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  ASSERT_TRUE(trainedLearner(learn_, 0, 4)->save(model).ok());
+  ASSERT_TRUE(matched.resume(model).ok());
+  EXPECT_NE(matched.current(), nullptr);
+  EXPECT_EQ(matched.status().last_error, "");
+}
+
+// B5: the count in the header (outside the CRC) was trusted: 4,000,000 made
+// the loader allocate 1 GB, 2^32-1 threw std::bad_alloc.
+TEST_F(OnlineRoom, KeyFrameCountIsBoundedByTheFile) {
+  relocalizer::testing::TempDir dir;
+  const std::string path = dir.str() + "/place.keyframes";
+  KeyFrameStore store(8);
+  auto k = compressKeyFrame(learn_[0], *learn_[0].ground_truth);
+  ASSERT_TRUE(k.ok());
+  store.add(std::make_shared<const StoredKeyFrame>(std::move(*k)));
+  for (const uint32_t count : {4000000u, 0xFFFFFFFFu}) {
+    writeBytes(path, serializeKeyFrames(store.entries(), ModelFileId{}));
+    std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
+    file.seekp(12);  // magic, version, then the count
+    file.write(reinterpret_cast<const char*>(&count), sizeof count);
+    file.close();
+    auto loaded = loadKeyFrames(path);
+    ASSERT_FALSE(loaded.ok());
+    EXPECT_TRUE(contains(loaded.error(), path + ": ")) << loaded.error();
+    EXPECT_TRUE(contains(loaded.error(), std::to_string(count) + " key frames")) << loaded.error();
+  }
+}
+
+// B6: a FIFO at MODEL.keyframes hung learn-mode start-up for good.
+TEST_F(OnlineRoom, KeyFrameLoaderRefusesAFifo) {
+  relocalizer::testing::TempDir dir;
+  const std::string fifo = dir.str() + "/place.keyframes";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  auto loading = std::async(std::launch::async, [&] { return loadKeyFrames(fifo); });
+  if (loading.wait_for(std::chrono::seconds(5)) != std::future_status::ready) {
+    // Release the loader (a writer that closes at once gives it end of file).
+    ::close(::open(fifo.c_str(), O_WRONLY | O_NONBLOCK));
+    FAIL() << "loadKeyFrames blocks on a FIFO";
+  }
+  auto loaded = loading.get();
+  ASSERT_FALSE(loaded.ok());
+  EXPECT_TRUE(contains(loaded.error(), fifo + ": is not a regular file")) << loaded.error();
+}
+
+// B7: learn mode took any SLAM pose, 1e30 m included, and answered there.
+TEST_F(OnlineRoom, LearnerRefusesImplausibleSlamPoses) {
+  OnlineLearner learner(smallLearning(), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  const RgbdFrame& frame = learn_[0];
+  Pose far = *frame.ground_truth;
+  far.translation().x() = 1e30;
+  Pose nan = *frame.ground_truth;
+  nan.translation().y() = std::numeric_limits<double>::quiet_NaN();
+  Pose scaled = *frame.ground_truth;
+  scaled.linear() *= 2.0;
+  Pose mirrored = *frame.ground_truth;
+  mirrored.linear().col(0) *= -1.0;
+  for (const auto& [pose, why] : std::vector<std::pair<Pose, std::string>>{
+           {far, "from the map origin"}, {nan, "not finite"}, {scaled, "not a rotation"},
+           {mirrored, "not a rotation"}}) {
+    const Status added = learner.addKeyFrame(frame, pose);
+    ASSERT_FALSE(added.ok()) << why;
+    EXPECT_TRUE(contains(added.error(), why)) << added.error();
+  }
+  EXPECT_EQ(learner.status().keyframes_added, 0);
+  EXPECT_TRUE(learner.addKeyFrame(frame, *frame.ground_truth).ok());
+}
+
+// Key-frame files from before the model identity (version 1) still load and
+// continue their place as they did.
+TEST_F(OnlineRoom, VersionOneKeyFrameFilesStillLoadAndResume) {
+  relocalizer::testing::TempDir dir;
+  const std::string model = dir.str() + "/place.model";
+  ASSERT_TRUE(trainedLearner(learn_, 0, 2)->save(model).ok());
+  // Version 1 is version 2 without the 12 bytes of model identity that open the body.
+  std::ifstream in(keyFramesPath(model), std::ios::binary);
+  std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  constexpr size_t kHeader = 28, kIdentity = 12;
+  const std::vector<uint8_t> body(file.begin() + kHeader + kIdentity, file.end());
+  const uint32_t version = 1, count = 2, crc = crc32Of(body.data(), body.size());
+  const uint64_t length = body.size();
+  std::vector<uint8_t> v1(file.begin(), file.begin() + 8);  // the magic
+  ByteWriter w(v1);
+  w.value(version);
+  w.value(count);
+  w.value(length);
+  w.value(crc);
+  w.bytes(body.data(), body.size());
+  writeBytes(keyFramesPath(model), v1);
+
+  auto loaded = loadKeyFrames(keyFramesPath(model));
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  EXPECT_FALSE(loaded->model.has_value());
+  EXPECT_EQ(loaded->key_frames.size(), static_cast<size_t>(count));
+  OnlineLearner resumed(smallLearning(), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  ASSERT_TRUE(resumed.resume(model).ok());
+  EXPECT_NE(resumed.current(), nullptr);
+  EXPECT_EQ(resumed.status().last_error, "");
 }

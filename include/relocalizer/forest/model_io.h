@@ -29,6 +29,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "relocalizer/core/expected.h"
@@ -38,6 +39,11 @@
 namespace relocalizer {
 
 constexpr uint32_t kModelFormatVersion = 3;
+// Every model file starts with it; a save replaces only files that do.
+constexpr std::string_view kModelMagic{"PLFOREST", 8};
+
+// CRC-32 (zlib) of any length (zlib's own call takes 32-bit lengths).
+uint32_t crc32Of(const uint8_t* data, size_t size);
 
 // What the forests were trained on.
 struct TrainingSummary {

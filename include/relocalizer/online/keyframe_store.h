@@ -11,7 +11,9 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "relocalizer/core/expected.h"
@@ -62,14 +64,32 @@ class KeyFrameStore {
 
 // The key-frame file beside a model (`<model>.keyframes`): magic "PLKEYFRM",
 // uint32 version, uint32 count, uint64 body length, uint32 CRC-32 of the body,
+// then the body: (version 2) the identity of the model file saved with it,
 // then per key frame id, stamp, intrinsics, the 3x4 pose and both images'
-// bytes. Written to a temporary name and renamed, so a reader never sees half.
-std::string keyFramesPath(const std::string& model_path);
-Status saveKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames, const std::string& path);
-Expected<std::vector<StoredKeyFrame>> loadKeyFrames(const std::string& path);
+// bytes. Version 1 (no model identity) still loads.
+//
+// The identity binds the pair: a save killed between its two renames leaves
+// new key frames beside the old model, and only the identity tells.
+constexpr std::string_view kKeyFrameMagic{"PLKEYFRM", 8};
+constexpr uint32_t kKeyFrameFormatVersion = 2;
 
-// Writes `bytes` to `path` via a temporary file in the same folder and a
-// rename, so `path` holds either the old or the new content.
-Status writeFileAtomically(const std::string& path, const std::vector<uint8_t>& bytes);
+// A model file as the key frames saved with it know it.
+struct ModelFileId {
+  uint32_t crc = 0;   // CRC-32 of the whole file
+  uint64_t size = 0;  // bytes
+  bool operator==(const ModelFileId& o) const { return crc == o.crc && size == o.size; }
+  bool operator!=(const ModelFileId& o) const { return !(*this == o); }
+};
+ModelFileId modelFileId(const std::vector<uint8_t>& model_file);
+
+struct KeyFrameFile {
+  std::vector<StoredKeyFrame> key_frames;
+  std::optional<ModelFileId> model;  // absent in version-1 files
+};
+
+std::string keyFramesPath(const std::string& model_path);
+std::vector<uint8_t> serializeKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames,
+                                        const ModelFileId& model);
+Expected<KeyFrameFile> loadKeyFrames(const std::string& path);
 
 }  // namespace relocalizer

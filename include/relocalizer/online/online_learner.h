@@ -69,6 +69,17 @@ struct LearningParams {
 // Empty when usable, otherwise what is wrong, naming the parameter.
 std::string learningParamsError(const LearningParams& params);
 
+// Farthest a SLAM camera pose may be from the map origin to be learned from.
+// Leaf modes store world coordinates as float, whose spacing reaches 1 mm at
+// 8 km: beyond 10 km a learned place would lose the centimetre accuracy the
+// method is judged by, and no room-scale SLAM map is that large, so such a
+// pose is a SLAM or TF fault (1e30 m was seen learned and answered).
+constexpr double kMaxSlamPoseDistance = 1e4;
+
+// Empty when a camera-to-world pose may be learned from: finite, a rotation
+// (orthonormal, det +1) and within kMaxSlamPoseDistance; otherwise why not.
+std::string slamPoseError(const Pose& camera_to_world);
+
 struct LearningStatus {
   int keyframes_added = 0;     // accepted since start, resumed ones included
   int keyframes_stored = 0;    // in the store now (<= max_keyframes)
@@ -80,7 +91,8 @@ struct LearningStatus {
   int retrains = 0;            // completed
   bool retraining = false;
   double last_retrain_seconds = 0.0;  // wall time of the last completed retrain
-  std::string last_error;      // of the last failed retrain or save, empty if none
+  std::string last_error;      // of the last failed retrain or save, or of an interrupted save
+                               // found by resume(); empty if none
 };
 
 class OnlineLearner {
@@ -96,11 +108,14 @@ class OnlineLearner {
   // trained on `key_frames`; later retrains use them with the new ones. Call
   // before the first addKeyFrame.
   Status resume(Model model, std::vector<StoredKeyFrame> key_frames);
-  // Same, from `<model_path>` and `<model_path>.keyframes`.
+  // Same, from `<model_path>` and `<model_path>.keyframes`. When the key
+  // frames were saved with another model (a save interrupted between its two
+  // renames), their model is not served: the learner retrains on them as if
+  // from nothing, and status().last_error says so, naming both files.
   Status resume(const std::string& model_path);
 
   // A key frame with its camera-to-world pose (from SLAM, never from this
-  // relocalizer). Compresses it on the caller's thread (about 20 ms for
+  // relocalizer); refused when slamPoseError(pose) says why. Compresses it on the caller's thread (about 20 ms for
   // 640x480) and wakes the worker; never waits for a retrain.
   Status addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world);
 
@@ -113,13 +128,18 @@ class OnlineLearner {
   std::shared_ptr<const Relocalizer> current() const;
   LearningStatus status() const;
 
-  // Writes the current model to `path` and the stored key frames to
-  // keyFramesPath(path), each atomically (write, then rename). Fails when
-  // there is no model yet.
+  // Writes the current model to `path` and the stored key frames, bound to
+  // it, to keyFramesPath(path), as one unit (core/file_io.h: only the
+  // package's own files are replaced; fsynced; key frames renamed first, so
+  // an interrupted save is detected by resume()). Fails when there is no
+  // model yet.
   Status save(const std::string& path) const;
 
  private:
   bool retrainDue() const;  // under mutex_
+  // Fills the empty store; the current model (if any) counts as trained on them.
+  Status adoptKeyFrames(std::vector<StoredKeyFrame> key_frames, std::shared_ptr<const Relocalizer> model,
+                        std::string note);
   Status retrain(std::unique_lock<std::mutex>& lock);
   void workerLoop();
 

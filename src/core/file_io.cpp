@@ -1,0 +1,178 @@
+#include "relocalizer/core/file_io.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <set>
+
+namespace relocalizer {
+
+namespace {
+
+std::string systemReason(int error) { return std::strerror(error); }
+
+std::string temporaryPath(const std::string& path) { return path + ".tmp" + std::to_string(::getpid()); }
+
+std::filesystem::path folderOf(const std::string& path) {
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  return folder.empty() ? std::filesystem::path(".") : folder;
+}
+
+// `<target>.tmp<pid>` of a process that is gone: a save killed between
+// writing and renaming. A live process's temporary may be a save in progress
+// (another node on the same path) and stays.
+void removeStaleTemporaries(const std::string& path) {
+  const std::string prefix = std::filesystem::path(path).filename().string() + ".tmp";
+  std::error_code error;
+  for (std::filesystem::directory_iterator it(folderOf(path), error), end; !error && it != end;
+       it.increment(error)) {
+    const std::string name = it->path().filename().string();
+    if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) continue;
+    long pid = 0;
+    const char* digits = name.data() + prefix.size();
+    const auto [end_of_number, parse_error] = std::from_chars(digits, name.data() + name.size(), pid);
+    if (parse_error != std::errc() || end_of_number != name.data() + name.size() || pid <= 0) continue;
+    if (pid == ::getpid() || (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH))
+      ::unlink(it->path().c_str());
+  }
+}
+
+Status writeAndSync(const std::string& path, const std::string& temporary, const std::vector<uint8_t>& bytes) {
+  ::unlink(temporary.c_str());  // ours by name; O_EXCL below then never opens a planted FIFO or link
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
+  if (fd < 0)
+    return makeError(path + ": cannot create the temporary file " + temporary + ": " + systemReason(errno));
+  size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      const int error = errno;
+      ::close(fd);
+      return makeError(path + ": cannot write " + temporary + ": " + systemReason(error));
+    }
+    written += static_cast<size_t>(n);
+  }
+  // Without it a rename can reach the disk before the data: after a power
+  // loss the target would exist but be empty or short.
+  if (::fsync(fd) != 0) {
+    const int error = errno;
+    ::close(fd);
+    return makeError(path + ": cannot flush " + temporary + " to disk: " + systemReason(error));
+  }
+  if (::close(fd) != 0)
+    return makeError(path + ": cannot write " + temporary + ": " + systemReason(errno));
+  return okStatus();
+}
+
+}  // namespace
+
+Expected<std::vector<uint8_t>> readRegularFile(const std::string& path, const std::string& what) {
+  // O_NONBLOCK: opening a FIFO for reading would otherwise wait for a writer
+  // for good; the type is then checked on what was opened.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return makeError(path + ": cannot open " + what + ": " + systemReason(errno));
+  struct stat info {};
+  std::string refusal;
+  if (::fstat(fd, &info) != 0)
+    refusal = "cannot inspect " + what + ": " + systemReason(errno);
+  else if (S_ISDIR(info.st_mode))
+    refusal = "is a directory, not a " + what;
+  else if (!S_ISREG(info.st_mode))
+    refusal = "is not a regular file (a device or a pipe?), not a " + what;
+  else if (info.st_size == 0)
+    refusal = what + " is empty";
+  std::vector<uint8_t> bytes;
+  if (refusal.empty()) {
+    // One read into a sized buffer: a byte-wise stream copy of a 70 MB model
+    // costs a second of start-up.
+    bytes.resize(static_cast<size_t>(info.st_size));
+    size_t done = 0;
+    while (done < bytes.size()) {
+      const ssize_t n = ::read(fd, bytes.data() + done, bytes.size() - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) {
+        refusal = "cannot read " + what + ": " + systemReason(errno);
+        break;
+      }
+      if (n == 0) {
+        refusal = what + " shrank while it was read";
+        break;
+      }
+      done += static_cast<size_t>(n);
+    }
+  }
+  ::close(fd);
+  if (!refusal.empty()) return makeError(path + ": " + refusal);
+  return bytes;
+}
+
+std::string replaceableError(const std::string& path, std::string_view magic, const std::string& what) {
+  struct stat info {};
+  if (::lstat(path.c_str(), &info) != 0) {
+    if (errno == ENOENT) return {};  // a new file; a missing folder is reported by the write
+    return path + ": cannot check what is there: " + systemReason(errno);
+  }
+  if (S_ISLNK(info.st_mode))
+    return path + ": is a symbolic link; refusing to replace it (name the file itself or a new path)";
+  if (S_ISDIR(info.st_mode)) return path + ": is a directory; refusing to replace it (name a file)";
+  if (!S_ISREG(info.st_mode))
+    return path + ": is not a regular file (a FIFO, socket or device); refusing to replace it";
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) return path + ": cannot read the existing file to check it: " + systemReason(errno);
+  std::string head(magic.size(), '\0');
+  const ssize_t n = ::read(fd, head.data(), head.size());
+  ::close(fd);
+  if (n != static_cast<ssize_t>(magic.size()) || head != magic)
+    return path + ": exists and is not a " + what + "; refusing to overwrite it (remove it or choose another path)";
+  return {};
+}
+
+Status replaceFiles(const std::vector<FileReplacement>& files) {
+  // Two saves in one process (two service calls) would share temporaries' names.
+  static std::mutex one_at_a_time;
+  std::lock_guard<std::mutex> lock(one_at_a_time);
+  for (const FileReplacement& f : files)
+    if (const std::string why = replaceableError(f.path, f.magic, f.what); !why.empty()) return makeError(why);
+  std::vector<std::string> temporaries;
+  const auto fail = [&](const std::string& why) {
+    for (const std::string& t : temporaries) ::unlink(t.c_str());
+    return makeError(why);
+  };
+  for (const FileReplacement& f : files) {
+    removeStaleTemporaries(f.path);
+    temporaries.push_back(temporaryPath(f.path));
+    if (Status written = writeAndSync(f.path, temporaries.back(), f.bytes); !written)
+      return fail(written.error());
+  }
+  for (size_t i = 0; i < files.size(); ++i) {
+    if (::rename(temporaries[i].c_str(), files[i].path.c_str()) != 0) {
+      const int error = errno;
+      temporaries.erase(temporaries.begin(), temporaries.begin() + static_cast<std::ptrdiff_t>(i));
+      return fail(files[i].path + ": cannot rename " + temporaries.front() + " into place: " + systemReason(error));
+    }
+  }
+  // The renames are entries of the folder: durable only once it is flushed.
+  std::set<std::string> folders;
+  for (const FileReplacement& f : files) folders.insert(folderOf(f.path).string());
+  for (const std::string& folder : folders) {
+    const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0 || (::fsync(fd) != 0 && errno != EINVAL)) {
+      const int error = errno;
+      if (fd >= 0) ::close(fd);
+      return makeError(files.front().path + ": written, but the folder " + folder +
+                       " could not be flushed to disk: " + systemReason(error));
+    }
+    ::close(fd);
+  }
+  return okStatus();
+}
+
+}  // namespace relocalizer
