@@ -83,6 +83,10 @@ relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
         resumed = relocalizer::makeError(params->model + ": cannot be loaded: " + e.what());
       }
       if (!resumed) return relocalizer::makeError(resumed.error());
+      // A pair left by an interrupted save resumes from its key frames alone;
+      // the log says so as well as ~result's learning_error.
+      if (const std::string why = learner->status().last_error; !why.empty())
+        ROS_WARN("relocalizer: %s", why.c_str());
     }
     return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(
         std::move(nh), std::move(private_nh), std::move(*params), nullptr, std::move(learner)));
