@@ -50,12 +50,10 @@ std::string overlay(const YAML::Node& node, json& target, const std::string& pat
   try {
     if (target.is_boolean()) {
       target = node.as<bool>();
-    } else if (target.is_number_unsigned()) {
-      const long long v = node.as<long long>();
-      if (v < 0) return "'" + path + "' must not be negative";
-      target = static_cast<unsigned long long>(v);
-    } else if (target.is_number_integer()) {
-      target = integer(node);
+    } else if (target.is_number_integer()) {  // signed or unsigned
+      const json v = integer(node);
+      if (target.is_number_unsigned() && v.get<double>() < 0) return "'" + path + "' must not be negative";
+      target = v;
     } else if (target.is_number_float()) {
       // .nan and .inf, or a value beyond float range, cannot be a parameter and
       // would not survive the JSON a model header stores them in.

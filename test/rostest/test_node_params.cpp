@@ -122,7 +122,7 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
          nh.setParam("learn", true);
          nh.setParam("publish_tf", false);
          nh.setParam("learn_max_keyframes", 1);
-       }, "learn_max_keyframes' must be at least 2"},
+       }, "learn_max_keyframes' is 1; it must be an integer from 2 to 2147483647"},
   };
   for (const Case& c : cases) {
     ros::NodeHandle nh(c.ns);
@@ -144,10 +144,11 @@ struct NodeRun {
 // Runs relocalizer_node on `model` with extra `arguments` until it exits (it
 // must: the model or a parameter is bad). A node that starts anyway is stopped
 // after 20 s: exit status 124.
-NodeRun runNodeWithModel(const std::string& model, const std::string& arguments = "") {
+NodeRun runNodeWithModel(const std::string& model, const std::string& arguments = "",
+                         const std::string& name = "broken") {
   NodeRun run;
-  const std::string command = "timeout 20 " + std::string(RELOCALIZER_NODE_PATH) + " __name:=broken _model:='" +
-                              model + "' " + arguments + " 2>&1";
+  const std::string command = "timeout 20 " + std::string(RELOCALIZER_NODE_PATH) + " __name:=" + name +
+                              " _model:='" + model + "' " + arguments + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return run;
   std::array<char, 256> buffer{};
@@ -180,30 +181,36 @@ TEST(NodeParams, NodeWithAnUnreadableModelExitsNonZeroWithOneLine) {
 // 32-bit range") at start-up, or, tf_timeout in learn mode, on the first frame,
 // without naming the parameter. The model is good, so only the parameter can
 // stop the node; roscpp stores `_key:=3e9` as a double, as a user's would be.
+// `_key:=` parameters stay on the master after the node exits, so each case
+// runs under its own node name.
 TEST(NodeParams, DurationsBeyondRosDurationStopTheNodeNamingTheParameter) {
   std::string fixture;
   ASSERT_TRUE(ros::NodeHandle("~").getParam("fixture", fixture));
   const std::string good = fixture + "/model.bin";
   struct Case {
+    std::string name;
     std::string arguments;
     std::string reason;
     std::string model;
   };
   const std::vector<Case> cases = {
-      {"_max_interval:=3e9", "parameter '/broken/max_interval' is 3000000000 s; it must be from 0 to 10 s", good},
-      {"_tf_rate:=1e-10 _odom_frame:=odom",
-       "parameter '/broken/tf_rate' is 1e-10 Hz; it must be 0 (only on updates) or from 0.01 to 1000 Hz", good},
-      {"_max_rate:=1e-11 _mode:=continuous",
-       "parameter '/broken/max_rate' is 1e-11 Hz; it must be 0 (no limit) or from 0.001 to 1000 Hz", good},
-      // Learning from nothing: the node would start and wait for frames.
-      {"_learn:=true _publish_tf:=false _tf_timeout:=3e9",
-       "parameter '/broken/tf_timeout' is 3000000000 s; it must be from 0 to 10 s", ""},
-      {"_relocalizer/point_samples:=99999999999",
-       "'point_samples' must be an integer from -2147483648 to 2147483647, got 99999999999", good},
+      {"interval", "_max_interval:=3e9",
+       "parameter '/interval/max_interval' is 3000000000 s; it must be from 0 to 10 s", good},
+      {"tf_rate", "_tf_rate:=1e-10 _odom_frame:=odom",
+       "parameter '/tf_rate/tf_rate' is 1e-10 Hz; it must be 0 (only on updates) or from 0.01 to 1000 Hz", good},
+      {"max_rate", "_max_rate:=1e-11 _mode:=continuous",
+       "parameter '/max_rate/max_rate' is 1e-11 Hz; it must be 0 (no limit) or from 0.001 to 1000 Hz", good},
+      // Learning from nothing, without a model.
+      {"learn_tf_timeout", "_learn:=true _publish_tf:=false _tf_timeout:=3e9",
+       "parameter '/learn_tf_timeout/tf_timeout' is 3000000000 s; it must be from 0 to 10 s", ""},
+      {"point_samples", "_relocalizer/point_samples:=99999999999",
+       "/point_samples/relocalizer: relocalizer parameters: 'point_samples' must be an integer from -2147483648 to "
+       "2147483647, got 99999999999",
+       good},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.arguments);
-    const NodeRun run = runNodeWithModel(c.model, c.arguments);
+    const NodeRun run = runNodeWithModel(c.model, c.arguments, c.name);
     // Through `timeout`, a signal shows as 128 + its number (134: SIGABRT)
     // and a node that kept running as 124.
     ASSERT_TRUE(WIFEXITED(run.status)) << run.output;
