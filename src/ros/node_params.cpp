@@ -36,8 +36,9 @@ std::string read(const ros::NodeHandle& nh, const std::string& key, T& value) {
 }
 
 // XML-RPC integers are 32-bit: roscpp stores `_key:=99999999999` as a double
-// and rosparam refuses it, so a whole number that arrives as a double is an
-// integer out of range, not a value of the wrong type.
+// (rosparam and roslaunch refuse it), so a whole number that arrives as a
+// double is read as an integer, and beyond int it is out of range, not a value
+// of the wrong type.
 std::string readInt(const ros::NodeHandle& nh, const std::string& key, int& value, int min) {
   if (!nh.hasParam(key)) return {};
   const std::string range = "; it must be an integer from " + std::to_string(min) + " to " +
