@@ -12,6 +12,21 @@ namespace {
 
 using nlohmann::json;
 
+// An integer parameter's value. A whole number written as a float (1e11; ROS
+// parameters beyond XML-RPC's 32-bit integers arrive as doubles) or beyond
+// long long is kept as a number, so that the reader's range check names the
+// allowed range instead of calling it the wrong type; 2.5 is still wrong.
+json integer(const YAML::Node& node) {
+  try {
+    return node.as<long long>();
+  } catch (const YAML::Exception&) {
+    const double v = node.as<double>();  // throws for text: the wrong type
+    if (!std::isfinite(v) || v != std::floor(v)) throw;
+    if (std::abs(v) < 9.2e18) return static_cast<long long>(v);  // within long long
+    return v;
+  }
+}
+
 // Overlays `node` onto `target`, which holds the defaults and so defines which
 // keys and types are allowed.
 std::string overlay(const YAML::Node& node, json& target, const std::string& path) {
@@ -35,12 +50,10 @@ std::string overlay(const YAML::Node& node, json& target, const std::string& pat
   try {
     if (target.is_boolean()) {
       target = node.as<bool>();
-    } else if (target.is_number_unsigned()) {
-      const long long v = node.as<long long>();
-      if (v < 0) return "'" + path + "' must not be negative";
-      target = static_cast<unsigned long long>(v);
-    } else if (target.is_number_integer()) {
-      target = node.as<long long>();
+    } else if (target.is_number_integer()) {  // signed or unsigned
+      const json v = integer(node);
+      if (target.is_number_unsigned() && v.get<double>() < 0) return "'" + path + "' must not be negative";
+      target = v;
     } else if (target.is_number_float()) {
       // .nan and .inf, or a value beyond float range, cannot be a parameter and
       // would not survive the JSON a model header stores them in.

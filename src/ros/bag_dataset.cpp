@@ -235,7 +235,7 @@ relocalizer::Status BagDataset::Impl::readMessages(PoseInputs& inputs) {
                     : !depthEncodingSupported(image->encoding))
         return makeError(
             where() + "topic '" + topic + "' (" + (is_colour ? "--rgb-topic" : "--depth-topic") +
-            "): unsupported " + (is_colour ? "colour" : "depth") + " encoding '" + image->encoding +
+            "): unsupported " + (is_colour ? "colour" : "depth") + " encoding '" + messageExcerpt(image->encoding) +
             "' at stamp " + seconds(image->header.stamp) +
             (is_colour ? " (expected bgr8, rgb8, bgra8, rgba8 or mono8)"
                        : " (expected 16UC1 or mono16 millimetres, or 32FC1 metres, REP 118)"));
@@ -380,8 +380,8 @@ relocalizer::Status BagDataset::Impl::synchronize() {
     };
     if (stripLeadingSlashes(c_entry.frame_id) != stripLeadingSlashes(d_entry.frame_id))
       return makeError(where() + "depth on '" + normalTopic(options.depth_topic) +
-                       "' is in frame '" + d_entry.frame_id + "' but colour on '" +
-                       normalTopic(options.rgb_topic) + "' is in frame '" + c_entry.frame_id +
+                       "' is in frame '" + messageExcerpt(d_entry.frame_id) + "' but colour on '" +
+                       normalTopic(options.rgb_topic) + "' is in frame '" + messageExcerpt(c_entry.frame_id) +
                        "' (at " + seconds(c_entry.stamp) +
                        "): depth must be registered to colour (e.g. a depth_registered topic)");
     if (c_entry.width != d_entry.width || c_entry.height != d_entry.height ||

@@ -8,13 +8,44 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <opencv2/core.hpp>
+#include <vector>
+
+#include "relocalizer/core/statistics.h"
 
 namespace relocalizer_ros {
 
 namespace {
 
 namespace enc = sensor_msgs::image_encodings;
+
+// A camera_info whose pinhole field of view falls outside this is no RGB-D
+// camera's: depth sensors see about 55 to 120 degrees (Kinect 57, RealSense
+// D435 87, Azure Kinect wide 120) and a rectified image never nears 180. A
+// focal length 1000 times too small or too large lands outside; the lower
+// bound is far below any depth camera so that crops and small images pass.
+constexpr double kMinFieldOfViewDeg = 0.5;
+constexpr double kMaxFieldOfViewDeg = 160.0;
+// RGB-D sensors read to about 10-20 m, so a median valid 32FC1 depth beyond
+// this is not metres; millimetres in floats (a common driver slip: 16UC1
+// values copied as they are) put any scene farther than 5 cm past it.
+constexpr double kMaxMedianDepthMetres = 50.0;
+// The median is taken over about this many valid pixels: enough for a unit
+// slip, which moves every pixel, and cheap at any resolution.
+constexpr size_t kDepthMedianSamples = 4096;
+
+std::string fixed1(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1f", value);
+  return text;
+}
+
+std::string general(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", value);
+  return text;
+}
 
 struct PixelLayout {
   int cv_type = -1;  // -1: unsupported
@@ -44,7 +75,7 @@ std::string checkBuffer(const sensor_msgs::Image& image, const PixelLayout& layo
   if (image.width == 0 || image.height == 0) return what + " image is empty (" + size(image.width, image.height) + ")";
   if (static_cast<uint64_t>(image.step) < static_cast<uint64_t>(image.width) * layout.bytes_per_pixel)
     return what + " image step " + std::to_string(image.step) + " is shorter than a row of " +
-           std::to_string(image.width) + " '" + image.encoding + "' pixels";
+           std::to_string(image.width) + " '" + messageExcerpt(image.encoding) + "' pixels";
   const uint64_t needed = static_cast<uint64_t>(image.step) * image.height;
   if (static_cast<uint64_t>(image.data.size()) < needed)
     return what + " image holds " + std::to_string(image.data.size()) + " bytes, step x height needs " +
@@ -53,13 +84,14 @@ std::string checkBuffer(const sensor_msgs::Image& image, const PixelLayout& layo
   // describes another image than the buffer holds (e.g. colour relabelled).
   if (static_cast<uint64_t>(image.data.size()) > needed)
     return what + " image holds " + std::to_string(image.data.size()) + " bytes, more than step x height (" +
-           std::to_string(needed) + ") for '" + image.encoding + "' " + size(image.width, image.height);
+           std::to_string(needed) + ") for '" + messageExcerpt(image.encoding) + "' " +
+           size(image.width, image.height);
   // A colour buffer published as 16-bit depth (cv_bridge with the wrong
   // encoding keeps the colour step) reads as noise in metres. Row padding is
   // legal, but rows of exactly 3 or 4 bytes a pixel are a colour image's.
   if (layout.bytes_per_pixel == 2 && image.width > 0 &&
       (image.step == 3 * image.width || image.step == 4 * image.width))
-    return what + " image is labelled '" + image.encoding + "' (2 bytes a pixel) but its rows hold " +
+    return what + " image is labelled '" + messageExcerpt(image.encoding) + "' (2 bytes a pixel) but its rows hold " +
            std::to_string(image.step / image.width) + " bytes a pixel (step " + std::to_string(image.step) +
            " for width " + std::to_string(image.width) + "): a colour image on the depth topic?";
   // Multi-byte depth in the other byte order would be read as garbage
@@ -78,7 +110,7 @@ std::string checkBuffer(const sensor_msgs::Image& image, const PixelLayout& layo
 std::string checkColour(const sensor_msgs::Image& colour) {
   const PixelLayout layout = colourLayout(colour.encoding);
   if (layout.cv_type < 0)
-    return "unsupported colour encoding '" + colour.encoding +
+    return "unsupported colour encoding '" + messageExcerpt(colour.encoding) +
            "' (expected bgr8, rgb8, bgra8, rgba8 or mono8)";
   return checkBuffer(colour, layout, "colour");
 }
@@ -126,7 +158,56 @@ std::string describeInvalidDepth(const cv::Mat& raw) {
   return text;
 }
 
+// Finite, positive intrinsics can still be nonsense that only shows up as "no
+// pose hypothesis passed the rigidity checks"; the field of view names it.
+std::string checkFieldOfView(const relocalizer::CameraIntrinsics& camera, const char* matrix) {
+  auto degrees = [](double pixels, double focal) { return 2.0 * std::atan(0.5 * pixels / focal) * 180.0 / M_PI; };
+  const struct {
+    const char* direction;
+    double fov;
+    const char* focal_name;
+    double focal;
+    const char* size_name;
+    int size;
+  } axes[] = {{"horizontal", degrees(camera.width, camera.fx), "fx", camera.fx, "width", camera.width},
+              {"vertical", degrees(camera.height, camera.fy), "fy", camera.fy, "height", camera.height}};
+  for (const auto& axis : axes)
+    if (!(axis.fov >= kMinFieldOfViewDeg && axis.fov <= kMaxFieldOfViewDeg))
+      return std::string("camera_info ") + matrix + " gives a " + fixed1(axis.fov) + " deg " + axis.direction +
+             " field of view (" + axis.focal_name + "=" + general(axis.focal) + " for " + axis.size_name + " " +
+             std::to_string(axis.size) + "): an RGB-D camera sees " + general(kMinFieldOfViewDeg) + " to " +
+             general(kMaxFieldOfViewDeg) + " deg; is " + matrix + " in pixels, for this image size?";
+  return {};
+}
+
+// REP 118 float depth is metres; see kMaxMedianDepthMetres.
+std::string checkMetres(const cv::Mat& metres) {
+  const size_t pixels = metres.total();
+  const size_t stride = std::max<size_t>(1, pixels / kDepthMedianSamples);
+  std::vector<double> valid;
+  valid.reserve(pixels / stride + 1);
+  const cv::Mat continuous = metres.isContinuous() ? metres : metres.clone();
+  const float* depth = continuous.ptr<float>();
+  for (size_t i = 0; i < pixels; i += stride)
+    if (std::isfinite(depth[i])) valid.push_back(depth[i]);
+  if (valid.empty()) return {};  // too little depth is the core's call
+  const double median = relocalizer::median(std::move(valid));
+  if (median <= kMaxMedianDepthMetres) return {};
+  return "32FC1 depth must be metres (REP 118): median valid depth " + fixed1(median) +
+         " m, beyond any RGB-D sensor's range (" + general(kMaxMedianDepthMetres) + " m); millimetres?";
+}
+
 }  // namespace
+
+std::string messageExcerpt(const std::string& text, size_t max_bytes) {
+  const bool cut = text.size() > max_bytes;
+  std::string excerpt = cut ? text.substr(0, max_bytes) : text;
+  // A newline or escape sequence would split or garble the one log line.
+  for (char& c : excerpt)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+  if (cut) excerpt += "... (" + std::to_string(text.size()) + " bytes)";
+  return excerpt;
+}
 
 bool colourEncodingSupported(const std::string& encoding) {
   return colourLayout(encoding).cv_type >= 0;
@@ -167,7 +248,7 @@ std::string checkFrameMessages(const sensor_msgs::Image& colour, const sensor_ms
   if (colourLayout(colour.encoding).cv_type < 0) return checkColour(colour);
   const PixelLayout depth_layout = depthLayout(depth.encoding);
   if (depth_layout.cv_type < 0)
-    return "unsupported depth encoding '" + depth.encoding +
+    return "unsupported depth encoding '" + messageExcerpt(depth.encoding) +
            "' (expected 16UC1 millimetres or 32FC1 metres, REP 118)" +
            (colourLayout(depth.encoding).cv_type >= 0 ? "; a colour image on the depth topic?" : "");
   if (std::string why = checkColour(colour); !why.empty()) return why;
@@ -181,12 +262,12 @@ std::string checkFrameMessages(const sensor_msgs::Image& colour, const sensor_ms
   const std::string colour_frame = stripLeadingSlashes(colour.header.frame_id);
   const std::string depth_frame = stripLeadingSlashes(depth.header.frame_id);
   if (colour_frame != depth_frame)
-    return "depth frame '" + depth_frame + "' differs from colour frame '" + colour_frame +
-           "'; depth must be registered to colour";
+    return "depth frame '" + messageExcerpt(depth_frame) + "' differs from colour frame '" +
+           messageExcerpt(colour_frame) + "'; depth must be registered to colour";
   const relocalizer::CameraIntrinsics camera = cameraFromInfo(info);
   if (std::string why = camera.validationError(); !why.empty())
     return std::string("camera_info ") + intrinsicsMatrixName(info) + " is unusable: " + why;
-  return {};
+  return checkFieldOfView(camera, intrinsicsMatrixName(info));
 }
 
 Expected<cv::Mat> colourToBgr8(const sensor_msgs::Image& colour) {
@@ -194,8 +275,8 @@ Expected<cv::Mat> colourToBgr8(const sensor_msgs::Image& colour) {
   try {
     return cv_bridge::toCvCopy(colour, enc::BGR8)->image;
   } catch (const cv_bridge::Exception& e) {
-    return relocalizer::makeError("colour '" + colour.encoding +
-                                  "' cannot be converted to bgr8: " + e.what());
+    return relocalizer::makeError("colour '" + messageExcerpt(colour.encoding) +
+                                  "' cannot be converted to bgr8: " + messageExcerpt(e.what(), 256));
   }
 }
 
@@ -212,7 +293,8 @@ Expected<RgbdFrame> frameFromMessages(const sensor_msgs::Image& colour,
   try {
     raw_depth = cv_bridge::toCvShare(depth, nullptr)->image;
   } catch (const cv_bridge::Exception& e) {
-    return relocalizer::makeError("depth '" + depth.encoding + "' cannot be read: " + e.what());
+    return relocalizer::makeError("depth '" + messageExcerpt(depth.encoding) +
+                                  "' cannot be read: " + messageExcerpt(e.what(), 256));
   }
   // REP 118: 16-bit depth is millimetres.
   auto metres = relocalizer::depthToMetres(raw_depth, 1000.0);
@@ -221,6 +303,8 @@ Expected<RgbdFrame> frameFromMessages(const sensor_msgs::Image& colour,
   // values the camera sent tells a broken driver from a covered lens.
   if (relocalizer::countValidDepth(*metres) == 0)
     return relocalizer::makeError("depth has no valid pixel: " + describeInvalidDepth(raw_depth));
+  if (depth.encoding == enc::TYPE_32FC1)
+    if (std::string why = checkMetres(*metres); !why.empty()) return relocalizer::makeError(why);
   frame.colour = std::move(*bgr);
   frame.depth = std::move(*metres);
   frame.camera = cameraFromInfo(info);

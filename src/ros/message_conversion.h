@@ -10,6 +10,7 @@
 #include <sensor_msgs/Image.h>
 
 #include <opencv2/core.hpp>
+#include <cstddef>
 #include <string>
 
 #include "relocalizer/core/expected.h"
@@ -31,6 +32,14 @@ relocalizer::CameraIntrinsics cameraFromInfo(const sensor_msgs::CameraInfo& info
 // "P" or "K": the matrix cameraFromInfo reads, for messages about it.
 const char* intrinsicsMatrixName(const sensor_msgs::CameraInfo& info);
 
+// Text taken from a message (an encoding, a frame_id), or an exception text
+// that repeats one, as it may be quoted in a reason or a log line: at most
+// max_bytes of it followed by "... (N bytes)", control characters as '?'.
+// Publishers decide how long these strings are; a 1 MB encoding must not
+// become a 1 MB log line, nor a newline in a frame_id a second line.
+constexpr size_t kMessageExcerptBytes = 64;
+std::string messageExcerpt(const std::string& text, size_t max_bytes = kMessageExcerptBytes);
+
 // tf2 rejects frame ids with a leading slash (a tf1 habit that bags and old
 // drivers still carry), so every frame id the node reads or is given goes
 // through this.
@@ -48,8 +57,9 @@ bool depthEncodingSupported(const std::string& encoding);
 // 16UC1/mono16 millimetres or 32FC1 metres, REP 118), buffer sizes equal to
 // step x height, 16-bit depth whose rows hold 3 or 4 bytes a pixel (a colour
 // image labelled as depth), equal colour/depth/camera_info sizes, usable
-// intrinsics (finite, positive focal lengths in P, or K), and equal
-// colour/depth frame ids (depth must be registered to colour).
+// intrinsics (finite, positive focal lengths in P, or K, giving a plausible
+// field of view), and equal colour/depth frame ids (depth must be registered
+// to colour). Strings from the messages are quoted through messageExcerpt.
 std::string checkFrameMessages(const sensor_msgs::Image& colour, const sensor_msgs::Image& depth,
                                const sensor_msgs::CameraInfo& info);
 
@@ -60,7 +70,9 @@ Expected<cv::Mat> colourToBgr8(const sensor_msgs::Image& colour);
 // The frame the core relocalizes: BGR8 colour, float metres depth, intrinsics
 // from cameraFromInfo. Fails with checkFrameMessages' reason, a conversion
 // error, or, when no depth pixel is valid, "depth has no valid pixel: " and
-// what the pixels were ("76800 zero", "76800 NaN", "infinite", "negative", "65535 (saturated)").
+// what the pixels were ("76800 zero", "76800 NaN", "infinite", "negative", "65535 (saturated)"),
+// or, when 32FC1 depth is implausibly far for metres, a reason that suggests
+// millimetres.
 Expected<RgbdFrame> frameFromMessages(const sensor_msgs::Image& colour,
                                       const sensor_msgs::Image& depth,
                                       const sensor_msgs::CameraInfo& info);

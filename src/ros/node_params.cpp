@@ -2,6 +2,9 @@
 
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include <cmath>
+#include <cstdio>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "key_frames.h"
@@ -15,6 +18,13 @@ namespace {
 using nlohmann::json;
 using relocalizer::makeError;
 
+// Whole numbers in full (99999999999, not 1e+11): the user typed them so.
+std::string number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.15g", value);
+  return text;
+}
+
 // roscpp's param() falls back to the default when the stored value has another
 // type; a robot must not run on a default because of a quoting slip.
 template <typename T>
@@ -22,6 +32,85 @@ std::string read(const ros::NodeHandle& nh, const std::string& key, T& value) {
   if (!nh.hasParam(key)) return {};
   if (!nh.getParam(key, value))
     return "parameter '" + nh.resolveName(key) + "' has the wrong type";
+  return {};
+}
+
+// XML-RPC integers are 32-bit: roscpp stores `_key:=99999999999` as a double
+// (rosparam and roslaunch refuse it), so a whole number that arrives as a
+// double is read as an integer, and beyond int it is out of range, not a value
+// of the wrong type.
+std::string readInt(const ros::NodeHandle& nh, const std::string& key, int& value, int min) {
+  if (!nh.hasParam(key)) return {};
+  const std::string range = "; it must be an integer from " + std::to_string(min) + " to " +
+                            std::to_string(std::numeric_limits<int>::max());
+  XmlRpc::XmlRpcValue stored;
+  nh.getParam(key, stored);
+  if (stored.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
+    const double d = static_cast<double>(stored);
+    if (!std::isfinite(d) || d != std::floor(d))
+      return "parameter '" + nh.resolveName(key) + "' has the wrong type";
+    if (d < std::numeric_limits<int>::min() || d > std::numeric_limits<int>::max())
+      return "parameter '" + nh.resolveName(key) + "' is " + number(d) + ", out of range" + range;
+    value = static_cast<int>(d);
+  } else if (!nh.getParam(key, value)) {
+    return "parameter '" + nh.resolveName(key) + "' has the wrong type";
+  }
+  if (value < min) return "parameter '" + nh.resolveName(key) + "' is " + std::to_string(value) + range;
+  return {};
+}
+
+// The duration and rate parameters and their bounds. Each bound is what a
+// working configuration can want, and far inside what the values feed:
+// ros::Duration and ros::WallDuration (|s| < 2^31, else the node aborts with
+// "Duration is out of dual 32-bit range"), ros::Time + Duration, and the
+// nanosecond std::chrono periods (< 9.2e9 s). Rates give periods 1/rate, so
+// they need a lower bound too; 0 keeps its meaning (off, or no limit).
+struct Bounded {
+  const char* key;
+  double NodeParams::*field;
+  double min, max;
+  const char* unit;
+  const char* zero;  // what 0 means when min > 0, else nullptr
+};
+
+// tf2's default cache is 10 s: a map -> odom post-dated further outlives any
+// consumer's history, and keeps a stale localization looking current.
+constexpr double kMaxTransformTolerance = 10.0;
+// A re-broadcast period longer than 100 s is ten times tf2's cache: its
+// transforms have expired long before the next one; 0 says "only on updates"
+// honestly. Faster than 1 kHz only floods /tf.
+constexpr double kMinTfRate = 0.01, kMaxTfRate = 1000.0;
+// The lookup blocks the worker or a service thread; SLAM 10 s late at a
+// frame's stamp is not tracking it.
+constexpr double kMaxTfTimeout = 10.0;
+// Colour, depth and camera_info stamped more than 10 s apart are not one frame
+// (0 already means no limit).
+constexpr double kMaxSyncInterval = 10.0;
+// Fewer than one relocalization in 1000 s is on_demand mode's job; one a
+// millisecond is far beyond a relocalization's ~20 ms, so more is "0: no limit".
+constexpr double kMinMaxRate = 0.001, kMaxMaxRate = 1000.0;
+// The watchdog reports a silence; after an hour the report helps nobody (0: off).
+constexpr double kMaxInputTimeout = 3600.0;
+
+constexpr Bounded kBounded[] = {
+    {"transform_tolerance", &NodeParams::transform_tolerance, 0.0, kMaxTransformTolerance, "s", nullptr},
+    {"tf_rate", &NodeParams::tf_rate, kMinTfRate, kMaxTfRate, "Hz", "only on updates"},
+    {"tf_timeout", &NodeParams::tf_timeout, 0.0, kMaxTfTimeout, "s", nullptr},
+    {"max_interval", &NodeParams::max_interval, 0.0, kMaxSyncInterval, "s", nullptr},
+    {"max_rate", &NodeParams::max_rate, kMinMaxRate, kMaxMaxRate, "Hz", "no limit"},
+    {"service_timeout", &NodeParams::service_timeout, 0.0, kMaxServiceWaitSeconds, "s", nullptr},
+    {"input_timeout", &NodeParams::input_timeout, 0.0, kMaxInputTimeout, "s", nullptr},
+};
+
+std::string checkBounded(const ros::NodeHandle& nh, const NodeParams& p) {
+  for (const Bounded& b : kBounded) {
+    const double value = p.*b.field;
+    if ((value >= b.min && value <= b.max) || (b.zero && value == 0.0)) continue;
+    const std::string unit = std::string(" ") + b.unit;
+    return "parameter '" + nh.resolveName(b.key) + "' is " + number(value) + unit + "; it must be " +
+           (b.zero ? "0 (" + std::string(b.zero) + ") or " : std::string()) + "from " + number(b.min) +
+           " to " + number(b.max) + unit;
+  }
   return {};
 }
 
@@ -58,7 +147,9 @@ Expected<relocalizer::RelocalizerParams> readRelocalizerParams(const ros::NodeHa
   auto merged =
       relocalizer::mergeYamlOntoJson(as_json->dump(), relocalizer::relocalizerParamsToJson(defaults), name);
   if (!merged) return makeError(merged.error());
-  return relocalizer::relocalizerParamsFromJson(*merged);
+  auto params = relocalizer::relocalizerParamsFromJson(*merged);
+  if (!params) return makeError(name + ": " + params.error());
+  return params;
 }
 
 }  // namespace
@@ -81,18 +172,18 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   check(read(nh, "tf_rate", p.tf_rate));
   check(read(nh, "tf_timeout", p.tf_timeout));
   check(read(nh, "approx_sync", p.approx_sync));
-  check(read(nh, "sync_queue_size", p.sync_queue_size));
+  check(readInt(nh, "sync_queue_size", p.sync_queue_size, 1));
   check(read(nh, "max_interval", p.max_interval));
   check(read(nh, "max_rate", p.max_rate));
   check(read(nh, "process_all", p.process_all));
   check(read(nh, "service_timeout", p.service_timeout));
   check(read(nh, "input_timeout", p.input_timeout));
-  check(read(nh, "threads", p.threads));
+  check(readInt(nh, "threads", p.threads, 0));
   check(read(nh, "learn", p.learn));
   check(read(nh, "save_on_exit", p.save_on_exit));
   check(read(nh, "learn_min_motion", p.learn_min_motion));
-  check(read(nh, "learn_max_keyframes", p.learn_max_keyframes));
-  check(read(nh, "learn_first_retrain", p.learn_first_retrain));
+  check(readInt(nh, "learn_max_keyframes", p.learn_max_keyframes, 2));
+  check(readInt(nh, "learn_first_retrain", p.learn_first_retrain, 1));
   check(read(nh, "learn_retrain_growth", p.learn_retrain_growth));
   check(read(nh, "learn_surface_gate", p.learn_surface_gate));
   check(read(nh, "learn_config", p.learn_config));
@@ -119,25 +210,14 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   if (p.learn) {
     if (auto motion = parseMinMotion(p.learn_min_motion); !motion)
       return makeError(ns("learn_min_motion") + ": " + motion.error());
-    if (p.learn_max_keyframes < 2) return makeError(ns("learn_max_keyframes") + " must be at least 2");
-    if (p.learn_first_retrain < 1 || p.learn_first_retrain > p.learn_max_keyframes)
+    if (p.learn_first_retrain > p.learn_max_keyframes)
       return makeError(ns("learn_first_retrain") + " must be between 1 and learn_max_keyframes");
     if (!(p.learn_retrain_growth >= 0.0) || !std::isfinite(p.learn_retrain_growth))
       return makeError(ns("learn_retrain_growth") + " must be a finite share >= 0");
   }
   if (p.map_frame.empty()) return makeError(ns("map_frame") + " is empty");
   if (p.odom_frame == p.map_frame) return makeError(ns("odom_frame") + " equals map_frame");
-  if (p.sync_queue_size < 1) return makeError(ns("sync_queue_size") + " must be at least 1");
-  for (const auto& [key, value] : {std::pair{"transform_tolerance", p.transform_tolerance},
-                                   {"tf_rate", p.tf_rate},
-                                   {"tf_timeout", p.tf_timeout},
-                                   {"max_interval", p.max_interval},
-                                   {"max_rate", p.max_rate},
-                                   {"service_timeout", p.service_timeout},
-                                   {"input_timeout", p.input_timeout}})
-    if (!(value >= 0.0) || !std::isfinite(value))
-      return makeError(ns(key) + " must be finite and not negative (got " + std::to_string(value) + ")");
-  if (p.threads < 0) return makeError(ns("threads") + " must not be negative");
+  if (std::string why = checkBounded(nh, p); !why.empty()) return makeError(why);
 
   auto relocalizer_params = readRelocalizerParams(nh);
   if (!relocalizer_params) return makeError(relocalizer_params.error());

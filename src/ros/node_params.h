@@ -12,6 +12,11 @@
 
 namespace relocalizer_ros {
 
+// The longest a ~relocalize call may wait for a frame, and so the bound of
+// service_timeout: a waiting call holds one of the node's few service threads,
+// and a caller that waits longer has long given up.
+constexpr double kMaxServiceWaitSeconds = 60.0;
+
 enum class Mode {
   OnDemand,   // keep the latest synchronised frame; relocalize on a service call
   Continuous  // relocalize incoming frames in a worker thread, up to max_rate
@@ -48,7 +53,8 @@ struct NodeParams {
 
 // Reads every parameter from the private node handle. A parameter of the wrong
 // type, an unknown `relocalizer/` key or a value out of range is an error that
-// names it: a typo must not silently keep a default on a robot.
+// names it, its value and the allowed range: a typo must not silently keep a
+// default on a robot, nor a huge duration abort the node inside ros::Duration.
 relocalizer::Expected<NodeParams> loadNodeParams(const ros::NodeHandle& private_nh);
 
 // The parameters as JSON, keyed as in config/default.yaml, for the start-up

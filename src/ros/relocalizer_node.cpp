@@ -220,7 +220,8 @@ void RelocalizerNode::learnLoop() {
       ++frames_untracked_;
       if (log_.allow("learn: no TF"))
         ROS_INFO("relocalizer: not learning from the frame at %.3f: no pose %s -> %s from SLAM (%s)",
-                 stamp.toSec(), params_.map_frame.c_str(), camera_frame.c_str(), e.what());
+                 stamp.toSec(), params_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(),
+                 messageExcerpt(e.what(), 256).c_str());
       continue;
     }
     const relocalizer::Pose pose = fromTransformMsg(slam.transform);

@@ -43,8 +43,9 @@ relocalizer::Expected<geometry_msgs::TransformStamped> TransformPublisher::prepa
   } catch (const tf2::TransformException& e) {
     char timeout[32];
     std::snprintf(timeout, sizeof(timeout), "%.2f", options_.tf_timeout);
-    return relocalizer::makeError("no " + options_.odom_frame + " -> " + camera_frame +
-                                  " transform at the frame stamp within " + timeout + " s: " + e.what() +
+    return relocalizer::makeError("no " + options_.odom_frame + " -> " + messageExcerpt(camera_frame) +
+                                  " transform at the frame stamp within " + timeout +
+                                  " s: " + messageExcerpt(e.what(), 256) +
                                   clearIfOnlyFuture(stamp, camera_frame));
   }
   const relocalizer::Pose odom_T_camera = fromTransformMsg(odom_to_camera.transform);

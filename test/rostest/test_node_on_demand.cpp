@@ -178,6 +178,13 @@ TEST(OnDemand, BadInputsFailWithTheirReasonAndTheNodeAnswersTheNextGoodFrame) {
        "image on the depth topic?"},
       {"unsupported colour encoding (16-bit)", [](FrameMessages& f) { f.colour.encoding = "rgb16"; },
        "unsupported colour encoding 'rgb16'"},
+      // Finite but wrong (issue 23): before, only "no pose hypothesis passed the rigidity checks".
+      {"32FC1 depth in millimetres", [](FrameMessages& f) { f = withFloatDepth(f, 1500.0f); },
+       "32FC1 depth must be metres (REP 118): median valid depth 1500.0 m"},
+      {"focal length 1e-30", [](FrameMessages& f) { f.info.K[0] = 1e-30; },
+       "camera_info K gives a 180.0 deg horizontal field of view (fx=1e-30 for width 320)"},
+      {"1 MB encoding", [](FrameMessages& f) { f.depth.encoding = std::string(1 << 20, 'x'); },
+       "unsupported depth encoding '" + std::string(64, 'x') + "... (1048576 bytes)' (expected"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);

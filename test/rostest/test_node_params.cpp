@@ -74,8 +74,40 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
       {"/core_type", [](ros::NodeHandle& nh) { nh.setParam("relocalizer/point_samples", "many"); },
        "point_samples' has the wrong type"},
       {"/mode", [](ros::NodeHandle& nh) { nh.setParam("mode", "sometimes"); }, "expected on_demand or continuous"},
-      {"/rate", [](ros::NodeHandle& nh) { nh.setParam("tf_rate", -1.0); }, "tf_rate' must be finite and not negative"},
-      {"/queue", [](ros::NodeHandle& nh) { nh.setParam("sync_queue_size", 0); }, "sync_queue_size' must be at least 1"},
+      {"/rate", [](ros::NodeHandle& nh) { nh.setParam("tf_rate", -1.0); },
+       "tf_rate' is -1 Hz; it must be 0 (only on updates) or from 0.01 to 1000 Hz"},
+      {"/queue", [](ros::NodeHandle& nh) { nh.setParam("sync_queue_size", 0); },
+       "sync_queue_size' is 0; it must be an integer from 1 to 2147483647"},
+      // Durations and rates that ros::Duration or a chrono period cannot hold
+      // aborted the node (issue 23, C2); each has a bound, named in the refusal.
+      {"/interval", [](ros::NodeHandle& nh) { nh.setParam("max_interval", 3e9); },
+       "parameter '/interval/max_interval' is 3000000000 s; it must be from 0 to 10 s"},
+      {"/tf_rate_tiny", [](ros::NodeHandle& nh) { nh.setParam("tf_rate", 1e-10); },
+       "parameter '/tf_rate_tiny/tf_rate' is 1e-10 Hz; it must be 0 (only on updates) or from 0.01 to 1000 Hz"},
+      {"/tf_timeout", [](ros::NodeHandle& nh) { nh.setParam("tf_timeout", 3e9); },
+       "tf_timeout' is 3000000000 s; it must be from 0 to 10 s"},
+      {"/tolerance", [](ros::NodeHandle& nh) { nh.setParam("transform_tolerance", 1e300); },
+       "transform_tolerance' is 1e+300 s; it must be from 0 to 10 s"},
+      {"/max_rate", [](ros::NodeHandle& nh) { nh.setParam("max_rate", 1e-11); },
+       "max_rate' is 1e-11 Hz; it must be 0 (no limit) or from 0.001 to 1000 Hz"},
+      {"/service_timeout", [](ros::NodeHandle& nh) { nh.setParam("service_timeout", 61.0); },
+       "service_timeout' is 61 s; it must be from 0 to 60 s"},
+      {"/input_timeout", [](ros::NodeHandle& nh) { nh.setParam("input_timeout", std::nan("")); },
+       "input_timeout' is nan s; it must be from 0 to 3600 s"},
+      // Integers beyond XML-RPC's 32 bits arrive as doubles (roscpp's
+      // `_key:=99999999999`): out of range, not the wrong type.
+      {"/big_queue", [](ros::NodeHandle& nh) { nh.setParam("sync_queue_size", 99999999999.0); },
+       "parameter '/big_queue/sync_queue_size' is 99999999999, out of range; it must be an integer from 1 to "
+       "2147483647"},
+      {"/half_queue", [](ros::NodeHandle& nh) { nh.setParam("sync_queue_size", 2.5); },
+       "sync_queue_size' has the wrong type"},
+      {"/big_core", [](ros::NodeHandle& nh) { nh.setParam("relocalizer/point_samples", 99999999999.0); },
+       "/big_core/relocalizer: relocalizer parameters: 'point_samples' must be an integer from -2147483648 to "
+       "2147483647, got 99999999999"},
+      {"/huge_core", [](ros::NodeHandle& nh) { nh.setParam("relocalizer/solver/hypotheses", 1e300); },
+       "'solver.hypotheses' must be an integer from -2147483648 to 2147483647, got 1e+300"},
+      {"/text_core", [](ros::NodeHandle& nh) { nh.setParam("relocalizer/point_samples", "99999999999"); },
+       "'point_samples' must be an integer from -2147483648 to 2147483647, got 99999999999"},
       {"/frames", [](ros::NodeHandle& nh) { nh.setParam("odom_frame", "map"); }, "odom_frame' equals map_frame"},
       // Learning from TF the node publishes itself would feed its own answers back.
       {"/learn_tf", [](ros::NodeHandle& nh) { nh.setParam("learn", true); }, "learn' is true but publish_tf is true"},
@@ -90,7 +122,7 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
          nh.setParam("learn", true);
          nh.setParam("publish_tf", false);
          nh.setParam("learn_max_keyframes", 1);
-       }, "learn_max_keyframes' must be at least 2"},
+       }, "learn_max_keyframes' is 1; it must be an integer from 2 to 2147483647"},
   };
   for (const Case& c : cases) {
     ros::NodeHandle nh(c.ns);
@@ -109,11 +141,14 @@ struct NodeRun {
   std::string output;
 };
 
-// Runs relocalizer_node on `model` until it exits (it must: the model is bad).
-NodeRun runNodeWithModel(const std::string& model) {
+// Runs relocalizer_node on `model` with extra `arguments` until it exits (it
+// must: the model or a parameter is bad). A node that starts anyway is stopped
+// after 20 s: exit status 124.
+NodeRun runNodeWithModel(const std::string& model, const std::string& arguments = "",
+                         const std::string& name = "broken") {
   NodeRun run;
-  const std::string command =
-      std::string(RELOCALIZER_NODE_PATH) + " __name:=broken _model:='" + model + "' 2>&1";
+  const std::string command = "timeout 20 " + std::string(RELOCALIZER_NODE_PATH) + " __name:=" + name +
+                              " _model:='" + model + "' " + arguments + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return run;
   std::array<char, 256> buffer{};
@@ -140,6 +175,49 @@ TEST(NodeParams, NodeWithAnUnreadableModelExitsNonZeroWithOneLine) {
   EXPECT_EQ(WEXITSTATUS(run.status), 1);
   EXPECT_NE(run.output.find("/nonexistent/model.bin: cannot open model file"), std::string::npos) << run.output;
   EXPECT_EQ(std::count(run.output.begin(), run.output.end(), '\n'), 1) << run.output;
+}
+
+// Issue 23, C2: these aborted the node with SIGABRT ("Duration is out of dual
+// 32-bit range") at start-up, or, tf_timeout in learn mode, on the first frame,
+// without naming the parameter. The model is good, so only the parameter can
+// stop the node; roscpp stores `_key:=3e9` as a double, as a user's would be.
+// `_key:=` parameters stay on the master after the node exits, so each case
+// runs under its own node name.
+TEST(NodeParams, DurationsBeyondRosDurationStopTheNodeNamingTheParameter) {
+  std::string fixture;
+  ASSERT_TRUE(ros::NodeHandle("~").getParam("fixture", fixture));
+  const std::string good = fixture + "/model.bin";
+  struct Case {
+    std::string name;
+    std::string arguments;
+    std::string reason;
+    std::string model;
+  };
+  const std::vector<Case> cases = {
+      {"interval", "_max_interval:=3e9",
+       "parameter '/interval/max_interval' is 3000000000 s; it must be from 0 to 10 s", good},
+      {"tf_rate", "_tf_rate:=1e-10 _odom_frame:=odom",
+       "parameter '/tf_rate/tf_rate' is 1e-10 Hz; it must be 0 (only on updates) or from 0.01 to 1000 Hz", good},
+      {"max_rate", "_max_rate:=1e-11 _mode:=continuous",
+       "parameter '/max_rate/max_rate' is 1e-11 Hz; it must be 0 (no limit) or from 0.001 to 1000 Hz", good},
+      // Learning from nothing, without a model.
+      {"learn_tf_timeout", "_learn:=true _publish_tf:=false _tf_timeout:=3e9",
+       "parameter '/learn_tf_timeout/tf_timeout' is 3000000000 s; it must be from 0 to 10 s", ""},
+      {"point_samples", "_relocalizer/point_samples:=99999999999",
+       "/point_samples/relocalizer: relocalizer parameters: 'point_samples' must be an integer from -2147483648 to "
+       "2147483647, got 99999999999",
+       good},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.arguments);
+    const NodeRun run = runNodeWithModel(c.model, c.arguments, c.name);
+    // Through `timeout`, a signal shows as 128 + its number (134: SIGABRT)
+    // and a node that kept running as 124.
+    ASSERT_TRUE(WIFEXITED(run.status)) << run.output;
+    EXPECT_EQ(WEXITSTATUS(run.status), 1) << run.output;
+    EXPECT_NE(run.output.find("relocalizer: " + c.reason), std::string::npos) << run.output;
+    EXPECT_EQ(std::count(run.output.begin(), run.output.end(), '\n'), 1) << run.output;
+  }
 }
 
 // Every kind of bad model file, made here from the fixture's good model: the

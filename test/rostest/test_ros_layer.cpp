@@ -37,6 +37,16 @@ sensor_msgs::CameraInfo info(uint32_t width, uint32_t height) {
   return msg;
 }
 
+// 8x6 32FC1 depth whose pixel i (row-major) is value(i).
+sensor_msgs::Image depth32(const std::function<float(int)>& value) {
+  auto msg = image(8, 6, enc::TYPE_32FC1, 4);
+  for (int i = 0; i < 48; ++i) {
+    const float v = value(i);
+    std::memcpy(&msg.data[4 * i], &v, 4);
+  }
+  return msg;
+}
+
 }  // namespace
 
 TEST(MessageConversion, AcceptsTheRep118DepthEncodingsAndTheColourOnes) {
@@ -185,14 +195,6 @@ TEST(MessageConversion, DepthWithoutAValidPixelSaysWhatItHolds) {
     for (size_t i = 0; i < msg.data.size(); i += 2) std::memcpy(&msg.data[i], &value, 2);
     return msg;
   };
-  auto depth32 = [](std::function<float(int)> value) {
-    auto msg = image(8, 6, enc::TYPE_32FC1, 4);
-    for (int i = 0; i < 48; ++i) {
-      const float v = value(i);
-      std::memcpy(&msg.data[4 * i], &v, 4);
-    }
-    return msg;
-  };
   const float inf = std::numeric_limits<float>::infinity();
   const std::vector<std::pair<sensor_msgs::Image, std::string>> cases = {
       {depth16(0), "depth has no valid pixel: 48 zero"},
@@ -233,6 +235,83 @@ TEST(MessageConversion, CameraInfoFocalLengthMustBeFiniteAndPositive) {
   uncalibrated.K = {};  // what an uncalibrated driver sends
   EXPECT_NE(checkFrameMessages(colour, depth, uncalibrated).find("focal length must be finite and positive"),
             std::string::npos);
+}
+
+// Issue 23: finite but wrong depth and intrinsics got only "no pose hypothesis
+// passed the rigidity checks". Millimetres in 32FC1 is a common driver slip.
+TEST(MessageConversion, FloatDepthInMillimetresIsRefusedAsNotMetres) {
+  const auto colour = image(8, 6, enc::BGR8, 3);
+  // Half the pixels without depth: the median is over the valid ones.
+  auto millimetres = depth32([](int i) { return i % 2 ? std::nanf("") : 1523.0f; });
+  EXPECT_EQ(checkFrameMessages(colour, millimetres, info(8, 6)), "");  // headers say nothing of units
+  auto frame = frameFromMessages(colour, millimetres, info(8, 6));
+  ASSERT_FALSE(frame.ok());
+  EXPECT_EQ(frame.error(),
+            "32FC1 depth must be metres (REP 118): median valid depth 1523.0 m, beyond any RGB-D sensor's range "
+            "(50 m); millimetres?");
+  // Metres pass, a few far outliers among them too, and 16-bit millimetres are REP 118's own.
+  EXPECT_TRUE(frameFromMessages(colour, depth32([](int i) { return i < 10 ? 3000.0f : 1.523f; }), info(8, 6)).ok());
+  auto depth16 = image(8, 6, enc::TYPE_16UC1, 2);
+  for (size_t i = 0; i < depth16.data.size(); i += 2) {
+    const uint16_t mm = 1523;
+    std::memcpy(&depth16.data[i], &mm, 2);
+  }
+  EXPECT_TRUE(frameFromMessages(colour, depth16, info(8, 6)).ok());
+}
+
+TEST(MessageConversion, FocalLengthsThatGiveNoCameraFieldOfViewAreRefused) {
+  const auto colour = image(640, 480, enc::BGR8, 3);
+  const auto depth = image(640, 480, enc::TYPE_16UC1, 2);
+  auto tiny_fx = info(640, 480);
+  tiny_fx.K[0] = 1e-30;
+  EXPECT_EQ(checkFrameMessages(colour, depth, tiny_fx),
+            "camera_info K gives a 180.0 deg horizontal field of view (fx=1e-30 for width 640): an RGB-D camera "
+            "sees 0.5 to 160 deg; is K in pixels, for this image size?");
+  auto huge_fy = info(640, 480);
+  huge_fy.K[4] = 1e30;
+  EXPECT_EQ(checkFrameMessages(colour, depth, huge_fy).rfind(
+                "camera_info K gives a 0.0 deg vertical field of view (fy=1e+30 for height 480)", 0),
+            0u)
+      << checkFrameMessages(colour, depth, huge_fy);
+  // P, when set, is what is read and named.
+  auto p = info(640, 480);
+  p.P = {0.3, 0, 320, 0, 0, 525, 240, 0, 0, 0, 1, 0};
+  EXPECT_EQ(checkFrameMessages(colour, depth, p).rfind("camera_info P gives a 179.9 deg horizontal", 0), 0u)
+      << checkFrameMessages(colour, depth, p);
+  // Real cameras pass: Kinect (57 deg), a wide ToF camera (120 deg).
+  auto kinect = info(640, 480);
+  kinect.K[0] = kinect.K[4] = 585.0;
+  EXPECT_EQ(checkFrameMessages(colour, depth, kinect), "");
+  auto wide = info(640, 480);
+  wide.K[0] = wide.K[4] = 185.0;
+  EXPECT_EQ(checkFrameMessages(colour, depth, wide), "");
+}
+
+// Issue 23: a 1 MB encoding was echoed whole into the log.
+TEST(MessageConversion, StringsFromMessagesAreShortenedInReasons) {
+  EXPECT_EQ(messageExcerpt("16UC1"), "16UC1");
+  EXPECT_EQ(messageExcerpt(std::string(64, 'a')), std::string(64, 'a'));
+  EXPECT_EQ(messageExcerpt(std::string(65, 'a')), std::string(64, 'a') + "... (65 bytes)");
+  EXPECT_EQ(messageExcerpt("camera\nWARN forged"), "camera?WARN forged");
+
+  const auto colour = image(8, 6, enc::BGR8, 3);
+  const auto depth = image(8, 6, enc::TYPE_16UC1, 2);
+  const std::string huge(1 << 20, 'x');
+  auto bad_colour = colour;
+  bad_colour.encoding = huge;
+  EXPECT_EQ(checkFrameMessages(bad_colour, depth, info(8, 6)),
+            "unsupported colour encoding '" + std::string(64, 'x') +
+                "... (1048576 bytes)' (expected bgr8, rgb8, bgra8, rgba8 or mono8)");
+  auto bad_depth = depth;
+  bad_depth.encoding = huge;
+  EXPECT_LT(checkFrameMessages(colour, bad_depth, info(8, 6)).size(), 200u);
+  EXPECT_LT(colourToBgr8(bad_colour).error().size(), 200u);
+  auto other_frame = depth;
+  other_frame.header.frame_id = huge + "\n";
+  const std::string why = checkFrameMessages(colour, other_frame, info(8, 6));
+  EXPECT_NE(why.find("depth frame '" + std::string(64, 'x') + "... (1048577 bytes)' differs"), std::string::npos)
+      << why.substr(0, 300);
+  EXPECT_LT(why.size(), 200u);
 }
 
 TEST(MessageConversion, StripsLeadingSlashes) {
