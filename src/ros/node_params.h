@@ -12,8 +12,8 @@
 
 namespace relocalizer_ros {
 
-// The longest a ~relocalize call may wait for a frame, and so the bound of
-// service_timeout: a waiting call holds one of the node's few service threads,
+// The longest a ~relocalize call may wait for a frame (longer asks wait this
+// long), and so the bound of service_timeout: a waiting call holds a thread,
 // and a caller that waits longer has long given up.
 constexpr double kMaxServiceWaitSeconds = 60.0;
 

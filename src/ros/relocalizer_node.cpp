@@ -47,9 +47,6 @@ constexpr size_t kBacklogWarning = 30;
 // Time jumps are logged one line each, at most this often (a source whose
 // stamps jitter backwards on every frame must not flood the log).
 constexpr std::chrono::seconds kJumpLogPeriod{1};
-// Longest wait a service call can ask for (longer ones wait this long): a
-// caller that has gone away must not hold a thread for days.
-constexpr double kMaxServiceTimeout = 60.0;
 // A call that waited this long for a thread before it ran says so.
 constexpr double kQueuedReportSeconds = 0.1;
 
@@ -674,7 +671,7 @@ bool RelocalizerNode::onRelocalize(relocalizer::Relocalize::Request& request,
     publishOutcome(result, nullptr, nullptr, std::nullopt, false);
   } else {
     const double asked = request.timeout > 0.0 ? request.timeout : params_.service_timeout;
-    const double timeout = std::min(asked, kMaxServiceTimeout);
+    const double timeout = std::min(asked, kMaxServiceWaitSeconds);
     // The wait counts from the call's arrival: time spent queued behind other
     // calls is part of what the caller waited.
     const Clock::time_point arrival = ServiceCallQueue::callArrival();
@@ -686,7 +683,7 @@ bool RelocalizerNode::onRelocalize(relocalizer::Relocalize::Request& request,
     if (entry) {
       result = processShared(entry->seq, entry->value);
     } else {
-      const std::string capped = asked > kMaxServiceTimeout ? " (the longest wait a call can ask for; it asked " +
+      const std::string capped = asked > kMaxServiceWaitSeconds ? " (the longest wait a call can ask for; it asked " +
                                                                    seconds(asked) + " s)"
                                                              : "";
       const std::string behind = queued >= kQueuedReportSeconds
