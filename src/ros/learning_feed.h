@@ -1,0 +1,77 @@
+#pragma once
+// Learn mode's feed from SLAM into the online learner: the newest synchronised
+// frame is posed by TF map_frame -> camera at its own stamp (never a later
+// one: a frame TF cannot cover was not tracked), checked, filtered by the
+// key-frame rule and handed to the learner, whose own low-priority worker
+// retrains (online_learner.h). Also ~save_model and save_on_exit.
+//
+// Threads: push() from the input callbacks (O(1)); one learning thread; the
+// save service on the node's service calls queue.
+
+#include <relocalizer/RelocalizationResult.h>
+#include <relocalizer/SaveModel.h>
+#include <ros/ros.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "frame_buffer.h"
+#include "frame_input.h"
+#include "key_frames.h"
+#include "node_params.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/online/online_learner.h"
+#include "service_call_queue.h"
+#include "throttled_log.h"
+
+namespace relocalizer_ros {
+
+class LearningFeed {
+ public:
+  // The learner the parameters describe, resumed from `model` when set; the
+  // error names the parameter or file at fault.
+  static relocalizer::Expected<std::unique_ptr<relocalizer::OnlineLearner>> makeLearner(
+      const NodeParams& params, const ros::NodeHandle& private_nh);
+
+  LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
+               std::unique_ptr<relocalizer::OnlineLearner> learner, ServiceCallQueue& calls);
+  // Stops the learning thread, then writes save_on_exit if set.
+  ~LearningFeed();
+  LearningFeed(const LearningFeed&) = delete;
+  LearningFeed& operator=(const LearningFeed&) = delete;
+
+  void push(FrameInputPtr input) { frames_.push(std::move(input)); }
+  // Ends the learning thread's wait and the save service; the destructor does the rest.
+  void close();
+
+  std::shared_ptr<const relocalizer::Relocalizer> current() const { return learner_->current(); }
+  relocalizer::LearningStatus status() const { return learner_->status(); }
+  // Learn mode's fields of ~result.
+  void fill(relocalizer::RelocalizationResult& result) const;
+  // "no model yet" with what learning has so far, for frames that come too early.
+  std::string noModelYet() const;
+
+ private:
+  void learnLoop();
+  bool onSaveModel(relocalizer::SaveModel::Request& request, relocalizer::SaveModel::Response& response);
+
+  const NodeParams& params_;
+  const std::unique_ptr<relocalizer::OnlineLearner> learner_;
+  // The newest frame only: key frames are chosen by motion, so a skipped
+  // frame is covered by the next.
+  FrameBuffer<FrameInputPtr> frames_{FrameBuffer<FrameInputPtr>::Policy::Latest};
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<KeyFrameSelector> key_frames_;
+  std::atomic<uint64_t> frames_untracked_{0};  // frames without a (usable) SLAM pose
+  std::mutex save_mutex_;  // one save at a time: two saves of one path share its temporary files
+  ThrottledLog log_;
+  ros::ServiceServer save_service_;
+  std::thread worker_;
+};
+
+}  // namespace relocalizer_ros

@@ -1,0 +1,59 @@
+#pragma once
+// The node's output side: ~result for every attempt and report, and for an
+// answer that holds, ~pose and TF (transform_publisher.h). An answer is
+// published whole or not at all: a pose whose TF cannot be prepared is a
+// failure with that reason, never a pose without its correction.
+
+#include <relocalizer/RelocalizationResult.h>
+#include <ros/ros.h>
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "frame_input.h"
+#include "node_params.h"
+#include "relocalizer/pose/relocalizer.h"
+#include "throttled_log.h"
+#include "transform_publisher.h"
+
+namespace relocalizer_ros {
+
+class NodeOutput {
+ public:
+  using ResultMsg = relocalizer::RelocalizationResult;
+  using Clock = std::chrono::steady_clock;
+
+  // `counters` fills the node's counters into every ~result.
+  NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
+             std::function<void(ResultMsg&)> counters);
+
+  ResultMsg failure(const ros::Time& stamp, const std::string& message) const;
+
+  // A relocalized frame's answer: ~result, and when the pose holds and its TF
+  // could be prepared, ~pose and TF. Logs a failure (throttled per reason).
+  ResultMsg answer(const FrameInput& input, const relocalizer::Relocalization& solved, Clock::time_point start);
+  // A frame that was not relocalized (unusable, no model yet, an internal error).
+  void frameFailed(ResultMsg& result);
+  // A report that is no frame's answer (no frame for a call, a time jump, the watchdog).
+  void report(ResultMsg& result);
+
+  // The input's time went back: tf2 would refuse the new timeline's odometry.
+  void resetTransforms();
+  uint64_t framesFailed() const { return frames_failed_; }
+
+ private:
+  void publish(ResultMsg& result, const std::optional<geometry_msgs::TransformStamped>& transform, uint64_t epoch);
+
+  const NodeParams& params_;
+  const std::function<void(ResultMsg&)> counters_;
+  ros::Publisher pose_pub_;
+  ros::Publisher result_pub_;
+  std::unique_ptr<TransformPublisher> transforms_;
+  std::atomic<uint64_t> frames_failed_{0};
+  ThrottledLog log_;
+};
+
+}  // namespace relocalizer_ros

@@ -1,0 +1,55 @@
+#pragma once
+// ~relocalize: a call waits (at most kMaxServiceWaitSeconds, counted from its
+// arrival) for the latest or the next synchronised frame and relocalizes it.
+// Calls that pick the same frame share one relocalization (the core is
+// deterministic per frame), so concurrent calls get the same, well-defined
+// answer cheaply. A failure is an answer (success false), never a service error.
+
+#include <relocalizer/Relocalize.h>
+#include <ros/ros.h>
+
+#include <functional>
+#include <future>
+#include <map>
+#include <mutex>
+
+#include "frame_buffer.h"
+#include "frame_input.h"
+#include "node_output.h"
+#include "node_params.h"
+#include "service_call_queue.h"
+#include "throttled_log.h"
+
+namespace relocalizer_ros {
+
+class RelocalizeService {
+ public:
+  using ResultMsg = NodeOutput::ResultMsg;
+  struct Sources {
+    FrameBuffer<FrameInputPtr>* frames;                  // what calls wait on
+    std::function<ResultMsg(const FrameInput&)> process; // relocalize and publish one frame
+    std::function<std::string()> input_status;           // why no frame came
+    NodeOutput* output;                                  // reports of calls without a frame
+  };
+
+  RelocalizeService(ros::NodeHandle private_nh, const NodeParams& params, Sources sources,
+                    ServiceCallQueue& calls);
+  std::string name() const { return server_.getService(); }
+  void shutdown() { server_.shutdown(); }
+
+ private:
+  bool onRelocalize(relocalizer::Relocalize::Request& request, relocalizer::Relocalize::Response& response);
+  // Whether the request can wait at all: NaN and infinity are refused at once.
+  ResultMsg call(const relocalizer::Relocalize::Request& request);
+  // Buffer entry `seq`'s relocalization, shared with any concurrent call that picked it.
+  ResultMsg processShared(uint64_t seq, const FrameInputPtr& input);
+
+  const NodeParams& params_;
+  const Sources sources_;
+  ThrottledLog log_;
+  std::mutex shared_mutex_;
+  std::map<uint64_t, std::shared_future<ResultMsg>> in_flight_;
+  ros::ServiceServer server_;
+};
+
+}  // namespace relocalizer_ros
