@@ -11,12 +11,10 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "../ros/key_frames.h"
 #include "cli_support.h"
 #include "dataset_arguments.h"
 #include "relocalizer/core/statistics.h"
-#include "relocalizer/forest/training_config.h"
-#include "relocalizer/online/online_learner.h"
+#include "relocalizer/online/key_frame_feed.h"
 
 using namespace relocalizer;
 using Clock = std::chrono::steady_clock;
@@ -48,7 +46,7 @@ int main(int argc, char** argv) {
       "latency, retrains and memory; --output writes timeline.csv and summary.json.",
       "learn_benchmark"};
   cli::DatasetArguments arguments;
-  std::string learn_frames, min_motion = "0.05,5", learn_config, output;
+  std::string learn_frames, min_motion = formatMinMotion(KeyFrameMotion{}), learn_config, output;
   double rate = 30.0, reloc_rate = 2.0, seconds = 60.0;
   int threads = 1;
   LearningParams learning;
@@ -71,13 +69,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("-o,--output", output, "Folder for timeline.csv and summary.json");
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
-  if (!learn_config.empty()) {
-    auto loaded = loadTrainingParams(learn_config);
-    if (!loaded) return cli::fail(app, loaded.error());
-    learning.training = *loaded;
-  }
-  auto motion = relocalizer_ros::parseMinMotion(min_motion);
-  if (!motion) return cli::fail(app, "--min-motion: " + motion.error());
+  auto checked = readLearningParams(learning, min_motion, learn_config);
+  if (!checked) return cli::fail(app, "learning: " + checked.error());
   auto test = arguments.open();
   if (!test) return cli::fail(app, test.error());
   auto learn = cli::DatasetArguments{arguments.path, arguments.format, learn_frames, arguments.split}.open();
@@ -92,8 +85,8 @@ int main(int argc, char** argv) {
   if (test_frames.empty()) return cli::fail(app, "--frames: no frame with ground truth");
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads) + 1);
 
-  OnlineLearner learner(learning, RelocalizerParams{}, OnlineLearner::Mode::Background);
-  relocalizer_ros::KeyFrameSelector selector(motion->first, motion->second);
+  KeyFrameFeed feed(*checked, RelocalizerParams{}, OnlineLearner::Mode::Background);
+  OnlineLearner& learner = feed.learner();
   std::atomic<bool> done{false};
   const Clock::time_point start = Clock::now();
 
@@ -138,11 +131,9 @@ int main(int argc, char** argv) {
     worst_lag = std::max(worst_lag, lag);
     if (lag > 1.0 / rate) ++late;
     const size_t i = static_cast<size_t>(frames) % learn_data.size();
-    if (!learn_data.groundTruth(i) || !selector.keep(*learn_data.groundTruth(i))) continue;
-    auto frame = learn_data.load(i);
-    if (!frame) return cli::fail(app, frame.error());
-    if (Status added = learner.addKeyFrame(*frame, *learn_data.groundTruth(i)); !added)
-      return cli::fail(app, added.error());
+    const KeyFrameFeed::Result fed = feed.offer(learn_data.groundTruth(i), [&] { return learn_data.load(i); });
+    if (!fed.why.empty()) return cli::fail(app, fed.why);
+    if (fed.outcome != KeyFrameFeed::Result::Outcome::Learned) continue;
     ++keyframes;
     if (since(start) >= next_sample) {
       const LearningStatus s = learner.status();

@@ -13,8 +13,7 @@
 #include "cli_support.h"
 #include "frame_source.h"
 #include "relocalizer/core/progress.h"
-#include "relocalizer/forest/model_io.h"
-#include "relocalizer/forest/training.h"
+#include "relocalizer/forest/model_builder.h"
 #include "relocalizer/forest/training_config.h"
 
 using namespace relocalizer;
@@ -91,58 +90,46 @@ int main(int argc, char** argv) {
     });
   }
   if (!load_error.empty()) return cli::fail(app, load_error);
-  std::vector<TrainingImage> images;
+  ModelBuilder builder(params);
   int without_pose = 0;
   for (auto& frame : frames_read)
-    if (!appendTrainingImage(*frame, images)) ++without_pose;
+    if (!builder.add(*frame)) ++without_pose;
   frames_read.clear();
-  if (images.empty()) return cli::fail(app, dataset_path + ": no selected frame has a ground-truth pose");
+  if (builder.size() == 0) return cli::fail(app, dataset_path + ": no selected frame has a ground-truth pose");
   if (without_pose > 0) std::printf("skipped %d frames without ground truth\n", without_pose);
 
-  Model model;
-  model.params = params;
-  // Before the forests: they release each image's depth once its samples are
-  // drawn, and the surface is fused from that depth.
-  double surface_seconds = 0.0;
-  if (params.build_surface) {
-    const auto surface_start = std::chrono::steady_clock::now();
-    model.surface = buildSurface(images, params.surface);
-    surface_seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - surface_start).count();
-  }
+  TrainingSummary provenance;
+  provenance.dataset = dataset_path;
+  provenance.format = data.formatDescription();
+  // A bag's frames are chosen by poses and key-frame selection too: record the ids used.
+  provenance.frames = source_options.bag.empty() ? source_options.frames : data.usedIds();
+  provenance.threads = thread_count;
   std::mutex tree_mutex;
   std::vector<double> tree_seconds[2];
+  double surface_seconds = 0.0;
+  Expected<Model> built = makeError("not built");
   {
     ProgressBar bar("training", 0);
-    TrainingProgress progress;
-    progress.samples_drawn = [&](size_t n) { bar.addToTotal(n); };
-    progress.samples_done = [&](size_t n) { bar.advance(n); };
-    progress.tree_done = [&](ForestKind kind, int tree, double seconds) {
+    ModelBuildProgress progress;
+    progress.surface_built = [&](double seconds) { surface_seconds = seconds; };
+    progress.forests.samples_drawn = [&](size_t n) { bar.addToTotal(n); };
+    progress.forests.samples_done = [&](size_t n) { bar.advance(n); };
+    progress.forests.tree_done = [&](ForestKind kind, int tree, double seconds) {
       std::lock_guard<std::mutex> lock(tree_mutex);
       auto& times = tree_seconds[kind == ForestKind::Lines ? 1 : 0];
       if (static_cast<int>(times.size()) <= tree) times.resize(tree + 1);
       times[tree] = seconds;
     };
-    trainForestsReleasingDepth(images, params, model.points, model.lines, progress);
+    built = builder.build(std::move(provenance), progress);
   }
+  if (!built) return cli::fail(app, built.error());
+  const Model& model = *built;
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-
-  TrainingSummary& summary = model.summary;
-  summary.dataset = dataset_path;
-  summary.format = data.formatDescription();
-  // A bag's frames are chosen by poses and key-frame selection too: record the ids used.
-  summary.frames = source_options.bag.empty() ? source_options.frames : data.usedIds();
-  summarizeTrainingImages(images, summary);
-  summary.seconds = seconds;
-  summary.threads = thread_count;
-  // The images are the bulk of training's memory; serialising needs about the
-  // model's size again.
-  images = {};
   if (const Status saved = saveModel(model, output); !saved) return cli::fail(app, saved.error(), 1);
   const auto bytes = std::filesystem::file_size(output);
 
-  std::printf("trained on %d images with %d threads in %.1f s (seed %llu)\n", summary.images,
+  std::printf("trained on %d images with %d threads in %.1f s (seed %llu)\n", model.summary.images,
               thread_count, seconds, static_cast<unsigned long long>(params.seed));
   for (const auto* f : {&model.points, &model.lines}) {
     if (f->empty()) continue;
