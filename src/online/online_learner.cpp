@@ -18,37 +18,41 @@
 
 namespace relocalizer {
 
-std::string learningParamsError(const LearningParams& p) {
+std::string learningParamsError(const LearningParams& p, const SettingName& name) {
+  const auto n = [&](const std::string& field) { return name ? name(field) : field; };
   if (!(p.min_motion.metres >= 0.0 && std::isfinite(p.min_motion.metres) && p.min_motion.degrees >= 0.0 &&
         std::isfinite(p.min_motion.degrees)))
-    return "min_motion must be finite and >= 0 (got " + formatMinMotion(p.min_motion) + ")";
-  if (p.max_keyframes < 2) return "max_keyframes must be at least 2 (got " + std::to_string(p.max_keyframes) + ")";
+    return n("min_motion") + " must be finite and >= 0 (got " + formatMinMotion(p.min_motion) + ")";
+  if (p.max_keyframes < 2)
+    return n("max_keyframes") + " must be at least 2 (got " + std::to_string(p.max_keyframes) + ")";
   if (p.first_retrain < 1 || p.first_retrain > p.max_keyframes)
-    return "first_retrain must be between 1 and max_keyframes (got " + std::to_string(p.first_retrain) + ")";
+    return n("first_retrain") + " must be between 1 and " + n("max_keyframes") + " (got " +
+           std::to_string(p.first_retrain) + ")";
   if (!(p.retrain_growth >= 0.0 && std::isfinite(p.retrain_growth)))
-    return "retrain_growth must be a share >= 0 (got " + std::to_string(p.retrain_growth) + ")";
+    return n("retrain_growth") + " must be a finite share >= 0 (got " + std::to_string(p.retrain_growth) + ")";
   if (p.jpeg_quality < 1 || p.jpeg_quality > 100)
-    return "jpeg_quality must be 1-100 (got " + std::to_string(p.jpeg_quality) + ")";
-  if (p.worker_threads < 1) return "worker_threads must be at least 1";
-  if (p.surface_min_frames < 1) return "surface_min_frames must be at least 1";
-  if (p.samples_budget_per_tree < 0) return "samples_budget_per_tree must not be negative";
-  if (p.min_backtracking_leaves < 1) return "min_backtracking_leaves must be at least 1";
+    return n("jpeg_quality") + " must be 1-100 (got " + std::to_string(p.jpeg_quality) + ")";
+  if (p.worker_threads < 1) return n("worker_threads") + " must be at least 1";
+  if (p.surface_min_frames < 1) return n("surface_min_frames") + " must be at least 1";
+  if (p.samples_budget_per_tree < 0) return n("samples_budget_per_tree") + " must not be negative";
+  if (p.min_backtracking_leaves < 1) return n("min_backtracking_leaves") + " must be at least 1";
   if (!p.training.train_points && !p.training.train_lines)
-    return "training must grow at least one forest (train_points or train_lines)";
+    return n("config") + " must grow at least one forest (train_points or train_lines)";
   return {};
 }
 
 Expected<LearningParams> readLearningParams(LearningParams params, const std::string& min_motion,
-                                            const std::string& training_config) {
+                                            const std::string& training_config, const SettingName& name) {
+  const auto n = [&](const std::string& field) { return name ? name(field) : field; };
   auto motion = parseMinMotion(min_motion);
-  if (!motion) return makeError("min_motion: " + motion.error());
+  if (!motion) return makeError(n("min_motion") + ": " + motion.error());
   params.min_motion = *motion;
   if (!training_config.empty()) {
     auto training = loadTrainingParams(training_config);
-    if (!training) return makeError("config: " + training.error());
+    if (!training) return makeError(n("config") + ": " + training.error());
     params.training = *training;
   }
-  if (const std::string why = learningParamsError(params); !why.empty()) return makeError(why);
+  if (const std::string why = learningParamsError(params, name); !why.empty()) return makeError(why);
   return params;
 }
 

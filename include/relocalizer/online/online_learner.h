@@ -21,6 +21,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -68,17 +69,21 @@ struct LearningParams {
   TrainingParams training;      // both forests and the surface, as `train` uses them
 };
 
-// Empty when usable, otherwise what is wrong, naming the parameter by its
-// field name (the node's parameter is learn_<name>).
-std::string learningParamsError(const LearningParams& params);
+// How a reader names a learning setting to its user, from its field name
+// ("max_keyframes"): the node says 'learn_max_keyframes' with its namespace,
+// the tools their option. Unset: the field name.
+using SettingName = std::function<std::string(const std::string& field)>;
+
+// Empty when usable, otherwise what is wrong, naming the setting.
+std::string learningParamsError(const LearningParams& params, const SettingName& name = {});
 
 // The one reader of the learning settings given as text (the node's
 // learn_min_motion and learn_config, the tools' options): `params` with the
 // key-frame motion parsed, the training YAML (as `train --config`; empty:
-// config/forest.yaml defaults) loaded, and every field checked. The error
-// names the setting ("min_motion: ...", "config: ...").
+// config/forest.yaml defaults) loaded, and every field checked by
+// learningParamsError. Errors name the setting (fields min_motion, config).
 Expected<LearningParams> readLearningParams(LearningParams params, const std::string& min_motion,
-                                            const std::string& training_config);
+                                            const std::string& training_config, const SettingName& name = {});
 
 // The relocalizer parameters a learned model answers with: `params` with two
 // overrides a model of a few key frames needs (surface_gate and
