@@ -249,11 +249,6 @@ SurfaceModel buildSurface(const std::vector<TrainingImage>& images, const Surfac
   return builder.build();
 }
 
-void trainForests(const std::vector<TrainingImage>& images, const TrainingParams& params,
-                  Forest& points, Forest& lines, const TrainingProgress& progress) {
-  trainForestsImpl(images, params, points, lines, progress, {});
-}
-
 void trainForestsReleasingDepth(std::vector<TrainingImage>& images, const TrainingParams& params,
                                 Forest& points, Forest& lines, const TrainingProgress& progress) {
   const bool depth_features = (params.train_points && params.points.depth_feature_share > 0.0f) ||

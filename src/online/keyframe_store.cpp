@@ -3,6 +3,7 @@
 #include "relocalizer/core/byte_io.h"
 #include "relocalizer/core/file_io.h"
 #include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/key_frame_rule.h"
 
 #include <cmath>
 #include <cstring>
@@ -54,10 +55,6 @@ Expected<TrainingImage> decompressKeyFrame(const StoredKeyFrame& key_frame) {
   image.camera = key_frame.camera;
   image.pose = key_frame.pose;
   return image;
-}
-
-double keyFrameDistance(const Pose& a, const Pose& b) {
-  return translationError(a, b) / 0.05 + rotationErrorDegrees(a, b) / 5.0;
 }
 
 bool KeyFrameStore::add(Entry key_frame) {

@@ -13,24 +13,53 @@
 
 #include "relocalizer/core/file_io.h"
 #include "relocalizer/core/id_ranges.h"
+#include "relocalizer/forest/model_builder.h"
+#include "relocalizer/forest/training_config.h"
 
 namespace relocalizer {
 
-std::string learningParamsError(const LearningParams& p) {
-  if (p.max_keyframes < 2) return "max_keyframes must be at least 2 (got " + std::to_string(p.max_keyframes) + ")";
+std::string learningParamsError(const LearningParams& p, const SettingName& name) {
+  const auto n = [&](const std::string& field) { return name ? name(field) : field; };
+  if (!(p.min_motion.metres >= 0.0 && std::isfinite(p.min_motion.metres) && p.min_motion.degrees >= 0.0 &&
+        std::isfinite(p.min_motion.degrees)))
+    return n("min_motion") + " must be finite and >= 0 (got " + formatMinMotion(p.min_motion) + ")";
+  if (p.max_keyframes < 2)
+    return n("max_keyframes") + " must be at least 2 (got " + std::to_string(p.max_keyframes) + ")";
   if (p.first_retrain < 1 || p.first_retrain > p.max_keyframes)
-    return "first_retrain must be between 1 and max_keyframes (got " + std::to_string(p.first_retrain) + ")";
+    return n("first_retrain") + " must be between 1 and " + n("max_keyframes") + " (got " +
+           std::to_string(p.first_retrain) + ")";
   if (!(p.retrain_growth >= 0.0 && std::isfinite(p.retrain_growth)))
-    return "retrain_growth must be a share >= 0 (got " + std::to_string(p.retrain_growth) + ")";
+    return n("retrain_growth") + " must be a finite share >= 0 (got " + std::to_string(p.retrain_growth) + ")";
   if (p.jpeg_quality < 1 || p.jpeg_quality > 100)
-    return "jpeg_quality must be 1-100 (got " + std::to_string(p.jpeg_quality) + ")";
-  if (p.worker_threads < 1) return "worker_threads must be at least 1";
-  if (p.surface_min_frames < 1) return "surface_min_frames must be at least 1";
-  if (p.samples_budget_per_tree < 0) return "samples_budget_per_tree must not be negative";
-  if (p.min_backtracking_leaves < 1) return "min_backtracking_leaves must be at least 1";
+    return n("jpeg_quality") + " must be 1-100 (got " + std::to_string(p.jpeg_quality) + ")";
+  if (p.worker_threads < 1) return n("worker_threads") + " must be at least 1";
+  if (p.surface_min_frames < 1) return n("surface_min_frames") + " must be at least 1";
+  if (p.samples_budget_per_tree < 0) return n("samples_budget_per_tree") + " must not be negative";
+  if (p.min_backtracking_leaves < 1) return n("min_backtracking_leaves") + " must be at least 1";
   if (!p.training.train_points && !p.training.train_lines)
-    return "training must grow at least one forest (train_points or train_lines)";
+    return n("config") + " must grow at least one forest (train_points or train_lines)";
   return {};
+}
+
+Expected<LearningParams> readLearningParams(LearningParams params, const std::string& min_motion,
+                                            const std::string& training_config, const SettingName& name) {
+  const auto n = [&](const std::string& field) { return name ? name(field) : field; };
+  auto motion = parseMinMotion(min_motion);
+  if (!motion) return makeError(n("min_motion") + ": " + motion.error());
+  params.min_motion = *motion;
+  if (!training_config.empty()) {
+    auto training = loadTrainingParams(training_config);
+    if (!training) return makeError(n("config") + ": " + training.error());
+    params.training = *training;
+  }
+  if (const std::string why = learningParamsError(params, name); !why.empty()) return makeError(why);
+  return params;
+}
+
+RelocalizerParams learnedModelParams(const LearningParams& learning, RelocalizerParams params) {
+  if (!learning.surface_gate) params.surface.min_agreement = 0.0f;
+  params.max_leaves = std::max(params.max_leaves, learning.min_backtracking_leaves);
+  return params;
 }
 
 std::string slamPoseError(const Pose& pose) {
@@ -63,12 +92,7 @@ size_t modelBytes(const Model& model) {
 
 OnlineLearner::OnlineLearner(LearningParams params, RelocalizerParams relocalizer_params, Mode mode)
     : params_(std::move(params)),
-      relocalizer_params_([&] {
-        RelocalizerParams r = std::move(relocalizer_params);
-        if (!params_.surface_gate) r.surface.min_agreement = 0.0f;
-        r.max_leaves = std::max(r.max_leaves, params_.min_backtracking_leaves);
-        return r;
-      }()),
+      relocalizer_params_(learnedModelParams(params_, std::move(relocalizer_params))),
       mode_(mode),
       store_(params_.max_keyframes) {
   if (const std::string why = learningParamsError(params_); !why.empty())
@@ -173,39 +197,35 @@ Status OnlineLearner::retrain(std::unique_lock<std::mutex>& lock) {
   std::shared_ptr<const Relocalizer> fresh;
   std::string error;
   try {
-    std::vector<TrainingImage> images;
-    images.reserve(entries.size());
+    TrainingParams training = params_.training;
+    training.surface.min_frames = params_.surface_min_frames;
+    if (params_.samples_budget_per_tree > 0)
+      for (ForestParams* forest : {&training.points, &training.lines})
+        forest->samples_per_image = std::clamp(
+            params_.samples_budget_per_tree / static_cast<int>(entries.size()),
+            std::min(1000, forest->samples_per_image), forest->samples_per_image);
+    ModelBuilder builder(training);
     for (const auto& entry : entries) {
       auto image = decompressKeyFrame(*entry);
       if (!image) throw std::runtime_error(image.error());
-      images.push_back(std::move(*image));
+      builder.add(std::move(*image));
     }
-    Model model;
-    model.params = params_.training;
-    model.params.surface.min_frames = params_.surface_min_frames;
-    if (params_.samples_budget_per_tree > 0)
-      for (ForestParams* forest : {&model.params.points, &model.params.lines})
-        forest->samples_per_image = std::clamp(
-            params_.samples_budget_per_tree / static_cast<int>(images.size()),
-            std::min(1000, forest->samples_per_image), forest->samples_per_image);
-    // Shutdown must not wait for a retrain of a full store (a minute): the
-    // progress callback, called as samples reach leaves, aborts it.
-    TrainingProgress progress;
-    progress.samples_done = [this](size_t) {
-      if (stop_) throw std::runtime_error("stopped");
-    };
-    trainForests(images, model.params, model.points, model.lines, progress);
-    if (model.params.build_surface) model.surface = buildSurface(images, model.params.surface);
-    TrainingSummary& summary = model.summary;
-    summary.dataset = "online";
-    summary.format = "key frames learned online";
+    TrainingSummary provenance;
+    provenance.dataset = "online";
+    provenance.format = "key frames learned online";
     std::vector<int> ids;
     for (const auto& entry : entries) ids.push_back(entry->id);
-    summary.frames = formatIdRanges(ids);
-    summarizeTrainingImages(images, summary);
-    summary.threads = mode_ == Mode::Background ? params_.worker_threads : 0;
-    summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    auto relocalizer = std::make_shared<Relocalizer>(std::move(model), relocalizer_params_);
+    provenance.frames = formatIdRanges(ids);
+    provenance.threads = mode_ == Mode::Background ? params_.worker_threads : 0;
+    // Shutdown must not wait for a retrain of a full store (a minute): the
+    // progress callback, called as samples reach leaves, aborts it.
+    ModelBuildProgress progress;
+    progress.forests.samples_done = [this](size_t) {
+      if (stop_) throw std::runtime_error("stopped");
+    };
+    auto model = builder.build(std::move(provenance), progress);
+    if (!model) throw std::runtime_error(model.error());
+    auto relocalizer = std::make_shared<Relocalizer>(std::move(*model), relocalizer_params_);
     if (const std::string why = relocalizer->validationError(); !why.empty()) throw std::runtime_error(why);
     fresh = std::move(relocalizer);
   } catch (const std::exception& e) {

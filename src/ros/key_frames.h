@@ -1,37 +1,22 @@
 #pragma once
-// Key-frame selection: a 30 Hz recording holds many near-duplicate frames,
-// which cost training time and teach nothing new. A frame is kept when the
-// camera moved or turned enough since the last kept frame.
+// The key-frame rule lives in relocalizer/online/key_frame_rule.h; these names
+// keep the ROS layer's callers (the node, its parameters, the bag reader)
+// compiling until they use it directly.
 
-#include <optional>
 #include <string>
 #include <utility>
 
-#include "relocalizer/core/expected.h"
-#include "relocalizer/core/pose.h"
+#include "relocalizer/online/key_frame_rule.h"
 
 namespace relocalizer_ros {
 
-// "0.05,5" -> (0.05 m, 5 degrees); "0" or "0,0" turns selection off.
-relocalizer::Expected<std::pair<double, double>> parseMinMotion(const std::string& text);
+using relocalizer::KeyFrameSelector;
 
-class KeyFrameSelector {
- public:
-  // Both 0 keeps every frame.
-  KeyFrameSelector(double min_translation, double min_rotation_degrees)
-      : min_translation_(min_translation), min_rotation_degrees_(min_rotation_degrees) {}
-
-  bool active() const { return min_translation_ > 0 || min_rotation_degrees_ > 0; }
-
-  // Offered frames in order: true when `pose` (camera-to-map) is a key frame,
-  // i.e. the first, or at least min_translation metres or min_rotation_degrees
-  // from the last key frame. A key frame becomes the new reference.
-  bool keep(const relocalizer::Pose& pose);
-
- private:
-  double min_translation_;
-  double min_rotation_degrees_;
-  std::optional<relocalizer::Pose> last_;
-};
+// (metres, degrees), as the callers of this header read it.
+inline relocalizer::Expected<std::pair<double, double>> parseMinMotion(const std::string& text) {
+  auto motion = relocalizer::parseMinMotion(text);
+  if (!motion) return relocalizer::makeError(motion.error());
+  return std::pair<double, double>(motion->metres, motion->degrees);
+}
 
 }  // namespace relocalizer_ros

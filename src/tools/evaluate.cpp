@@ -16,7 +16,7 @@
 #include "relocalizer/eval/evaluation.h"
 #include "relocalizer/eval/plot.h"
 #include "relocalizer/forest/training_config.h"
-#include "relocalizer/online/online_learner.h"
+#include "relocalizer/online/key_frame_feed.h"
 #include "relocalizer/pose/relocalizer.h"
 
 using namespace relocalizer;
@@ -52,7 +52,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--prediction-quality", prediction_quality,
                "Also report the share of forest predictions within 10 cm of the truth");
-  std::string learn_frames, learn_min_motion = "0.05,5", learn_config, save_model;
+  std::string learn_frames, learn_min_motion = formatMinMotion(KeyFrameMotion{}), learn_config,
+      save_model;
   int curve_every = 50;
   LearningParams learning;
   const std::string group = "Online learning (--learn-frames)";
@@ -157,13 +158,9 @@ int main(int argc, char** argv) {
     if (!loaded) return cli::fail(app, loaded.error());
     relocalizer = std::move(*loaded);
   } else {
-    if (!learn_config.empty()) {
-      auto loaded = loadTrainingParams(learn_config);
-      if (!loaded) return cli::fail(app, loaded.error());
-      learning.training = *loaded;
-    }
-    auto motion = relocalizer_ros::parseMinMotion(learn_min_motion);
-    if (!motion) return cli::fail(app, "--learn-min-motion: " + motion.error());
+    auto checked = readLearningParams(learning, learn_min_motion, learn_config);
+    if (!checked) return cli::fail(app, "learning: " + checked.error());
+    learning = *checked;
     auto learn_data = cli::DatasetArguments{source_options.dataset, source_options.format,
                                             learn_frames, source_options.split}
                           .open();
@@ -171,10 +168,10 @@ int main(int argc, char** argv) {
     const Dataset& learn = **learn_data;
     std::printf("learning from %zu frames (%s), key frames at %s m,deg, at most %d stored\n",
                 learn.size(), learn_frames.c_str(), learn_min_motion.c_str(), learning.max_keyframes);
-    OnlineLearner learner(learning, params, OnlineLearner::Mode::Inline);
+    KeyFrameFeed feed(learning, params, OnlineLearner::Mode::Inline);
+    OnlineLearner& learner = feed.learner();
     if (!model_path.empty())
       if (Status resumed = learner.resume(model_path); !resumed) return cli::fail(app, resumed.error());
-    relocalizer_ros::KeyFrameSelector selector(motion->first, motion->second);
     nlohmann::json curve = nlohmann::json::array();
     Plot plot;
     plot.title = "learning curve: " + std::filesystem::path(dataset_path).filename().string();
@@ -187,15 +184,10 @@ int main(int argc, char** argv) {
     int without_pose = 0, learned = 0;
     for (size_t i = 0; i < learn.size(); ++i) {
       // A frame without a pose is SLAM having lost track: never learned from.
-      if (learn.groundTruth(i) && selector.keep(*learn.groundTruth(i))) {
-        auto frame = learn.load(i);
-        if (!frame) return cli::fail(app, frame.error());
-        const auto start = std::chrono::steady_clock::now();
-        if (Status added = learner.addKeyFrame(*frame, *learn.groundTruth(i)); !added)
-          return cli::fail(app, added.error());
-        compress_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      }
-      if (!learn.groundTruth(i)) ++without_pose;
+      const KeyFrameFeed::Result fed = feed.offer(learn.groundTruth(i), [&] { return learn.load(i); });
+      if (!fed.why.empty()) return cli::fail(app, fed.why);
+      if (fed.outcome == KeyFrameFeed::Result::Outcome::Untracked) ++without_pose;
+      compress_seconds += fed.store_seconds;
       ++learned;
       if (learned % curve_every != 0 && i + 1 != learn.size()) continue;
       const auto start = std::chrono::steady_clock::now();

@@ -5,18 +5,18 @@
 // rate on whatever model is current. Reports whether the stream kept up, when
 // the first correct relocalization came, relocalization latency and memory.
 
+#include <array>
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "../ros/key_frames.h"
 #include "cli_support.h"
 #include "dataset_arguments.h"
 #include "relocalizer/core/statistics.h"
-#include "relocalizer/forest/training_config.h"
-#include "relocalizer/online/online_learner.h"
+#include "relocalizer/online/key_frame_feed.h"
 
 using namespace relocalizer;
 using Clock = std::chrono::steady_clock;
@@ -37,6 +37,90 @@ std::pair<double, double> residentMiB() {
 
 double since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
+struct Attempt {
+  double at, latency;
+  bool correct;
+  int keyframes_learned;
+};
+
+// Relocalizes the test frames round-robin at `rate` on whatever model the
+// learner has, until `done`, reading each frame when used.
+std::vector<Attempt> relocalizeUntilDone(const Dataset& test_data, const std::vector<size_t>& test_frames,
+                                         const OnlineLearner& learner, double rate,
+                                         Clock::time_point start, const std::atomic<bool>& done) {
+  std::vector<Attempt> attempts;
+  size_t next = 0;
+  const auto period = std::chrono::duration<double>(1.0 / rate);
+  Clock::time_point slot = Clock::now();
+  while (!done) {
+    std::this_thread::sleep_until(slot);
+    slot += std::chrono::duration_cast<Clock::duration>(period);
+    auto model = learner.current();
+    if (!model) continue;
+    auto loaded = test_data.load(test_frames[next++ % test_frames.size()]);
+    if (!loaded) continue;
+    const RgbdFrame& frame = *loaded;
+    const auto t0 = Clock::now();
+    const Relocalization r = model->relocalize(frame);
+    const bool correct = r.success && translationError(r.pose, *frame.ground_truth) < 0.05 &&
+                         rotationErrorDegrees(r.pose, *frame.ground_truth) < 5.0;
+    attempts.push_back({since(start), since(t0), correct, learner.status().keyframes_learned});
+    if (slot < Clock::now()) slot = Clock::now();
+  }
+  return attempts;
+}
+
+// What the stream measured.
+struct Stream {
+  double rate = 0.0, seconds = 0.0, worst_lag = 0.0;
+  long frames = 0, late = 0;
+  std::vector<std::array<double, 6>> timeline;  // t, frames, key frames, learned, backlog, RSS
+};
+
+void report(const Stream& stream, const std::vector<Attempt>& attempts, const LearningStatus& status,
+            const std::string& output) {
+  const auto [rss, peak] = residentMiB();
+  double first_correct = -1.0;
+  std::vector<double> latencies;
+  int correct = 0;
+  for (const Attempt& a : attempts) {
+    if (a.correct && first_correct < 0) first_correct = a.at;
+    correct += a.correct;
+    latencies.push_back(1000.0 * a.latency);
+  }
+  const double p50 = latencies.empty() ? 0.0 : median(latencies);
+  std::sort(latencies.begin(), latencies.end());
+  const double p95 = latencies.empty() ? 0.0 : latencies[static_cast<size_t>(0.95 * (latencies.size() - 1))];
+  std::printf("stream: %ld frames in %.1f s at %.0f Hz (%ld later than one frame period, worst lag %.0f ms)\n",
+              stream.frames, stream.seconds, stream.rate, stream.late, 1000.0 * stream.worst_lag);
+  std::printf("learning: %d key frames added, %d stored, %d evicted; %d retrains, the last %.1f s; backlog %d; "
+              "model %.1f MB, key frames %.1f MB\n",
+              status.keyframes_added, status.keyframes_stored, status.keyframes_evicted, status.retrains,
+              status.last_retrain_seconds, status.backlog, status.model_bytes / 1e6, status.store_bytes / 1e6);
+  std::printf("relocalization: %zu attempts, %d correct (5 cm / 5 deg); first correct at %.1f s of stream; "
+              "latency median %.0f ms, p95 %.0f ms\n",
+              attempts.size(), correct, first_correct, p50, p95);
+  std::printf("memory: resident %.0f MiB now, peak %.0f MiB\n", rss, peak);
+  if (output.empty()) return;
+  std::filesystem::create_directories(output);
+  std::ofstream csv(output + "/timeline.csv");
+  csv << "seconds,frames,keyframes_added,keyframes_learned,backlog,resident_mib\n";
+  for (const auto& row : stream.timeline)
+    csv << row[0] << ',' << row[1] << ',' << row[2] << ',' << row[3] << ',' << row[4] << ',' << row[5] << '\n';
+  std::ofstream attempts_csv(output + "/relocalizations.csv");
+  attempts_csv << "seconds,latency_ms,correct,keyframes_learned\n";
+  for (const Attempt& a : attempts)
+    attempts_csv << a.at << ',' << 1000.0 * a.latency << ',' << a.correct << ',' << a.keyframes_learned << '\n';
+  nlohmann::json summary = {{"frames", stream.frames}, {"rate", stream.rate}, {"late_frames", stream.late},
+                            {"worst_lag_s", stream.worst_lag}, {"keyframes_added", status.keyframes_added},
+                            {"keyframes_stored", status.keyframes_stored}, {"retrains", status.retrains},
+                            {"backlog", status.backlog}, {"attempts", attempts.size()},
+                            {"correct", correct}, {"first_correct_s", first_correct},
+                            {"latency_median_ms", p50}, {"latency_p95_ms", p95},
+                            {"resident_mib", rss}, {"peak_resident_mib", peak}};
+  std::ofstream(output + "/summary.json") << summary.dump(2) << '\n';
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -48,7 +132,7 @@ int main(int argc, char** argv) {
       "latency, retrains and memory; --output writes timeline.csv and summary.json.",
       "learn_benchmark"};
   cli::DatasetArguments arguments;
-  std::string learn_frames, min_motion = "0.05,5", learn_config, output;
+  std::string learn_frames, min_motion = formatMinMotion(KeyFrameMotion{}), learn_config, output;
   double rate = 30.0, reloc_rate = 2.0, seconds = 60.0;
   int threads = 1;
   LearningParams learning;
@@ -71,13 +155,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("-o,--output", output, "Folder for timeline.csv and summary.json");
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
-  if (!learn_config.empty()) {
-    auto loaded = loadTrainingParams(learn_config);
-    if (!loaded) return cli::fail(app, loaded.error());
-    learning.training = *loaded;
-  }
-  auto motion = relocalizer_ros::parseMinMotion(min_motion);
-  if (!motion) return cli::fail(app, "--min-motion: " + motion.error());
+  auto checked = readLearningParams(learning, min_motion, learn_config);
+  if (!checked) return cli::fail(app, "learning: " + checked.error());
   auto test = arguments.open();
   if (!test) return cli::fail(app, test.error());
   auto learn = cli::DatasetArguments{arguments.path, arguments.format, learn_frames, arguments.split}.open();
@@ -92,110 +171,48 @@ int main(int argc, char** argv) {
   if (test_frames.empty()) return cli::fail(app, "--frames: no frame with ground truth");
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads) + 1);
 
-  OnlineLearner learner(learning, RelocalizerParams{}, OnlineLearner::Mode::Background);
-  relocalizer_ros::KeyFrameSelector selector(motion->first, motion->second);
+  KeyFrameFeed feed(*checked, RelocalizerParams{}, OnlineLearner::Mode::Background);
+  OnlineLearner& learner = feed.learner();
   std::atomic<bool> done{false};
   const Clock::time_point start = Clock::now();
 
-  struct Attempt {
-    double at, latency;
-    bool correct;
-    int keyframes_learned;
-  };
   std::vector<Attempt> attempts;
-  std::thread relocalizing([&] {
-    size_t next = 0;
-    const auto period = std::chrono::duration<double>(1.0 / reloc_rate);
-    Clock::time_point slot = Clock::now();
-    while (!done) {
-      std::this_thread::sleep_until(slot);
-      slot += std::chrono::duration_cast<Clock::duration>(period);
-      auto model = learner.current();
-      if (!model) continue;
-      auto loaded = test_data.load(test_frames[next++ % test_frames.size()]);
-      if (!loaded) continue;
-      const RgbdFrame& frame = *loaded;
-      const auto t0 = Clock::now();
-      const Relocalization r = model->relocalize(frame);
-      const bool correct = r.success && translationError(r.pose, *frame.ground_truth) < 0.05 &&
-                           rotationErrorDegrees(r.pose, *frame.ground_truth) < 5.0;
-      attempts.push_back({since(start), since(t0), correct, learner.status().keyframes_learned});
-      if (slot < Clock::now()) slot = Clock::now();
-    }
-  });
+  std::thread relocalizing(
+      [&] { attempts = relocalizeUntilDone(test_data, test_frames, learner, reloc_rate, start, done); });
 
   // The stream: frame k is due at k / rate; loading it stands for the camera
   // driver and the message conversion.
-  long frames = 0, late = 0, keyframes = 0;
-  double worst_lag = 0.0;
-  std::vector<std::array<double, 6>> timeline;  // t, frames, key frames, learned, backlog, RSS
+  Stream stream;
+  stream.rate = rate;
+  long& frames = stream.frames;
   double next_sample = 0.0;
+  std::string failure;
   for (; since(start) < seconds; ++frames) {
     const Clock::time_point due = start + std::chrono::duration_cast<Clock::duration>(
                                               std::chrono::duration<double>(frames / rate));
     std::this_thread::sleep_until(due);
     const double lag = std::chrono::duration<double>(Clock::now() - due).count();
-    worst_lag = std::max(worst_lag, lag);
-    if (lag > 1.0 / rate) ++late;
+    stream.worst_lag = std::max(stream.worst_lag, lag);
+    if (lag > 1.0 / rate) ++stream.late;
     const size_t i = static_cast<size_t>(frames) % learn_data.size();
-    if (!learn_data.groundTruth(i) || !selector.keep(*learn_data.groundTruth(i))) continue;
-    auto frame = learn_data.load(i);
-    if (!frame) return cli::fail(app, frame.error());
-    if (Status added = learner.addKeyFrame(*frame, *learn_data.groundTruth(i)); !added)
-      return cli::fail(app, added.error());
-    ++keyframes;
+    const KeyFrameFeed::Result fed = feed.offer(learn_data.groundTruth(i), [&] { return learn_data.load(i); });
+    if (!fed.why.empty()) {
+      failure = fed.why;
+      break;
+    }
+    if (fed.outcome != KeyFrameFeed::Result::Outcome::Learned) continue;
     if (since(start) >= next_sample) {
       const LearningStatus s = learner.status();
-      timeline.push_back({since(start), static_cast<double>(frames), static_cast<double>(s.keyframes_added),
-                          static_cast<double>(s.keyframes_learned), static_cast<double>(s.backlog),
-                          residentMiB().first});
+      stream.timeline.push_back({since(start), static_cast<double>(frames),
+                                 static_cast<double>(s.keyframes_added), static_cast<double>(s.keyframes_learned),
+                                 static_cast<double>(s.backlog), residentMiB().first});
       next_sample = since(start) + 5.0;
     }
   }
+  stream.seconds = since(start);
   done = true;
-  relocalizing.join();
-  const LearningStatus status = learner.status();
-  const auto [rss, peak] = residentMiB();
-
-  double first_correct = -1.0;
-  std::vector<double> latencies;
-  int correct = 0;
-  for (const Attempt& a : attempts) {
-    if (a.correct && first_correct < 0) first_correct = a.at;
-    correct += a.correct;
-    latencies.push_back(1000.0 * a.latency);
-  }
-  const double p50 = latencies.empty() ? 0.0 : median(latencies);
-  std::sort(latencies.begin(), latencies.end());
-  const double p95 = latencies.empty() ? 0.0 : latencies[static_cast<size_t>(0.95 * (latencies.size() - 1))];
-  std::printf("stream: %ld frames in %.1f s at %.0f Hz (%ld later than one frame period, worst lag %.0f ms)\n",
-              frames, since(start), rate, late, 1000.0 * worst_lag);
-  std::printf("learning: %d key frames added, %d stored, %d evicted; %d retrains, the last %.1f s; backlog %d; "
-              "model %.1f MB, key frames %.1f MB\n",
-              status.keyframes_added, status.keyframes_stored, status.keyframes_evicted, status.retrains,
-              status.last_retrain_seconds, status.backlog, status.model_bytes / 1e6, status.store_bytes / 1e6);
-  std::printf("relocalization: %zu attempts, %d correct (5 cm / 5 deg); first correct at %.1f s of stream; "
-              "latency median %.0f ms, p95 %.0f ms\n",
-              attempts.size(), correct, first_correct, p50, p95);
-  std::printf("memory: resident %.0f MiB now, peak %.0f MiB\n", rss, peak);
-  if (!output.empty()) {
-    std::filesystem::create_directories(output);
-    std::ofstream csv(output + "/timeline.csv");
-    csv << "seconds,frames,keyframes_added,keyframes_learned,backlog,resident_mib\n";
-    for (const auto& row : timeline)
-      csv << row[0] << ',' << row[1] << ',' << row[2] << ',' << row[3] << ',' << row[4] << ',' << row[5] << '\n';
-    std::ofstream attempts_csv(output + "/relocalizations.csv");
-    attempts_csv << "seconds,latency_ms,correct,keyframes_learned\n";
-    for (const Attempt& a : attempts)
-      attempts_csv << a.at << ',' << 1000.0 * a.latency << ',' << a.correct << ',' << a.keyframes_learned << '\n';
-    nlohmann::json summary = {{"frames", frames}, {"rate", rate}, {"late_frames", late},
-                              {"worst_lag_s", worst_lag}, {"keyframes_added", status.keyframes_added},
-                              {"keyframes_stored", status.keyframes_stored}, {"retrains", status.retrains},
-                              {"backlog", status.backlog}, {"attempts", attempts.size()},
-                              {"correct", correct}, {"first_correct_s", first_correct},
-                              {"latency_median_ms", p50}, {"latency_p95_ms", p95},
-                              {"resident_mib", rss}, {"peak_resident_mib", peak}};
-    std::ofstream(output + "/summary.json") << summary.dump(2) << '\n';
-  }
+  relocalizing.join();  // also on a failure: a running std::thread may not be destroyed
+  if (!failure.empty()) return cli::fail(app, failure);
+  report(stream, attempts, learner.status(), output);
   return 0;
 }

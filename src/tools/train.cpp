@@ -13,11 +13,81 @@
 #include "cli_support.h"
 #include "frame_source.h"
 #include "relocalizer/core/progress.h"
-#include "relocalizer/forest/model_io.h"
-#include "relocalizer/forest/training.h"
+#include "relocalizer/forest/model_builder.h"
 #include "relocalizer/forest/training_config.h"
 
 using namespace relocalizer;
+
+namespace {
+
+// Frames load in parallel but are kept in dataset order, so the model does
+// not depend on the thread count. Frames without a pose are counted, not kept.
+Status loadPosedFrames(const cli::FrameSource& data, ModelBuilder& builder, int& without_pose) {
+  std::vector<std::optional<RgbdFrame>> frames_read(data.size());
+  std::string load_error;
+  std::mutex error_mutex;
+  {
+    ProgressBar bar("loading ", data.size());
+    tbb::parallel_for(size_t{0}, data.size(), [&](size_t i) {
+      auto frame = data.load(i);
+      if (frame) {
+        frames_read[i] = std::move(*frame);
+      } else {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (load_error.empty()) load_error = frame.error();
+      }
+      bar.advance();
+    });
+  }
+  if (!load_error.empty()) return makeError(load_error);
+  for (auto& frame : frames_read)
+    if (!builder.add(*frame)) ++without_pose;
+  return okStatus();
+}
+
+// Wall times the build reports, for the summary lines.
+struct BuildTimes {
+  std::mutex mutex;
+  std::vector<double> trees[2];  // per forest (points, lines), per tree
+  double surface = 0.0;
+};
+
+Expected<Model> buildShowingProgress(ModelBuilder& builder, TrainingSummary provenance, BuildTimes& times) {
+  ProgressBar bar("training", 0);
+  ModelBuildProgress progress;
+  progress.surface_built = [&](double seconds) { times.surface = seconds; };
+  progress.forests.samples_drawn = [&](size_t n) { bar.addToTotal(n); };
+  progress.forests.samples_done = [&](size_t n) { bar.advance(n); };
+  progress.forests.tree_done = [&](ForestKind kind, int tree, double seconds) {
+    std::lock_guard<std::mutex> lock(times.mutex);
+    auto& forest = times.trees[kind == ForestKind::Lines ? 1 : 0];
+    if (static_cast<int>(forest.size()) <= tree) forest.resize(tree + 1);
+    forest[tree] = seconds;
+  };
+  return builder.build(std::move(provenance), progress);
+}
+
+void printModel(const Model& model, const BuildTimes& times) {
+  for (const auto* f : {&model.points, &model.lines}) {
+    if (f->empty()) continue;
+    int depth = 0;
+    for (const Tree& t : f->trees) depth = std::max(depth, t.depth());
+    std::string per_tree;
+    for (double t : times.trees[f == &model.points ? 0 : 1])
+      per_tree += (per_tree.empty() ? "" : ", ") + std::to_string(static_cast<int>(std::lround(t))) + " s";
+    std::printf("  %-6s %zu trees, %zu nodes, %zu leaves, %zu modes, max depth %d; per tree %s\n",
+                f == &model.points ? "points" : "lines", f->trees.size(), f->nodeCount(),
+                f->leafCount(), f->modeCount(), depth, per_tree.c_str());
+  }
+  if (model.params.build_surface)
+    std::printf("  surface %zu elements of %.0f mm (%.1f MB), fused in %.1f s\n",
+                model.surface.elements().size(), 1000.0 * model.surface.voxelSize(),
+                model.surface.elements().size() * sizeof(SurfaceElement) / 1e6, times.surface);
+  else
+    std::printf("  no surface (surface.enabled: false): poses will not be checked against the scene\n");
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
 #ifdef __GLIBC__
@@ -72,95 +142,31 @@ int main(int argc, char** argv) {
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, thread_count);
   const auto start = std::chrono::steady_clock::now();
 
-  // Frames load in parallel but are kept in dataset order, so the model does
-  // not depend on the thread count.
-  std::vector<std::optional<RgbdFrame>> frames_read(data.size());
-  std::string load_error;
-  std::mutex error_mutex;
-  {
-    ProgressBar bar("loading ", data.size());
-    tbb::parallel_for(size_t{0}, data.size(), [&](size_t i) {
-      auto frame = data.load(i);
-      if (frame) {
-        frames_read[i] = std::move(*frame);
-      } else {
-        std::lock_guard<std::mutex> lock(error_mutex);
-        if (load_error.empty()) load_error = frame.error();
-      }
-      bar.advance();
-    });
-  }
-  if (!load_error.empty()) return cli::fail(app, load_error);
-  std::vector<TrainingImage> images;
+  ModelBuilder builder(params);
   int without_pose = 0;
-  for (auto& frame : frames_read)
-    if (!appendTrainingImage(*frame, images)) ++without_pose;
-  frames_read.clear();
-  if (images.empty()) return cli::fail(app, dataset_path + ": no selected frame has a ground-truth pose");
+  if (const Status loaded = loadPosedFrames(data, builder, without_pose); !loaded)
+    return cli::fail(app, loaded.error());
+  if (builder.size() == 0) return cli::fail(app, dataset_path + ": no selected frame has a ground-truth pose");
   if (without_pose > 0) std::printf("skipped %d frames without ground truth\n", without_pose);
 
-  Model model;
-  model.params = params;
-  // Before the forests: they release each image's depth once its samples are
-  // drawn, and the surface is fused from that depth.
-  double surface_seconds = 0.0;
-  if (params.build_surface) {
-    const auto surface_start = std::chrono::steady_clock::now();
-    model.surface = buildSurface(images, params.surface);
-    surface_seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - surface_start).count();
-  }
-  std::mutex tree_mutex;
-  std::vector<double> tree_seconds[2];
-  {
-    ProgressBar bar("training", 0);
-    TrainingProgress progress;
-    progress.samples_drawn = [&](size_t n) { bar.addToTotal(n); };
-    progress.samples_done = [&](size_t n) { bar.advance(n); };
-    progress.tree_done = [&](ForestKind kind, int tree, double seconds) {
-      std::lock_guard<std::mutex> lock(tree_mutex);
-      auto& times = tree_seconds[kind == ForestKind::Lines ? 1 : 0];
-      if (static_cast<int>(times.size()) <= tree) times.resize(tree + 1);
-      times[tree] = seconds;
-    };
-    trainForestsReleasingDepth(images, params, model.points, model.lines, progress);
-  }
+  TrainingSummary provenance;
+  provenance.dataset = dataset_path;
+  provenance.format = data.formatDescription();
+  // A bag's frames are chosen by poses and key-frame selection too: record the ids used.
+  provenance.frames = source_options.bag.empty() ? source_options.frames : data.usedIds();
+  provenance.threads = thread_count;
+  BuildTimes times;
+  const Expected<Model> built = buildShowingProgress(builder, std::move(provenance), times);
+  if (!built) return cli::fail(app, built.error());
+  const Model& model = *built;
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-
-  TrainingSummary& summary = model.summary;
-  summary.dataset = dataset_path;
-  summary.format = data.formatDescription();
-  // A bag's frames are chosen by poses and key-frame selection too: record the ids used.
-  summary.frames = source_options.bag.empty() ? source_options.frames : data.usedIds();
-  summarizeTrainingImages(images, summary);
-  summary.seconds = seconds;
-  summary.threads = thread_count;
-  // The images are the bulk of training's memory; serialising needs about the
-  // model's size again.
-  images = {};
   if (const Status saved = saveModel(model, output); !saved) return cli::fail(app, saved.error(), 1);
   const auto bytes = std::filesystem::file_size(output);
 
-  std::printf("trained on %d images with %d threads in %.1f s (seed %llu)\n", summary.images,
+  std::printf("trained on %d images with %d threads in %.1f s (seed %llu)\n", model.summary.images,
               thread_count, seconds, static_cast<unsigned long long>(params.seed));
-  for (const auto* f : {&model.points, &model.lines}) {
-    if (f->empty()) continue;
-    int depth = 0;
-    for (const Tree& t : f->trees) depth = std::max(depth, t.depth());
-    const auto& times = tree_seconds[f == &model.points ? 0 : 1];
-    std::string per_tree;
-    for (double t : times) per_tree += (per_tree.empty() ? "" : ", ") + std::to_string(static_cast<int>(std::lround(t))) + " s";
-    std::printf("  %-6s %zu trees, %zu nodes, %zu leaves, %zu modes, max depth %d; per tree %s\n",
-                f == &model.points ? "points" : "lines", f->trees.size(), f->nodeCount(),
-                f->leafCount(), f->modeCount(), depth, per_tree.c_str());
-  }
-  if (params.build_surface)
-    std::printf("  surface %zu elements of %.0f mm (%.1f MB), fused in %.1f s\n",
-                model.surface.elements().size(), 1000.0 * model.surface.voxelSize(),
-                model.surface.elements().size() * sizeof(SurfaceElement) / 1e6, surface_seconds);
-  else
-    std::printf("  no surface (surface.enabled: false): poses will not be checked against the scene\n");
+  printModel(model, times);
   std::printf("wrote %s (%.1f MB)\n", output.c_str(), bytes / 1e6);
   return 0;
 }

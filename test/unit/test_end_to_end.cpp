@@ -5,7 +5,7 @@
 
 #include "relocalizer/core/statistics.h"
 #include "relocalizer/eval/metrics.h"
-#include "relocalizer/forest/training.h"
+#include "relocalizer/forest/model_builder.h"
 #include "relocalizer/pose/relocalizer.h"
 #include "relocalizer/sim/synthetic_scene.h"
 
@@ -22,22 +22,21 @@ class SyntheticRoomRelocalization : public ::testing::Test {
     const SyntheticRoom room(7);
     const CameraIntrinsics camera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
     const SyntheticTrajectories paths = room.trajectories(80, 30);
-    std::vector<TrainingImage> images;
-    for (size_t i = 0; i < paths.train.size(); ++i)
-      appendTrainingImage(room.render(paths.train[i], camera, static_cast<int>(i)), images);
-    for (size_t i = 0; i < paths.test.size(); ++i)
-      test_frames_.push_back(room.render(paths.test[i], camera, static_cast<int>(80 + i)));
-
     TrainingParams params;
     for (ForestParams* f : {&params.points, &params.lines}) {
       f->trees = 3;
       f->max_depth = 16;
       f->samples_per_image = 1000;
     }
-    Model model;
-    model.params = params;
-    trainForests(images, params, model.points, model.lines);
-    model.surface = buildSurface(images, params.surface);
+    ModelBuilder builder(params);
+    for (size_t i = 0; i < paths.train.size(); ++i)
+      builder.add(room.render(paths.train[i], camera, static_cast<int>(i)));
+    for (size_t i = 0; i < paths.test.size(); ++i)
+      test_frames_.push_back(room.render(paths.test[i], camera, static_cast<int>(80 + i)));
+
+    auto built = builder.build({});
+    ASSERT_TRUE(built.ok()) << built.error();
+    Model model = std::move(*built);
     RelocalizerParams reloc;
     reloc.point_samples = 1000;
     reloc.line_samples = 500;

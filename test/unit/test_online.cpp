@@ -20,6 +20,8 @@
 
 #include "relocalizer/core/byte_io.h"
 #include "relocalizer/eval/metrics.h"
+#include "relocalizer/forest/model_builder.h"
+#include "relocalizer/online/key_frame_feed.h"
 #include "relocalizer/online/online_learner.h"
 #include "relocalizer/sim/synthetic_scene.h"
 #include "support.h"
@@ -185,6 +187,136 @@ TEST_F(OnlineRoom, ParametersAreCheckedByName) {
   EXPECT_NE(learningParamsError(p).find("retrain_growth"), std::string::npos);
   EXPECT_THROW(OnlineLearner(p, fastRelocalizer(), OnlineLearner::Mode::Inline), std::invalid_argument);
   EXPECT_EQ(learningParamsError(smallLearning()), "");
+}
+
+TEST(KeyFrameRule, MinMotionParsesAndFormatsBack) {
+  auto both = parseMinMotion("0.05,5");
+  ASSERT_TRUE(both.ok()) << both.error();
+  EXPECT_EQ(both->metres, 0.05);
+  EXPECT_EQ(both->degrees, 5.0);
+  EXPECT_EQ(formatMinMotion(KeyFrameMotion{}), "0.05,5");
+  auto metres_only = parseMinMotion(" 0.1 ");
+  ASSERT_TRUE(metres_only.ok()) << metres_only.error();
+  EXPECT_EQ(metres_only->degrees, 0.0);
+  EXPECT_FALSE(parseMinMotion("0")->active());
+  for (const char* bad : {"", ",", "0.05,", "far", "0.05,5,1", "-1", "nan", "0.05x"})
+    EXPECT_FALSE(parseMinMotion(bad).ok()) << bad;
+}
+
+TEST(KeyFrameRule, KeepsAFrameThatMovedOrTurnedFromTheLastKeptOne) {
+  const auto at = [](double x, double yaw_degrees) {
+    Pose pose = Pose::Identity();
+    pose.linear() = Eigen::AngleAxisd(yaw_degrees * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    pose.translation() = Eigen::Vector3d(x, 0, 0);
+    return pose;
+  };
+  KeyFrameSelector selector(KeyFrameMotion{0.05, 5.0});
+  EXPECT_TRUE(selector.keep(at(0, 0)));      // the first
+  EXPECT_FALSE(selector.keep(at(0.03, 0)));
+  EXPECT_TRUE(selector.keep(at(0.05, 0)));   // 5 cm from the first
+  EXPECT_FALSE(selector.keep(at(0.09, 0)));  // 4 cm from the last kept one
+  EXPECT_TRUE(selector.keep(at(0.05, 6)));   // turned
+  KeyFrameSelector every(KeyFrameMotion{0, 0});
+  EXPECT_TRUE(every.keep(at(0, 0)));
+  EXPECT_TRUE(every.keep(at(0, 0)));
+  // The store's distance is in default steps, whatever the rule keeps.
+  EXPECT_NEAR(keyFrameDistance(at(0, 0), at(0.1, 10)), 4.0, 1e-9);
+}
+
+TEST(LearningParams, ReadOnceAndCheckedByName) {
+  auto read = readLearningParams(LearningParams{}, "0.1,10", "");
+  ASSERT_TRUE(read.ok()) << read.error();
+  EXPECT_EQ(read->min_motion.metres, 0.1);
+  EXPECT_EQ(read->min_motion.degrees, 10.0);
+  EXPECT_NE(readLearningParams(LearningParams{}, "far", "").error().find("min_motion"), std::string::npos);
+  EXPECT_NE(readLearningParams(LearningParams{}, "0.05,5", "/nonexistent.yaml").error().find("config"),
+            std::string::npos);
+  LearningParams few;
+  few.max_keyframes = 1;
+  EXPECT_NE(readLearningParams(few, "0.05,5", "").error().find("max_keyframes"), std::string::npos);
+}
+
+TEST(LearningParams, LearnedModelsAnswerWithTheirTwoOverrides) {
+  RelocalizerParams offline;
+  offline.max_leaves = 4;
+  offline.surface.min_agreement = 0.5f;
+  LearningParams learning;
+  RelocalizerParams learned = learnedModelParams(learning, offline);
+  EXPECT_EQ(learned.max_leaves, learning.min_backtracking_leaves);
+  EXPECT_EQ(learned.surface.min_agreement, 0.0f);
+  learning.surface_gate = true;
+  EXPECT_EQ(learnedModelParams(learning, offline).surface.min_agreement, 0.5f);
+}
+
+// The builder fuses the surface before the forests release depth; the model
+// is the one each part gives alone, so the order changes no byte.
+TEST_F(OnlineRoom, ModelBuilderGivesTheForestsAndSurfaceOfTheirOwnTraining) {
+  const TrainingParams params = smallLearning().training;
+  std::vector<TrainingImage> images;
+  ModelBuilder builder(params);
+  for (const RgbdFrame& frame : learn_) {
+    ASSERT_TRUE(appendTrainingImage(frame, images));
+    ASSERT_TRUE(builder.add(frame));
+  }
+  RgbdFrame unposed = learn_.front();
+  unposed.ground_truth.reset();
+  EXPECT_FALSE(builder.add(unposed));
+  TrainingSummary provenance;
+  provenance.dataset = "room";
+  provenance.threads = 3;
+  int surfaces = 0;
+  ModelBuildProgress progress;
+  progress.surface_built = [&](double) { ++surfaces; };
+  auto built = builder.build(provenance, progress);
+  ASSERT_TRUE(built.ok()) << built.error();
+  EXPECT_EQ(builder.size(), 0u);  // consumed
+  EXPECT_EQ(surfaces, 1);
+  EXPECT_EQ(built->summary.dataset, "room");
+  EXPECT_EQ(built->summary.threads, 3);
+  EXPECT_EQ(built->summary.images, static_cast<int>(learn_.size()));
+
+  Model apart;
+  apart.params = params;
+  apart.summary = built->summary;
+  apart.points = trainForest(images, ForestKind::Points, params);
+  apart.lines = trainForest(images, ForestKind::Lines, params);
+  apart.surface = buildSurface(images, params.surface);
+  EXPECT_TRUE(serializeModel(*built) == serializeModel(apart));
+  EXPECT_FALSE(ModelBuilder(params).build({}).ok());  // no images
+}
+
+// One feed for the node and the tools: the pose is checked before the rule,
+// only key frames are loaded, and a frame that fails to load says why.
+TEST_F(OnlineRoom, KeyFrameFeedLoadsAndLearnsOnlyKeyFrames) {
+  LearningParams p = smallLearning();
+  KeyFrameFeed feed(p, fastRelocalizer(), OnlineLearner::Mode::Inline);
+  using Outcome = KeyFrameFeed::Result::Outcome;
+  int loads = 0;
+  const auto load = [&](const RgbdFrame& frame) {
+    return [&loads, &frame]() -> Expected<RgbdFrame> {
+      ++loads;
+      return frame;
+    };
+  };
+  const RgbdFrame& first = learn_[0];
+  EXPECT_EQ(feed.offer(std::nullopt, load(first)).outcome, Outcome::Untracked);
+  Pose far = *first.ground_truth;
+  far.translation().x() = 1e6;
+  const KeyFrameFeed::Result bad = feed.offer(far, load(first));
+  EXPECT_EQ(bad.outcome, Outcome::Untracked);
+  EXPECT_NE(bad.why.find("map origin"), std::string::npos);
+  EXPECT_EQ(loads, 0);
+  EXPECT_EQ(feed.offer(*first.ground_truth, load(first)).outcome, Outcome::Learned);
+  EXPECT_EQ(feed.offer(*first.ground_truth, load(first)).outcome, Outcome::NotKeyFrame);
+  EXPECT_EQ(loads, 1);
+  const KeyFrameFeed::Result failed =
+      feed.offer(*learn_[1].ground_truth, [] () -> Expected<RgbdFrame> { return makeError("unreadable"); });
+  EXPECT_EQ(failed.outcome, Outcome::Failed);
+  EXPECT_EQ(failed.why, "unreadable");
+  EXPECT_EQ(feed.offer(*learn_[2].ground_truth, load(learn_[2])).outcome, Outcome::Learned);
+  EXPECT_EQ(feed.learner().status().keyframes_added, 2);
+  ASSERT_TRUE(feed.learner().drain().ok());
+  EXPECT_TRUE(feed.learner().current());
 }
 
 // From nothing: no model until a retrain, then one that relocalizes frames of

@@ -10,7 +10,7 @@
 
 #include "relocalizer/data/dataset.h"
 #include "relocalizer/eval/metrics.h"
-#include "relocalizer/forest/training.h"
+#include "relocalizer/forest/model_builder.h"
 #include "relocalizer/pose/relocalizer.h"
 #include "support.h"
 
@@ -27,13 +27,6 @@ TEST(RealData, ReducedRedkitchenDevProtocolStaysAboveItsFloor) {
     auto frame = (*train_set)->load(i);
     if (frame) loaded[i] = std::move(*frame);
   });
-  std::vector<TrainingImage> images;
-  for (auto& frame : loaded) {
-    ASSERT_TRUE(frame.has_value());
-    ASSERT_TRUE(appendTrainingImage(*frame, images));
-  }
-  ASSERT_EQ(images.size(), 300u);
-
   TrainingParams params;
   for (ForestParams* f : {&params.points, &params.lines}) {
     f->trees = 3;
@@ -41,12 +34,16 @@ TEST(RealData, ReducedRedkitchenDevProtocolStaysAboveItsFloor) {
     f->images_per_tree = 150;
     f->samples_per_image = 1000;
   }
-  Model model;
-  model.params = params;
-  trainForests(images, params, model.points, model.lines);
-  model.surface = buildSurface(images, params.surface);
-  images.clear();
-  const Relocalizer relocalizer(std::move(model));
+  ModelBuilder builder(params);
+  for (auto& frame : loaded) {
+    ASSERT_TRUE(frame.has_value());
+    ASSERT_TRUE(builder.add(*frame));
+  }
+  loaded.clear();
+  ASSERT_EQ(builder.size(), 300u);
+  auto model = builder.build({});
+  ASSERT_TRUE(model.ok()) << model.error();
+  const Relocalizer relocalizer(std::move(*model));
 
   std::string frames;
   for (int i = 100; i < 400; i += 4)

@@ -143,13 +143,10 @@ SurfaceModel buildSurface(const std::vector<TrainingImage>& images, const Surfac
 
 // Grows the point and line forests (those enabled in `params`): every tree's
 // samples first, then all trees of both forests in parallel, largest first.
-void trainForests(const std::vector<TrainingImage>& images, const TrainingParams& params,
-                  Forest& points, Forest& lines, const TrainingProgress& progress = {});
-
-// The same forests, for a caller done with the images' depth: unless a forest
-// uses depth features, each image's depth is released as soon as every tree
-// has drawn its samples from it (samples keep their own depth), so training
-// holds colour only, 0.9 instead of 2.1 MB per VGA frame.
+// Unless a forest uses depth features, each image's depth is released as soon
+// as every tree has drawn its samples from it (samples keep their own depth),
+// so training holds colour only, 0.9 instead of 2.1 MB per VGA frame; the
+// model builder (model_builder.h) fuses the surface first.
 void trainForestsReleasingDepth(std::vector<TrainingImage>& images, const TrainingParams& params,
                                 Forest& points, Forest& lines, const TrainingProgress& progress = {});
 

@@ -6,8 +6,9 @@
 // Colour is kept as JPEG (quality 95 loses nothing measurable for training,
 // docs/online_learning.md) and depth as 16-bit PNG millimetres: about 185 KB a
 // Kinect frame instead of 2.1 MB raw. When the store is full, the key frame
-// most redundant by pose goes: the older of the two closest key frames, so the
-// place keeps its coverage and a changed place is refreshed.
+// most redundant by pose (keyFrameDistance, key_frame_rule.h) goes: the older
+// of the two closest key frames, so the place keeps its coverage and a changed
+// place is refreshed.
 
 #include <cstdint>
 #include <memory>
@@ -38,10 +39,6 @@ Expected<StoredKeyFrame> compressKeyFrame(const RgbdFrame& frame, const Pose& ca
                                           int jpeg_quality = 95);
 // Back to a training image (colour BGR8, depth float metres with NaN).
 Expected<TrainingImage> decompressKeyFrame(const StoredKeyFrame& key_frame);
-
-// Distance in "motion rule units": metres / 0.05 + degrees / 5, so one unit is
-// the key-frame motion rule's step.
-double keyFrameDistance(const Pose& a, const Pose& b);
 
 class KeyFrameStore {
  public:

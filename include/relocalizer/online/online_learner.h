@@ -21,6 +21,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -29,12 +30,14 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/key_frame_rule.h"
 #include "relocalizer/online/keyframe_store.h"
 #include "relocalizer/pose/relocalizer.h"
 
 namespace relocalizer {
 
 struct LearningParams {
+  KeyFrameMotion min_motion;    // the key-frame rule (key_frame_rule.h) of the feed
   int max_keyframes = 64;       // the store's cap; the oldest of the closest pair goes when full
   int first_retrain = 2;        // key frames before the first model
   double retrain_growth = 0.25; // retrain when the store has this many more key frames (share)
@@ -66,8 +69,27 @@ struct LearningParams {
   TrainingParams training;      // both forests and the surface, as `train` uses them
 };
 
-// Empty when usable, otherwise what is wrong, naming the parameter.
-std::string learningParamsError(const LearningParams& params);
+// How a reader names a learning setting to its user, from its field name
+// ("max_keyframes"): the node says 'learn_max_keyframes' with its namespace,
+// the tools their option. Unset: the field name.
+using SettingName = std::function<std::string(const std::string& field)>;
+
+// Empty when usable, otherwise what is wrong, naming the setting.
+std::string learningParamsError(const LearningParams& params, const SettingName& name = {});
+
+// The one reader of the learning settings given as text (the node's
+// learn_min_motion and learn_config, the tools' options): `params` with the
+// key-frame motion parsed, the training YAML (as `train --config`; empty:
+// config/forest.yaml defaults) loaded, and every field checked by
+// learningParamsError. Errors name the setting (fields min_motion, config).
+Expected<LearningParams> readLearningParams(LearningParams params, const std::string& min_motion,
+                                            const std::string& training_config, const SettingName& name = {});
+
+// The relocalizer parameters a learned model answers with: `params` with two
+// overrides a model of a few key frames needs (surface_gate and
+// min_backtracking_leaves above say why). The learner applies them to every
+// model it serves.
+RelocalizerParams learnedModelParams(const LearningParams& learning, RelocalizerParams params);
 
 // Farthest a SLAM camera pose may be from the map origin to be learned from.
 // Leaf modes store world coordinates as float, whose spacing reaches 1 mm at
@@ -99,6 +121,8 @@ class OnlineLearner {
  public:
   enum class Mode { Background, Inline };
 
+  // Every model served answers with learnedModelParams(params, relocalizer_params).
+  // Throws std::invalid_argument when learningParamsError(params) says why.
   OnlineLearner(LearningParams params, RelocalizerParams relocalizer_params, Mode mode);
   ~OnlineLearner();
   OnlineLearner(const OnlineLearner&) = delete;

@@ -1,16 +1,13 @@
-#include "key_frames.h"
+#include "relocalizer/online/key_frame_rule.h"
 
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <vector>
 
-#include "relocalizer/core/pose.h"
+namespace relocalizer {
 
-namespace relocalizer_ros {
-
-using relocalizer::makeError;
-
-relocalizer::Expected<std::pair<double, double>> parseMinMotion(const std::string& text) {
+Expected<KeyFrameMotion> parseMinMotion(const std::string& text) {
   const auto bad = [&](const std::string& why) {
     return makeError("bad --min-motion '" + text + "': " + why +
                      " (expected METRES,DEGREES such as 0.05,5; 0 turns selection off)");
@@ -35,19 +32,28 @@ relocalizer::Expected<std::pair<double, double>> parseMinMotion(const std::strin
     values.push_back(value);
   }
   if (values.empty() || values.size() > 2) return bad("expected one or two numbers");
-  return std::pair<double, double>(values[0], values.size() > 1 ? values[1] : 0.0);
+  return KeyFrameMotion{values[0], values.size() > 1 ? values[1] : 0.0};
 }
 
-bool KeyFrameSelector::keep(const relocalizer::Pose& pose) {
+std::string formatMinMotion(const KeyFrameMotion& motion) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%g,%g", motion.metres, motion.degrees);
+  return text;
+}
+
+double keyFrameDistance(const Pose& a, const Pose& b) {
+  const KeyFrameMotion step;
+  return translationError(a, b) / step.metres + rotationErrorDegrees(a, b) / step.degrees;
+}
+
+bool KeyFrameSelector::keep(const Pose& pose) {
   if (active() && last_) {
-    const bool moved =
-        min_translation_ > 0 && relocalizer::translationError(pose, *last_) >= min_translation_;
-    const bool turned = min_rotation_degrees_ > 0 &&
-                        relocalizer::rotationErrorDegrees(pose, *last_) >= min_rotation_degrees_;
+    const bool moved = motion_.metres > 0 && translationError(pose, *last_) >= motion_.metres;
+    const bool turned = motion_.degrees > 0 && rotationErrorDegrees(pose, *last_) >= motion_.degrees;
     if (!moved && !turned) return false;
   }
   last_ = pose;
   return true;
 }
 
-}  // namespace relocalizer_ros
+}  // namespace relocalizer

@@ -1,0 +1,56 @@
+#pragma once
+// The learning loop's step, written once for the node, `evaluate
+// --learn-frames` and `learn_benchmark`: a frame as SLAM posed it, in order,
+// goes through the key-frame rule (key_frame_rule.h); a key frame is loaded
+// and handed to the learner (online_learner.h), whose store keeps it and whose
+// worker retrains on it. A pose SLAM could not give, or gave unusable
+// (slamPoseError), is checked before the rule, which would otherwise measure
+// later frames against it.
+
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/core/pose.h"
+#include "relocalizer/online/key_frame_rule.h"
+#include "relocalizer/online/online_learner.h"
+
+namespace relocalizer {
+
+class KeyFrameFeed {
+ public:
+  // The learner's parameters and mode (online_learner.h); the rule is
+  // params.min_motion.
+  KeyFrameFeed(LearningParams params, RelocalizerParams relocalizer_params, OnlineLearner::Mode mode);
+
+  struct Result {
+    enum class Outcome {
+      Untracked,    // no pose, or an unusable one (`why`): not learned from
+      NotKeyFrame,  // too close to the last key frame
+      Learned,      // stored; the learner retrains when due
+      Failed,       // a key frame that could not be loaded or stored (`why`)
+    };
+    Outcome outcome = Outcome::NotKeyFrame;
+    std::string why;
+    double store_seconds = 0.0;  // Learned: compressing and storing, on the caller's thread
+  };
+
+  // The next frame with SLAM's camera-to-world pose (nullopt: SLAM lost
+  // track). `load` is called only for a key frame (loading or converting a
+  // frame costs more than the rule).
+  Result offer(const std::optional<Pose>& camera_to_world,
+               const std::function<Expected<RgbdFrame>()>& load);
+
+  OnlineLearner& learner() { return learner_; }
+  const OnlineLearner& learner() const { return learner_; }
+  const KeyFrameMotion& motion() const { return motion_; }
+
+ private:
+  KeyFrameMotion motion_;
+  KeyFrameSelector selector_;
+  OnlineLearner learner_;
+};
+
+}  // namespace relocalizer
