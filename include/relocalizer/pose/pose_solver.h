@@ -67,6 +67,10 @@ struct PoseSolution {
   int samples = 0;
   float score = 0.0f;  // inlier share of all samples
   int valid_hypotheses = 0;
+  // LM solves whose Ceres summary was unusable (each kept the pose it started
+  // from), and Ceres' reason for the last one in the final refinement.
+  int failed_refinements = 0;
+  std::string refinement_failure;
   double ransac_seconds = 0.0;
   double refinement_seconds = 0.0;
 };
