@@ -1,6 +1,7 @@
 #include "relocalizer/pose/pose_solver.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <limits>
@@ -216,6 +217,9 @@ class PreemptiveRounds {
     std::shuffle(order_.begin(), order_.end(), rng);
   }
 
+  // LM solves so far that Ceres called unusable.
+  int failedRefinements() const { return failed_refinements_; }
+
   // The winner; `lm_seconds` receives the time spent in LM refinement.
   Pose run(std::vector<Hypothesis>& hypotheses, double& lm_seconds) {
     lm_seconds = 0.0;
@@ -277,17 +281,24 @@ class PreemptiveRounds {
     });
   }
 
-  // Few left: Levenberg-Marquardt on this round's inliers, in parallel.
+  // Few left: Levenberg-Marquardt on this round's inliers, in parallel. A
+  // hypothesis whose solve fails keeps its pose.
   void refineByLm(std::vector<Hypothesis>& hypotheses) {
     seen_.clear();
     for (const BatchEntry& e : batch_) seen_.push_back(all_[e.sample]);
+    std::atomic<int> failed{0};
     tbb::parallel_for(size_t{0}, hypotheses.size(), [&](size_t h) {
       Hypothesis& hyp = hypotheses[h];
       std::vector<RefinementTerm> terms;
       collectTerms(seen_, hyp.pose, params_, terms, nullptr, nullptr);
-      if (terms.size() >= 3)
-        hyp.setPose(refinePose(hyp.pose, terms, params_, nullptr, params_.lm_loop_iterations));
+      if (terms.size() < 3) return;
+      const Refinement refined = refinePose(hyp.pose, terms, params_, params_.lm_loop_iterations);
+      if (refined.solved)
+        hyp.setPose(refined.pose);
+      else
+        ++failed;
     });
+    failed_refinements_ += failed;
   }
 
   const std::vector<const SolverSample*>& all_;
@@ -297,10 +308,12 @@ class PreemptiveRounds {
   std::vector<BatchEntry> batch_;
   std::vector<BatchMode> batch_modes_;
   std::vector<const SolverSample*> seen_;
+  int failed_refinements_ = 0;
 };
 
 // The winner refined on all samples: two LM passes (its inlier set grows as
-// it improves), then its inlier counts and covariance.
+// it improves), then its inlier counts and covariance at the pose it answers
+// with. A failed pass keeps the pose it started from.
 void refineOnAllSamples(const std::vector<const SolverSample*>& all, const Pose& winner,
                         const PoseSolverParams& params, PoseSolution& solution) {
   std::vector<RefinementTerm> terms;
@@ -308,10 +321,15 @@ void refineOnAllSamples(const std::vector<const SolverSample*>& all, const Pose&
   for (int pass = 0; pass < 2; ++pass) {
     collectTerms(all, pose, params, terms, nullptr, nullptr);
     if (terms.size() < 3) break;
-    pose = refinePose(pose, terms, params);
+    const Refinement refined = refinePose(pose, terms, params);
+    pose = refined.pose;
+    if (!refined.solved) {
+      ++solution.failed_refinements;
+      solution.refinement_failure = refined.message;
+    }
   }
   collectTerms(all, pose, params, terms, &solution.point_inliers, &solution.line_inliers);
-  if (terms.size() >= 3) refinePose(pose, terms, params, &solution.covariance);
+  solution.covariance = refinementCovariance(pose, terms, params);
   solution.pose = pose;
 }
 
@@ -358,7 +376,9 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
   }
 
   double lm_seconds = 0.0;
-  const Pose winner = PreemptiveRounds(all, params, rng).run(hypotheses, lm_seconds);
+  PreemptiveRounds rounds(all, params, rng);
+  const Pose winner = rounds.run(hypotheses, lm_seconds);
+  solution.failed_refinements = rounds.failedRefinements();
   solution.ransac_seconds = secondsSince(ransac_start) - lm_seconds;
 
   const auto refine_start = Clock::now();

@@ -1,10 +1,15 @@
 #include <gtest/gtest.h>
 
+#include <ceres/autodiff_cost_function.h>
+
+#include <Eigen/Cholesky>
+#include <limits>
 #include <random>
 
 #include "relocalizer/core/rigid_alignment.h"
 #include "relocalizer/pose/pose_solver.h"
 #include "relocalizer/pose/refinement.h"
+#include "relocalizer/pose/refinement_costs.h"
 
 using namespace relocalizer;
 
@@ -79,14 +84,77 @@ TEST(Kabsch, RejectsCollinearPoints) {
   EXPECT_FALSE(kabsch(camera.data(), camera.data(), 3, found));
 }
 
+namespace {
+
+// A cost function's residual (and, if asked, Jacobian) at perturbation `delta` of `base`.
+Eigen::Vector3d evaluateCost(const ceres::CostFunction& cost, const double* delta,
+                             Eigen::Matrix<double, 3, 6, Eigen::RowMajor>* jacobian = nullptr) {
+  Eigen::Vector3d residual;
+  const double* parameters[1] = {delta};
+  double* blocks[1] = {jacobian ? jacobian->data() : nullptr};
+  EXPECT_TRUE(cost.Evaluate(parameters, residual.data(), jacobian ? blocks : nullptr));
+  return residual;
+}
+
+const double kZero[6] = {0, 0, 0, 0, 0, 0};
+
+// The autodiff references of the two energies, written straight from their
+// definitions (refinement_costs.h) in dual numbers: the hand-derived Jacobians
+// are checked against them. `Energy::error` is the unwhitened world-frame
+// error at the perturbed pose (r, t).
+template <typename Energy>
+struct Reference {
+  Reference(const RefinementTerm& term, const Pose& base)
+      : term(term), r0(base.linear()), t0(base.translation()),
+        s(term.information.llt().matrixL().transpose()) {}
+  template <typename T>
+  bool operator()(const T* delta, T* residual) const {
+    Eigen::Matrix<T, 3, 3> r;
+    Eigen::Matrix<T, 3, 1> t;
+    perturbedPose(delta, r0, t0, r, t);
+    Eigen::Map<Eigen::Matrix<T, 3, 1>> out(residual);
+    out = s.cast<T>() * Energy::error(term, r, t);
+    return true;
+  }
+  RefinementTerm term;
+  Eigen::Matrix3d r0;
+  Eigen::Vector3d t0;
+  Eigen::Matrix3d s;  // S^T S = information
+};
+
+struct PointToPointEnergy {
+  template <typename T>
+  static Eigen::Matrix<T, 3, 1> error(const RefinementTerm& term, const Eigen::Matrix<T, 3, 3>& r,
+                                      const Eigen::Matrix<T, 3, 1>& t) {
+    return r * term.camera_point.cast<T>() + t - term.mode_mean.cast<T>();
+  }
+};
+
+// E_l in the camera frame: the offset of the mode from the line, rotated back
+// to the world to be whitened by the world-frame covariance.
+struct PointOnLineEnergy {
+  template <typename T>
+  static Eigen::Matrix<T, 3, 1> error(const RefinementTerm& term, const Eigen::Matrix<T, 3, 3>& r,
+                                      const Eigen::Matrix<T, 3, 1>& t) {
+    const Eigen::Matrix<T, 3, 1> offset =
+        r.transpose() * (term.mode_mean.cast<T>() - t) - term.line_point.cast<T>();
+    const Eigen::Matrix<T, 3, 1> d = term.line_direction.cast<T>();
+    return r * (offset - d * d.dot(offset));
+  }
+};
+
+}  // namespace
+
 TEST(Residuals, PointToPointMatchesHandComputedMahalanobis) {
   const Pose pose = makePose(90, {0, 0, 1}, {1, 0, 0});  // x -> y, then +1 in x
   RefinementTerm term;
   term.camera_point = {1, 0, 0};      // world: (1, 1, 0)
   term.mode_mean = {1, 1.2, 0.3};     // difference (0, -0.2, -0.3)
   term.information = Eigen::Vector3d(1.0 / 0.01, 1.0 / 0.04, 1.0 / 0.09).asDiagonal();
-  const Eigen::Vector3d r = pointResidual(pose, term);
-  // (0.2/0.2)^2 + (0.3/0.3)^2 = 2
+  SharedPerturbation at(pose);
+  const Eigen::Vector3d r = evaluateCost(PointToPointCost(term, at), kZero);
+  // Each difference over its sigma (0.1, 0.2, 0.3): (0, -1, -1), squared norm 2.
+  EXPECT_LT((r - Eigen::Vector3d(0, -1, -1)).cwiseAbs().maxCoeff(), 1e-9) << r.transpose();
   EXPECT_NEAR(r.squaredNorm(), 2.0, 1e-9);
 }
 
@@ -95,17 +163,28 @@ TEST(Residuals, PointOnLineMatchesHandComputedDistance) {
   RefinementTerm term;
   term.on_line = true;
   term.line_point = {0, 0, 2};
-  term.line_direction = {0, 1, 0};  // camera y axis through (0, 0, 2)
+  term.line_direction = {0, 1, 0};  // camera y axis through (0, 0, 2): world -x through (0, 0, 2)
   // World (0, 0.1, 2.5) is camera (0.1, 0, 2.5): 0.1 off the line in x, 0.5 in z.
   term.mode_mean = {0, 0.1, 2.5};
   // World-frame covariance: sigma 0.05 along world y (= camera x), 0.25 along z.
   term.information = Eigen::Vector3d(1.0, 1.0 / 0.0025, 1.0 / 0.0625).asDiagonal();
-  const Eigen::Vector3d r = lineResidual(pose, term);
-  // (0.1 / 0.05)^2 + (0.5 / 0.25)^2 = 8: the covariance is rotated into the camera frame.
-  EXPECT_NEAR(r.squaredNorm(), 8.0, 1e-9);
+  SharedPerturbation at(pose);
+  const PointOnLineCost cost(term, at);
+  const Eigen::Vector3d r = evaluateCost(cost, kZero);
+  // The world offset (0, 0.1, 0.5) over the world sigmas: (0, 2, 2), squared
+  // norm 8: the covariance is rotated into the camera frame.
+  EXPECT_LT((r - Eigen::Vector3d(0, 2, 2)).cwiseAbs().maxCoeff(), 1e-9) << r.transpose();
   // Moving along the line changes nothing.
   term.mode_mean = {-0.7, 0.1, 2.5};
-  EXPECT_NEAR(lineResidual(pose, term).squaredNorm(), 8.0, 1e-9);
+  EXPECT_NEAR(evaluateCost(PointOnLineCost(term, at), kZero).squaredNorm(), 8.0, 1e-9);
+}
+
+TEST(Residuals, EachTermGetsTheCostOfItsKind) {
+  RefinementTerm term;
+  SharedPerturbation at(Pose::Identity());
+  EXPECT_NE(dynamic_cast<PointToPointCost*>(makeTermCost(term, at).get()), nullptr);
+  term.on_line = true;
+  EXPECT_NE(dynamic_cast<PointOnLineCost*>(makeTermCost(term, at).get()), nullptr);
 }
 
 TEST(Residuals, HandDerivedJacobiansMatchAutodiff) {
@@ -125,17 +204,28 @@ TEST(Residuals, HandDerivedJacobiansMatchAutodiff) {
     // Away from zero too: LM evaluates at accumulated perturbations.
     const double delta[6] = {0.1 * u(rng), 0.1 * u(rng), 0.1 * u(rng),
                              0.3 * u(rng), 0.3 * u(rng), 0.3 * u(rng)};
-    const ResidualJacobians j = residualJacobians(base, term, delta);
-    EXPECT_LT(j.residual_difference, 1e-9);
-    EXPECT_LT((j.analytic - j.autodiff).cwiseAbs().maxCoeff(), 1e-8 * (1 + j.autodiff.cwiseAbs().maxCoeff()))
+    SharedPerturbation at(base);
+    Eigen::Matrix<double, 3, 6, Eigen::RowMajor> analytic, autodiff;
+    const Eigen::Vector3d residual = evaluateCost(*makeTermCost(term, at), delta, &analytic);
+    Eigen::Vector3d reference;
+    using PointReference = Reference<PointToPointEnergy>;
+    using LineReference = Reference<PointOnLineEnergy>;
+    if (term.on_line)
+      reference = evaluateCost(
+          ceres::AutoDiffCostFunction<LineReference, 3, 6>(new LineReference(term, base)), delta,
+          &autodiff);
+    else
+      reference = evaluateCost(
+          ceres::AutoDiffCostFunction<PointReference, 3, 6>(new PointReference(term, base)), delta,
+          &autodiff);
+    EXPECT_LT((residual - reference).norm(), 1e-9);
+    EXPECT_LT((analytic - autodiff).cwiseAbs().maxCoeff(), 1e-8 * (1 + autodiff.cwiseAbs().maxCoeff()))
         << (term.on_line ? "line" : "point") << " term, trial " << trial << "\n"
-        << j.analytic << "\nvs\n" << j.autodiff;
+        << analytic << "\nvs\n" << autodiff;
   }
 }
 
-TEST(Refinement, LowersTheErrorFromAPerturbedStart) {
-  const Pose truth = makePose(25, {1, 2, 3}, {0.4, 1.1, -0.3});
-  Scenario s(truth, 400, 0.0, 1, 9);
+std::vector<RefinementTerm> pointTerms(const Scenario& s) {
   std::vector<RefinementTerm> terms;
   for (const auto& sample : s.points) {
     RefinementTerm t;
@@ -144,17 +234,46 @@ TEST(Refinement, LowersTheErrorFromAPerturbedStart) {
     t.information = sample.prediction->candidates[0].mode->informationMatrix().cast<double>();
     terms.push_back(t);
   }
+  return terms;
+}
+
+TEST(Refinement, LowersTheErrorFromAPerturbedStart) {
+  const Pose truth = makePose(25, {1, 2, 3}, {0.4, 1.1, -0.3});
+  Scenario s(truth, 400, 0.0, 1, 9);
+  const std::vector<RefinementTerm> terms = pointTerms(s);
   const Pose start = truth * makePose(3, {0, 1, 0}, {0.04, -0.03, 0.02});
   const double before = translationError(start, truth);
-  Matrix6d covariance;
-  const Pose refined = refinePose(start, terms, PoseSolverParams{}, &covariance);
-  EXPECT_LT(translationError(refined, truth), 0.1 * before);
-  EXPECT_LT(translationError(refined, truth), 0.003);
-  EXPECT_LT(rotationErrorDegrees(refined, truth), 0.1);
+  const Refinement refined = refinePose(start, terms, PoseSolverParams{});
+  ASSERT_TRUE(refined.solved) << refined.message;
+  EXPECT_GT(refined.iterations, 0);
+  EXPECT_LT(translationError(refined.pose, truth), 0.1 * before);
+  EXPECT_LT(translationError(refined.pose, truth), 0.003);
+  EXPECT_LT(rotationErrorDegrees(refined.pose, truth), 0.1);
   // Covariance: symmetric, positive, small for 400 good terms.
+  const Matrix6d covariance = refinementCovariance(refined.pose, terms, PoseSolverParams{});
   EXPECT_LT((covariance - covariance.transpose()).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_GT(covariance.diagonal().minCoeff(), 0.0);
   EXPECT_LT(std::sqrt(covariance(0, 0)), 0.01);
+}
+
+TEST(Refinement, AnUnusableSolveKeepsTheStartAndSaysWhy) {
+  const Pose truth = makePose(25, {1, 2, 3}, {0.4, 1.1, -0.3});
+  Scenario s(truth, 50, 0.0, 1, 9);
+  std::vector<RefinementTerm> terms = pointTerms(s);
+  // One term with a non-finite mode: the initial cost is not finite, and Ceres
+  // gives up before its first step.
+  terms[7].mode_mean.x() = std::numeric_limits<double>::quiet_NaN();
+  const Pose start = truth * makePose(3, {0, 1, 0}, {0.04, -0.03, 0.02});
+  const Refinement refined = refinePose(start, terms, PoseSolverParams{});
+  EXPECT_FALSE(refined.solved);
+  EXPECT_EQ(refined.pose.matrix(), start.matrix());  // bit for bit, not re-orthonormalised
+  EXPECT_NE(refined.message.find("Ceres"), std::string::npos) << refined.message;
+
+  const Refinement too_few = refinePose(start, {terms[0], terms[1]}, PoseSolverParams{});
+  EXPECT_FALSE(too_few.solved);
+  EXPECT_EQ(too_few.pose.matrix(), start.matrix());
+  EXPECT_EQ(refinementCovariance(start, {terms[0], terms[1]}, PoseSolverParams{}),
+            Matrix6d::Identity());
 }
 
 TEST(Ransac, RecoversAKnownPoseWithSixtyPercentOutliers) {
@@ -166,6 +285,7 @@ TEST(Ransac, RecoversAKnownPoseWithSixtyPercentOutliers) {
   EXPECT_LT(translationError(solution.pose, truth), 0.01);
   EXPECT_LT(rotationErrorDegrees(solution.pose, truth), 0.5);
   EXPECT_NEAR(solution.point_inliers, 1500 * 0.4, 80);
+  EXPECT_EQ(solution.failed_refinements, 0) << solution.refinement_failure;
 }
 
 TEST(Ransac, WeakEvidenceGivesAFailureNotAPose) {

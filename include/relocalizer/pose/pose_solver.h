@@ -11,8 +11,9 @@
 // distance. The better half survives and is refined on its inliers: weighted
 // Kabsch while many hypotheses remain, Ceres LM once at most
 // `lm_hypotheses` remain (the paper refines inside the loop; refinement.h). The
-// winner is refined once more on all samples, and is rejected unless the
-// evidence (inlier count and share) clears the configured thresholds.
+// winner is refined twice more on all samples, its covariance taken at the pose
+// it answers with, and it is rejected unless the evidence (inlier count and
+// share) clears the configured thresholds.
 
 #include <Eigen/Core>
 #include <random>
@@ -60,13 +61,18 @@ struct PoseSolution {
   std::string message;  // why not, when !success
   Pose pose = Pose::Identity();  // camera-to-world
   // Covariance of (x, y, z, rotation about world x, y, z), the order of
-  // geometry_msgs/PoseWithCovariance, for perturbations applied on the left.
+  // geometry_msgs/PoseWithCovariance, for perturbations applied on the left:
+  // refinementCovariance of the final inliers at `pose`.
   Matrix6d covariance = Matrix6d::Identity();
   int point_inliers = 0;
   int line_inliers = 0;
   int samples = 0;
   float score = 0.0f;  // inlier share of all samples
   int valid_hypotheses = 0;
+  // LM solves whose Ceres summary was unusable (each kept the pose it started
+  // from), and Ceres' reason for the last one in the final refinement.
+  int failed_refinements = 0;
+  std::string refinement_failure;
   double ransac_seconds = 0.0;
   double refinement_seconds = 0.0;
 };
