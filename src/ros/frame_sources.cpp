@@ -1,0 +1,40 @@
+#include "frame_sources.h"
+
+#include "key_frames.h"
+
+namespace relocalizer_ros {
+
+using relocalizer::makeError;
+
+BagFrameSource::BagFrameSource(std::unique_ptr<BagDataset> bag) : bag_(std::move(bag)) {}
+size_t BagFrameSource::size() const { return bag_->size(); }
+int BagFrameSource::id(size_t i) const { return bag_->id(i); }
+double BagFrameSource::stamp(size_t i) const { return bag_->stamp(i); }
+const std::optional<Pose>& BagFrameSource::groundTruth(size_t i) const { return bag_->groundTruth(i); }
+Expected<RgbdFrame> BagFrameSource::load(size_t i) const { return bag_->load(i); }
+const CameraIntrinsics& BagFrameSource::camera() const { return bag_->camera(); }
+std::string BagFrameSource::summary() const { return bag_->summary(); }
+const std::string& BagFrameSource::path() const { return bag_->path(); }
+std::string BagFrameSource::formatDescription() const { return "rosbag (" + bag_->poseSource() + ")"; }
+bool BagFrameSource::integerStamps() const { return false; }
+
+Expected<std::unique_ptr<relocalizer::FrameSource>> openFrameSource(const FrameSourceRequest& request) {
+  if (request.dataset.empty() == request.bag.empty())
+    return makeError(request.dataset.empty() ? "one of --dataset or --bag is required"
+                                             : "--dataset and --bag exclude each other");
+  if (!request.bag.empty()) {
+    BagOptions options = request.bag_options;
+    if (!request.min_motion.empty()) {
+      auto motion = parseMinMotion(request.min_motion);
+      if (!motion) return makeError(motion.error());
+      options.min_translation = motion->first;
+      options.min_rotation_degrees = motion->second;
+    }
+    auto opened = BagDataset::open(request.bag, options);
+    if (!opened) return makeError(opened.error());
+    return std::unique_ptr<relocalizer::FrameSource>(new BagFrameSource(std::move(*opened)));
+  }
+  return relocalizer::openDatasetSource(request.dataset, request.dataset_options);
+}
+
+}  // namespace relocalizer_ros

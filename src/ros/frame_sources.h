@@ -1,0 +1,47 @@
+#pragma once
+// The one place a tool's --dataset or --bag becomes a FrameSource
+// (relocalizer/data/frame_source.h): a folder through the dataset readers, a
+// rosbag through BagDataset. It lives in the ROS layer because a bag needs
+// rosbag; a tool that links no ROS opens folders with openDatasetSource.
+
+#include <memory>
+#include <string>
+
+#include "bag_dataset.h"
+#include "relocalizer/data/frame_source.h"
+
+namespace relocalizer_ros {
+
+// A rosbag (bag_dataset.h) as a FrameSource.
+class BagFrameSource : public relocalizer::FrameSource {
+ public:
+  explicit BagFrameSource(std::unique_ptr<BagDataset> bag);
+  size_t size() const override;
+  int id(size_t i) const override;
+  double stamp(size_t i) const override;
+  const std::optional<Pose>& groundTruth(size_t i) const override;
+  Expected<RgbdFrame> load(size_t i) const override;
+  const CameraIntrinsics& camera() const override;
+  std::string summary() const override;
+  const std::string& path() const override;
+  std::string formatDescription() const override;
+  bool integerStamps() const override;
+
+ private:
+  std::unique_ptr<BagDataset> bag_;
+};
+
+// What the command line asked for: exactly one of `dataset` and `bag`.
+struct FrameSourceRequest {
+  std::string dataset;
+  relocalizer::DatasetOptions dataset_options;
+  std::string bag;
+  BagOptions bag_options;
+  // Key frames among a bag's frames, "METRES,DEGREES" (key_frames.h); "" keeps every frame.
+  std::string min_motion;
+};
+
+// The opened source, or a one-line reason.
+Expected<std::unique_ptr<relocalizer::FrameSource>> openFrameSource(const FrameSourceRequest& request);
+
+}  // namespace relocalizer_ros
