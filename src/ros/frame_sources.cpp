@@ -6,16 +6,7 @@ namespace relocalizer_ros {
 
 using relocalizer::makeError;
 
-BagFrameSource::BagFrameSource(std::unique_ptr<BagDataset> bag) : bag_(std::move(bag)) {}
-size_t BagFrameSource::size() const { return bag_->size(); }
-int BagFrameSource::id(size_t i) const { return bag_->id(i); }
-double BagFrameSource::stamp(size_t i) const { return bag_->stamp(i); }
-const std::optional<Pose>& BagFrameSource::groundTruth(size_t i) const { return bag_->groundTruth(i); }
-Expected<RgbdFrame> BagFrameSource::load(size_t i) const { return bag_->load(i); }
-const CameraIntrinsics& BagFrameSource::camera() const { return bag_->camera(); }
-std::string BagFrameSource::summary() const { return bag_->summary(); }
-const std::string& BagFrameSource::path() const { return bag_->path(); }
-std::string BagFrameSource::formatDescription() const { return "rosbag (" + bag_->poseSource() + ")"; }
+std::string BagFrameSource::formatDescription() const { return "rosbag (" + reader().poseSource() + ")"; }
 bool BagFrameSource::integerStamps() const { return false; }
 
 Expected<std::unique_ptr<relocalizer::FrameSource>> openFrameSource(const FrameSourceRequest& request) {
@@ -32,7 +23,7 @@ Expected<std::unique_ptr<relocalizer::FrameSource>> openFrameSource(const FrameS
     }
     auto opened = BagDataset::open(request.bag, options);
     if (!opened) return makeError(opened.error());
-    return std::unique_ptr<relocalizer::FrameSource>(new BagFrameSource(std::move(*opened)));
+    return std::unique_ptr<relocalizer::FrameSource>(new BagFrameSource(std::move(*opened), request.bag));
   }
   return relocalizer::openDatasetSource(request.dataset, request.dataset_options);
 }

@@ -13,22 +13,11 @@
 namespace relocalizer_ros {
 
 // A rosbag (bag_dataset.h) as a FrameSource.
-class BagFrameSource : public relocalizer::FrameSource {
+class BagFrameSource : public relocalizer::ReaderFrameSource<BagDataset> {
  public:
-  explicit BagFrameSource(std::unique_ptr<BagDataset> bag);
-  size_t size() const override;
-  int id(size_t i) const override;
-  double stamp(size_t i) const override;
-  const std::optional<Pose>& groundTruth(size_t i) const override;
-  Expected<RgbdFrame> load(size_t i) const override;
-  const CameraIntrinsics& camera() const override;
-  std::string summary() const override;
-  const std::string& path() const override;
+  using ReaderFrameSource::ReaderFrameSource;
   std::string formatDescription() const override;
   bool integerStamps() const override;
-
- private:
-  std::unique_ptr<BagDataset> bag_;
 };
 
 // What the command line asked for: exactly one of `dataset` and `bag`.

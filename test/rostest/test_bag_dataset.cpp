@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <functional>
 #include <sstream>
 
@@ -31,8 +32,6 @@
 #include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/forest/model_io.h"
-
-#include <nlohmann/json.hpp>
 
 using namespace relocalizer_ros;
 using relocalizer::testing::TempDir;

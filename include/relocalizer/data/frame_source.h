@@ -41,24 +41,36 @@ class FrameSource {
   std::string usedIds() const;
 };
 
-// A dataset folder (dataset.h) as a FrameSource.
-class DatasetFrameSource : public FrameSource {
+// A FrameSource over a reader with Dataset's methods (size, id, stamp,
+// groundTruth, load, camera, summary): a folder here, a bag in the ROS layer.
+template <class Reader>
+class ReaderFrameSource : public FrameSource {
  public:
-  DatasetFrameSource(std::unique_ptr<Dataset> data, std::string path);
-  size_t size() const override;
-  int id(size_t i) const override;
-  double stamp(size_t i) const override;
-  const std::optional<Pose>& groundTruth(size_t i) const override;
-  Expected<RgbdFrame> load(size_t i) const override;
-  const CameraIntrinsics& camera() const override;
-  std::string summary() const override;
-  const std::string& path() const override;
-  std::string formatDescription() const override;
-  bool integerStamps() const override;
+  ReaderFrameSource(std::unique_ptr<Reader> reader, std::string path)
+      : reader_(std::move(reader)), path_(std::move(path)) {}
+  size_t size() const override { return reader_->size(); }
+  int id(size_t i) const override { return reader_->id(i); }
+  double stamp(size_t i) const override { return reader_->stamp(i); }
+  const std::optional<Pose>& groundTruth(size_t i) const override { return reader_->groundTruth(i); }
+  Expected<RgbdFrame> load(size_t i) const override { return reader_->load(i); }
+  const CameraIntrinsics& camera() const override { return reader_->camera(); }
+  std::string summary() const override { return reader_->summary(); }
+  const std::string& path() const override { return path_; }
+
+ protected:
+  const Reader& reader() const { return *reader_; }
 
  private:
-  std::unique_ptr<Dataset> data_;
+  std::unique_ptr<Reader> reader_;
   std::string path_;
+};
+
+// A dataset folder (dataset.h) as a FrameSource.
+class DatasetFrameSource : public ReaderFrameSource<Dataset> {
+ public:
+  using ReaderFrameSource::ReaderFrameSource;
+  std::string formatDescription() const override;
+  bool integerStamps() const override;
 };
 
 // The folder at `path` as a FrameSource; fails as openDataset does.
