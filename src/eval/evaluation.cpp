@@ -14,13 +14,6 @@ namespace relocalizer {
 
 namespace {
 
-LatencySummary latency(const std::vector<EvaluationRecord>& records,
-                       double StageTimings::*stage) {
-  std::vector<double> ms;
-  for (const auto& r : records) ms.push_back(1000.0 * (r.timings.*stage));
-  return {median(ms), percentile(ms, 95.0)};
-}
-
 std::string number(double value, const char* format) {
   if (std::isnan(value)) return "n/a";
   if (std::isinf(value)) return "inf";
@@ -35,7 +28,28 @@ nlohmann::json jsonNumber(double value) {
 
 }  // namespace
 
-EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& records) {
+EvaluationRecord recordAttempt(int id, double stamp, const Pose& truth, const Relocalization& result) {
+  EvaluationRecord r;
+  r.id = id;
+  r.stamp = stamp;
+  r.truth = truth;
+  if (result.success) r.estimate = result.pose;
+  r.message = result.message;
+  r.point_inliers = result.point_inliers;
+  r.line_inliers = result.line_inliers;
+  r.score = result.score;
+  r.surface_agreement = result.surface_agreement;
+  r.timings = result.timings;
+  return r;
+}
+
+LatencySummary stageLatency(const std::vector<StageTimings>& timings, double StageTimings::*stage) {
+  std::vector<double> ms;
+  for (const auto& t : timings) ms.push_back(1000.0 * (t.*stage));
+  return {median(ms), percentile(ms, 95.0)};
+}
+
+AccuracySummary summarizeAccuracy(const std::vector<EvaluationRecord>& records) {
   std::vector<FrameError> errors;
   std::vector<std::optional<Pose>> estimates;
   std::vector<Pose> truths;
@@ -44,14 +58,20 @@ EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& recor
     estimates.push_back(r.estimate);
     truths.push_back(r.truth);
   }
+  return summarizeAccuracy(errors, estimates, truths);
+}
+
+EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& records) {
+  std::vector<StageTimings> timings;
+  for (const auto& r : records) timings.push_back(r.timings);
   EvaluationSummary s;
-  s.accuracy = summarizeAccuracy(errors, estimates, truths);
-  s.total = latency(records, &StageTimings::total);
-  s.sampling = latency(records, &StageTimings::sampling);
-  s.forest = latency(records, &StageTimings::forest);
-  s.ransac = latency(records, &StageTimings::ransac);
-  s.refinement = latency(records, &StageTimings::refinement);
-  s.surface = latency(records, &StageTimings::surface);
+  s.accuracy = summarizeAccuracy(records);
+  s.total = stageLatency(timings, &StageTimings::total);
+  s.sampling = stageLatency(timings, &StageTimings::sampling);
+  s.forest = stageLatency(timings, &StageTimings::forest);
+  s.ransac = stageLatency(timings, &StageTimings::ransac);
+  s.refinement = stageLatency(timings, &StageTimings::refinement);
+  s.surface = stageLatency(timings, &StageTimings::surface);
   return s;
 }
 
@@ -191,7 +211,7 @@ Status writeEvaluationOutputs(const std::string& folder, const std::vector<Evalu
       continue;
     }
     const FrameError e = frameError(r.id, r.estimate, r.truth);
-    PlotSeries& target = (e.translation_m <= 0.05 && e.rotation_deg <= 5.0) ? good : bad;
+    PlotSeries& target = within(e, kCorrectPose) ? good : bad;
     // Estimates far off the map would squash the picture; clamp them to its edge.
     Eigen::Vector3d p = r.estimate->translation();
     const Eigen::Vector3d margin = Eigen::Vector3d::Constant(std::max(0.5, extent.maxCoeff() * 0.5));

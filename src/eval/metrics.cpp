@@ -24,6 +24,11 @@ FrameError frameError(int id, const std::optional<Pose>& estimate, const Pose& t
   return e;
 }
 
+bool within(const FrameError& error, PoseTolerance tolerance) {
+  return error.has_pose && error.translation_m <= tolerance.metres &&
+         error.rotation_deg <= tolerance.degrees;
+}
+
 Pose hornAlignment(const std::vector<Eigen::Vector3d>& source,
                    const std::vector<Eigen::Vector3d>& target) {
   if (source.size() != target.size() || source.size() < 3)
@@ -47,8 +52,8 @@ AccuracySummary summarizeAccuracy(const std::vector<FrameError>& errors,
     rotations.push_back(e.rotation_deg);
     if (!e.has_pose) continue;
     ++s.frames_with_pose;
-    within5 += (e.translation_m <= 0.05 && e.rotation_deg <= 5.0) ? 1 : 0;
-    within2 += (e.translation_m <= 0.02 && e.rotation_deg <= 2.0) ? 1 : 0;
+    within5 += within(e, kCorrectPose) ? 1 : 0;
+    within2 += within(e, kFinePose) ? 1 : 0;
   }
   if (s.frames > 0) {
     s.within_5cm_5deg = static_cast<double>(within5) / s.frames;

@@ -1,8 +1,8 @@
 #pragma once
 // A rosbag as a dataset: the RGB-D frames of a recording, with camera poses
 // from the bag's TF (as a SLAM stack publishes them) or from a pose topic, as
-// the same RgbdFrames the folder readers give (dataset.h). train and evaluate
-// read bags through it.
+// the same RgbdFrames the folder readers give (dataset.h). Every tool's --bag
+// reads bags through it (frame_sources.h).
 //
 // Frames: colour, depth and camera_info messages (sensor_msgs/Image,
 // sensor_msgs/Image, sensor_msgs/CameraInfo) are associated by header stamp:

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <vector>
 
-#include "dataset_arguments.h"
+#include "source_arguments.h"
 #include "relocalizer/core/statistics.h"
 #include "relocalizer/data/depth_alignment.h"
 
@@ -20,7 +20,7 @@ int main(int argc, char** argv) {
       "ICP from the ground-truth motion) and reports the pairs whose ground-truth motion "
       "disagrees with the depth images. Exit code 0 either way; flagged pairs are listed.",
       "check_ground_truth"};
-  cli::DatasetArguments arguments;
+  cli::SourceOptions arguments;
   std::string output;
   int threads = 0;
   MotionCheckThresholds thresholds;
@@ -39,9 +39,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1024));
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
 
-  auto dataset = arguments.open(/*register_colour=*/false);  // depth only
-  if (!dataset) return cli::fail(app, dataset.error());
-  const Dataset& data = **dataset;
+  auto source = arguments.open(/*register_colour=*/false);  // depth only
+  if (!source) return cli::fail(app, source.error());
+  const FrameSource& data = **source;
 
   // Pairs of selected frames adjacent in id (a gap in the selection is no pair).
   std::vector<size_t> pairs;

@@ -1,7 +1,8 @@
 #pragma once
 // The dataset arguments the folder tools share (-d/--dataset, --format,
 // --frames, --split) and opening the dataset they name, so that every tool
-// parses them, and reports their mistakes, the same way.
+// parses them, and reports their mistakes, the same way. source_arguments.h
+// adds --bag for the tools that read rosbags too.
 
 #include <memory>
 #include <string>
@@ -13,17 +14,26 @@ namespace relocalizer::cli {
 
 struct DatasetArguments {
   std::string path, format = "auto", frames, split = "all";
+  // Set by add(), for options that exclude or need them.
+  CLI::Option* path_option = nullptr;
+  CLI::Option* format_option = nullptr;
+  CLI::Option* split_option = nullptr;
 
-  // A required -d/--dataset and the selection options, with the tool's help texts.
-  void add(CLI::App& app, const std::string& dataset_help, const std::string& frames_help) {
-    app.add_option("-d,--dataset", path, dataset_help)->required();
-    app.add_option("--format", format, "auto | 7scenes | 12scenes | tum")->capture_default_str();
+  // -d/--dataset (required unless another source may replace it) and the
+  // selection options, with the tool's help texts.
+  void add(CLI::App& app, const std::string& dataset_help, const std::string& frames_help,
+           bool required = true) {
+    path_option = app.add_option("-d,--dataset", path, dataset_help);
+    if (required) path_option->required();
+    format_option =
+        app.add_option("--format", format, "auto | 7scenes | 12scenes | tum")->capture_default_str();
     app.add_option("--frames", frames, frames_help);
-    app.add_option("--split", split, "train | test | all (7-Scenes scenes)")->capture_default_str();
+    split_option = app.add_option("--split", split, "train | test | all (7-Scenes scenes)")
+                       ->capture_default_str();
   }
 
   // `register_colour` false: depth-only tools skip the colour resampling.
-  Expected<std::unique_ptr<Dataset>> open(bool register_colour = true) const {
+  Expected<DatasetOptions> options(bool register_colour = true) const {
     auto parsed_format = parseDatasetFormat(format);
     if (!parsed_format) return makeError(parsed_format.error());
     DatasetOptions options;
@@ -31,7 +41,13 @@ struct DatasetArguments {
     options.frames = frames;
     options.split = split;
     options.register_colour = register_colour;
-    return openDataset(path, options);
+    return options;
+  }
+
+  Expected<std::unique_ptr<Dataset>> open(bool register_colour = true) const {
+    auto opened = options(register_colour);
+    if (!opened) return makeError(opened.error());
+    return openDataset(path, *opened);
   }
 };
 

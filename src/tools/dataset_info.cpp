@@ -1,21 +1,22 @@
-// dataset_info: opens a dataset as train and evaluate would and prints what it found.
+// dataset_info: opens a dataset folder or a rosbag as train and evaluate would and
+// prints what it found.
 
-#include "dataset_arguments.h"
+#include "source_arguments.h"
 
 using namespace relocalizer;
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "Opens a dataset folder (7-Scenes, 12-Scenes, TUM or synthesize output) the way train and "
-      "evaluate do, prints its summary and checks that the first and last selected frames load.",
+      "Opens a dataset folder (7-Scenes, 12-Scenes, TUM or synthesize output) or a rosbag the way "
+      "train and evaluate do, prints its summary and checks that the first and last selected frames load.",
       "dataset_info"};
-  cli::DatasetArguments arguments;
+  cli::SourceOptions arguments;
   arguments.add(app, "Dataset folder", "Frame ids, e.g. 0-99,200-299 (default: all)");
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
 
-  auto dataset = arguments.open();
-  if (!dataset) return cli::fail(app, dataset.error());
-  const Dataset& data = **dataset;
+  auto source = arguments.open();
+  if (!source) return cli::fail(app, source.error());
+  const FrameSource& data = **source;
   std::printf("%s\n", data.summary().c_str());
   for (size_t i : {size_t{0}, data.size() - 1}) {
     auto frame = data.load(i);

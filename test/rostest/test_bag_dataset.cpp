@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <functional>
 #include <sstream>
 
@@ -659,4 +660,62 @@ TEST(BagTraining, TrainingFromASlamBagEqualsTrainingFromTheFolderOnTheSameFrames
   const auto bag_poses = poses(d + "/eval_bag/poses.txt");
   EXPECT_FALSE(bag_poses.empty());
   EXPECT_EQ(bag_poses, poses(d + "/eval_folder/poses.txt"));
+}
+
+// Every tool that reads posed frames takes --bag: benchmark and threshold_curves
+// on make_bag's bag answer as on the folder it was written from.
+TEST(BagTools, BenchmarkAndThresholdCurvesReadMakeBagsBag) {
+  TempDir dir("bag_tools");
+  const std::string d = dir.str();
+  std::string output;
+  ASSERT_EQ(runTool("synthesize --output " + d +
+                        "/scene --seed 3 --train-frames 32 --test-frames 8 --width 320 --height 240",
+                    &output),
+            0)
+      << output;
+  const std::string config =
+      std::string(RELOCALIZER_SOURCE_DIR) + "/test/rostest/fixture_forest.yaml";
+  ASSERT_EQ(runTool("train --dataset " + d + "/scene/train --config " + config +
+                        " --threads 1 --output " + d + "/room.model",
+                    &output),
+            0)
+      << output;
+  ASSERT_EQ(runTool("make_bag --dataset " + d + "/scene/test --output " + d + "/test.bag", &output), 0)
+      << output;
+  const std::string bag = "--bag " + d + "/test.bag --pose-topic /ground_truth/pose";
+  const auto json = [](const std::string& file) {
+    std::ifstream in(file);
+    return nlohmann::json::parse(in, nullptr, false);
+  };
+
+  ASSERT_EQ(runTool("benchmark --model " + d + "/room.model " + bag + " --threads 1 --json " + d +
+                        "/bench_bag.json",
+                    &output),
+            0)
+      << output;
+  ASSERT_EQ(runTool("benchmark --model " + d + "/room.model --dataset " + d +
+                        "/scene/test --threads 1 --json " + d + "/bench_folder.json",
+                    &output),
+            0)
+      << output;
+  const auto bench_bag = json(d + "/bench_bag.json"), bench_folder = json(d + "/bench_folder.json");
+  EXPECT_EQ(bench_bag["frames"], 8);
+  EXPECT_EQ(bench_bag["frames"], bench_folder["frames"]);
+  EXPECT_EQ(bench_bag["threads"]["1"]["within_5cm_5deg"], bench_folder["threads"]["1"]["within_5cm_5deg"]);
+
+  const std::string outside = " --out-of-scene " + d + "/scene/train --threads 1";
+  ASSERT_EQ(runTool("threshold_curves --model " + d + "/room.model " + bag + outside + " --output " +
+                        d + "/curves_bag",
+                    &output),
+            0)
+      << output;
+  ASSERT_EQ(runTool("threshold_curves --model " + d + "/room.model --in-scene " + d + "/scene/test" +
+                        outside + " --output " + d + "/curves_folder",
+                    &output),
+            0)
+      << output;
+  const auto curves_bag = json(d + "/curves_bag/curves.json");
+  const auto curves_folder = json(d + "/curves_folder/curves.json");
+  EXPECT_EQ(curves_bag["in_scene_frames"], 8);
+  EXPECT_EQ(curves_bag["min_inlier_ratio"]["curve"], curves_folder["min_inlier_ratio"]["curve"]);
 }

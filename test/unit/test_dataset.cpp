@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "relocalizer/data/dataset.h"
+#include "relocalizer/data/frame_source.h"
 #include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/frame_selection.h"
 #include "support.h"
@@ -223,6 +224,26 @@ TEST(SevenScenesFolder, ReadsFramesIntrinsicsDepthAndPoses) {
   ASSERT_TRUE(frame->ground_truth.has_value());
   expectPoseNear(*frame->ground_truth, sevenScenesPose(2));
   EXPECT_EQ(frame->camera.fx, 500);
+}
+
+TEST(FrameSource, AFolderAsASourceNamesItsFormatAndTheFramesUsed) {
+  TempDir dir;
+  writeSevenScenesFolder(dir.path(), 6);
+  DatasetOptions options;
+  options.frames = "0-1,3,5";
+  auto source = openDatasetSource(dir.str(), options);
+  ASSERT_TRUE(source.ok()) << errorOf(source);
+  const FrameSource& s = **source;
+  EXPECT_EQ(s.size(), 4u);
+  EXPECT_EQ(s.path(), dir.str());
+  EXPECT_EQ(s.usedIds(), "0-1,3,5");
+  EXPECT_EQ(s.formatDescription(), formatName(DatasetFormat::SevenScenesFolder));
+  EXPECT_TRUE(s.integerStamps());
+  EXPECT_EQ(s.camera().fx, 500);
+  auto frame = s.load(2);
+  ASSERT_TRUE(frame.ok()) << errorOf(frame);
+  EXPECT_EQ(frame->id, 3);
+  EXPECT_TRUE(mentions(errorOf(openDatasetSource((dir.path() / "missing").string(), {})), "missing"));
 }
 
 TEST(SevenScenesFolder, DefaultIntrinsicsJpegColourAndNoPoses) {

@@ -6,6 +6,7 @@
 #include "relocalizer/core/frame.h"
 #include "relocalizer/core/pose.h"
 #include "relocalizer/core/statistics.h"
+#include "relocalizer/eval/evaluation.h"
 #include "relocalizer/eval/metrics.h"
 #include "support.h"
 
@@ -104,6 +105,40 @@ TEST(Metrics, SharesMediansAndAteAgainstHandComputedValues) {
   EXPECT_NEAR(s.median_rotation_deg, 1.0, 1e-9);
   EXPECT_TRUE(std::isfinite(s.ate_rmse_m));
   EXPECT_GE(s.ate_rmse_m, 0.0);
+}
+
+TEST(Metrics, CorrectIsInclusiveAndNeedsAPose) {
+  FrameError e;
+  e.has_pose = true;
+  e.translation_m = kCorrectPose.metres;
+  e.rotation_deg = kCorrectPose.degrees;
+  EXPECT_TRUE(within(e, kCorrectPose));  // the boundary counts, as the literature's tables do
+  EXPECT_FALSE(within(e, kFinePose));
+  e.rotation_deg = std::nextafter(kCorrectPose.degrees, 10.0);
+  EXPECT_FALSE(within(e, kCorrectPose));
+  e = frameError(0, std::nullopt, Pose::Identity());
+  EXPECT_FALSE(within(e, {1e9, 1e9}));
+}
+
+TEST(Evaluation, RecordsOfAttemptsSummarizeAsTheirErrors) {
+  Relocalization answered;
+  answered.success = true;
+  answered.pose = makePose(1, {0, 0, 1}, {0.01, 0, 0});
+  answered.timings.total = 0.010;
+  Relocalization refused;
+  refused.message = "too few inliers";
+  refused.timings.total = 0.030;
+  const std::vector<EvaluationRecord> records = {recordAttempt(4, 0.4, Pose::Identity(), answered),
+                                                 recordAttempt(5, 0.5, Pose::Identity(), refused)};
+  EXPECT_EQ(records[0].id, 4);
+  EXPECT_TRUE(records[0].estimate.has_value());
+  EXPECT_FALSE(records[1].estimate.has_value());
+  EXPECT_EQ(records[1].message, "too few inliers");
+  const EvaluationSummary s = summarizeEvaluation(records);
+  EXPECT_DOUBLE_EQ(s.accuracy.within_5cm_5deg, 0.5);
+  EXPECT_DOUBLE_EQ(s.total.median_ms, 20.0);
+  EXPECT_DOUBLE_EQ(s.total.p95_ms, stageLatency({answered.timings, refused.timings}, &StageTimings::total).p95_ms);
+  EXPECT_NEAR(s.total.p95_ms, 29.0, 1e-9);
 }
 
 TEST(Metrics, AteIsZeroForRigidlyMovedTrajectory) {

@@ -27,10 +27,16 @@ struct EvaluationRecord {
   StageTimings timings;
 };
 
+// The record of one attempt: what relocalize() answered for a frame with ground truth.
+EvaluationRecord recordAttempt(int id, double stamp, const Pose& truth, const Relocalization& result);
+
 struct LatencySummary {
   double median_ms = 0.0;
   double p95_ms = 0.0;
 };
+
+// Median and 95th percentile of one stage's time, in milliseconds.
+LatencySummary stageLatency(const std::vector<StageTimings>& timings, double StageTimings::*stage);
 
 struct EvaluationSummary {
   AccuracySummary accuracy;
@@ -38,6 +44,7 @@ struct EvaluationSummary {
 };
 
 EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& records);
+AccuracySummary summarizeAccuracy(const std::vector<EvaluationRecord>& records);
 
 // The printed table (several lines, ends with a newline). `title` heads it.
 std::string formatEvaluationTable(const EvaluationSummary& summary, const std::string& title);

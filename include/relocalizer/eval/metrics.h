@@ -17,10 +17,21 @@ struct FrameError {
 
 FrameError frameError(int id, const std::optional<Pose>& estimate, const Pose& truth);
 
+// "Correct within X cm / Y deg": both errors at most the tolerance (inclusive,
+// as the 7-Scenes literature counts); a frame without a pose is never within.
+struct PoseTolerance {
+  double metres;
+  double degrees;
+};
+inline constexpr PoseTolerance kCorrectPose{0.05, 5.0};  // "5 cm / 5 deg", the headline figure
+inline constexpr PoseTolerance kFinePose{0.02, 2.0};     // "2 cm / 2 deg"
+bool within(const FrameError& error, PoseTolerance tolerance);
+
 struct AccuracySummary {
   int frames = 0;
   int frames_with_pose = 0;
-  // Shares of all frames; a frame without a pose counts as a failure.
+  // Shares of all frames within kCorrectPose and kFinePose; a frame without a
+  // pose counts as a failure.
   double within_5cm_5deg = 0.0;
   double within_2cm_2deg = 0.0;
   // Medians over all frames, frames without a pose counting as infinite error

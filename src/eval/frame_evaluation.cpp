@@ -1,0 +1,78 @@
+#include "relocalizer/eval/frame_evaluation.h"
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "relocalizer/core/progress.h"
+#include "relocalizer/core/statistics.h"
+
+namespace relocalizer {
+
+namespace {
+
+Status addPredictionQuality(const Relocalizer& relocalizer, const RgbdFrame& frame,
+                            FrameEvaluation& evaluation) {
+  const Model& model = relocalizer.model();
+  for (int lines = 0; lines < 2; ++lines) {
+    if ((lines ? model.lines : model.points).empty()) continue;
+    auto q = relocalizer.measurePredictions(frame, lines == 1);
+    if (!q) return makeError(q.error());
+    PredictionTotals& totals = evaluation.quality[lines];
+    totals.samples += q->samples;
+    totals.chosen_within += q->chosen_within;
+    totals.any_within += q->any_within;
+    totals.chosen_errors.insert(totals.chosen_errors.end(), q->chosen_errors.begin(),
+                                q->chosen_errors.end());
+  }
+  return okStatus();
+}
+
+}  // namespace
+
+Expected<FrameEvaluation> evaluateFrames(const Relocalizer& relocalizer, const FrameSource& source,
+                                         bool measure_predictions, const std::string& progress_label) {
+  FrameEvaluation evaluation;
+  ProgressBar bar(progress_label, source.size());
+  for (size_t i = 0; i < source.size(); ++i) {
+    bar.advance();
+    if (!source.groundTruth(i)) {
+      ++evaluation.skipped;
+      continue;
+    }
+    auto frame = source.load(i);
+    if (!frame) return makeError(frame.error());
+    const Relocalization result = relocalizer.relocalize(*frame);
+    if (measure_predictions)
+      if (Status measured = addPredictionQuality(relocalizer, *frame, evaluation); !measured)
+        return makeError(measured.error());
+    evaluation.records.push_back(
+        recordAttempt(source.id(i), source.stamp(i), *source.groundTruth(i), result));
+  }
+  return evaluation;
+}
+
+PredictionReport reportPredictionQuality(const FrameEvaluation& evaluation) {
+  PredictionReport report;
+  nlohmann::json json;
+  for (int lines = 0; lines < 2; ++lines) {
+    const PredictionTotals& q = evaluation.quality[lines];
+    if (q.samples == 0) continue;
+    std::vector<double> errors(q.chosen_errors.begin(), q.chosen_errors.end());
+    const double chosen = 100.0 * q.chosen_within / q.samples;
+    const double any = 100.0 * q.any_within / q.samples;
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "  %s forest: %.1f %% of %ld predictions within 10 cm (nearest descriptor), "
+                  "%.1f %% with some candidate within 10 cm, median error %.1f cm\n",
+                  lines ? "line " : "point", chosen, q.samples, any, 100.0 * median(errors));
+    report.text += line;
+    json[lines ? "lines" : "points"] = {{"samples", q.samples},
+                                        {"chosen_within_10cm", chosen / 100.0},
+                                        {"any_within_10cm", any / 100.0},
+                                        {"median_chosen_error_cm", 100.0 * median(errors)}};
+  }
+  report.json = json.dump();
+  return report;
+}
+
+}  // namespace relocalizer
