@@ -21,10 +21,9 @@
 
 #include "frame_buffer.h"
 #include "frame_input.h"
-#include "key_frames.h"
 #include "node_params.h"
 #include "relocalizer/core/expected.h"
-#include "relocalizer/online/online_learner.h"
+#include "relocalizer/online/key_frame_feed.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
 
@@ -32,13 +31,12 @@ namespace relocalizer_ros {
 
 class LearningFeed {
  public:
-  // The learner the parameters describe, resumed from `model` when set; the
-  // error names the parameter or file at fault.
-  static relocalizer::Expected<std::unique_ptr<relocalizer::OnlineLearner>> makeLearner(
-      const NodeParams& params, const ros::NodeHandle& private_nh);
+  // The feed (key-frame rule, store, learner) the parameters describe,
+  // resumed from `model` when set; the error names the file at fault.
+  static relocalizer::Expected<std::unique_ptr<relocalizer::KeyFrameFeed>> makeFeed(const NodeParams& params);
 
   LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-               std::unique_ptr<relocalizer::OnlineLearner> learner, ServiceCallQueue& calls);
+               std::unique_ptr<relocalizer::KeyFrameFeed> feed, ServiceCallQueue& calls);
   // Stops the learning thread, then writes save_on_exit if set.
   ~LearningFeed();
   LearningFeed(const LearningFeed&) = delete;
@@ -48,8 +46,8 @@ class LearningFeed {
   // Ends the learning thread's wait and the save service; the destructor does the rest.
   void close();
 
-  std::shared_ptr<const relocalizer::Relocalizer> current() const { return learner_->current(); }
-  relocalizer::LearningStatus status() const { return learner_->status(); }
+  std::shared_ptr<const relocalizer::Relocalizer> current() const { return feed_->learner().current(); }
+  relocalizer::LearningStatus status() const { return feed_->learner().status(); }
   // Learn mode's fields of ~result.
   void fill(relocalizer::RelocalizationResult& result) const;
   // "no model yet" with what learning has so far, for frames that come too early.
@@ -60,13 +58,12 @@ class LearningFeed {
   bool onSaveModel(relocalizer::SaveModel::Request& request, relocalizer::SaveModel::Response& response);
 
   const NodeParams& params_;
-  const std::unique_ptr<relocalizer::OnlineLearner> learner_;
+  const std::unique_ptr<relocalizer::KeyFrameFeed> feed_;
   // The newest frame only: key frames are chosen by motion, so a skipped
   // frame is covered by the next.
   FrameBuffer<FrameInputPtr> frames_{FrameBuffer<FrameInputPtr>::Policy::Latest};
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
-  std::unique_ptr<KeyFrameSelector> key_frames_;
   std::atomic<uint64_t> frames_untracked_{0};  // frames without a (usable) SLAM pose
   std::mutex save_mutex_;  // one save at a time: two saves of one path share its temporary files
   ThrottledLog log_;

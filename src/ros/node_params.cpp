@@ -7,7 +7,6 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
-#include "key_frames.h"
 #include "message_conversion.h"
 #include "relocalizer/core/config.h"
 
@@ -208,12 +207,16 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   if (!p.learn && !p.save_on_exit.empty())
     return makeError(ns("save_on_exit") + " is set but learn is false: only a learned model is saved");
   if (p.learn) {
-    if (auto motion = parseMinMotion(p.learn_min_motion); !motion)
-      return makeError(ns("learn_min_motion") + ": " + motion.error());
-    if (p.learn_first_retrain > p.learn_max_keyframes)
-      return makeError(ns("learn_first_retrain") + " must be between 1 and learn_max_keyframes");
-    if (!(p.learn_retrain_growth >= 0.0) || !std::isfinite(p.learn_retrain_growth))
-      return makeError(ns("learn_retrain_growth") + " must be a finite share >= 0");
+    relocalizer::LearningParams learning;
+    learning.max_keyframes = p.learn_max_keyframes;
+    learning.first_retrain = p.learn_first_retrain;
+    learning.retrain_growth = p.learn_retrain_growth;
+    learning.surface_gate = p.learn_surface_gate;
+    auto checked = relocalizer::readLearningParams(
+        learning, p.learn_min_motion, p.learn_config,
+        [&](const std::string& field) { return ns(field == "config" ? "learn_config" : "learn_" + field); });
+    if (!checked) return makeError(checked.error());
+    p.learning = *checked;
   }
   if (p.map_frame.empty()) return makeError(ns("map_frame") + " is empty");
   if (p.odom_frame == p.map_frame) return makeError(ns("odom_frame") + " equals map_frame");

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "relocalizer/core/expected.h"
+#include "relocalizer/online/online_learner.h"
 #include "relocalizer/pose/relocalizer.h"
 
 namespace relocalizer_ros {
@@ -48,6 +49,9 @@ struct NodeParams {
   double learn_retrain_growth = 0.25;  // retrain when the store grew by this share
   bool learn_surface_gate = false;  // learned models: refuse poses off the learned surface
   std::string learn_config;       // training YAML (as `train --config`); empty: config/forest.yaml defaults
+  // The learn_* settings as the learner takes them, read and checked by
+  // readLearningParams (online_learner.h), the one check the tools share.
+  relocalizer::LearningParams learning;
   relocalizer::RelocalizerParams relocalizer;
 };
 

@@ -23,10 +23,10 @@ relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
   auto params = loadNodeParams(private_nh);
   if (!params) return relocalizer::makeError(params.error());
   if (params->learn) {
-    auto learner = LearningFeed::makeLearner(*params, private_nh);
-    if (!learner) return relocalizer::makeError(learner.error());
+    auto feed = LearningFeed::makeFeed(*params);
+    if (!feed) return relocalizer::makeError(feed.error());
     return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(
-        std::move(nh), std::move(private_nh), std::move(*params), nullptr, std::move(*learner)));
+        std::move(nh), std::move(private_nh), std::move(*params), nullptr, std::move(*feed)));
   }
   relocalizer::Expected<std::unique_ptr<relocalizer::Relocalizer>> relocalizer =
       relocalizer::makeError("not loaded");
@@ -47,7 +47,7 @@ relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
 
 RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
                                  std::shared_ptr<const relocalizer::Relocalizer> relocalizer,
-                                 std::unique_ptr<relocalizer::OnlineLearner> learner)
+                                 std::unique_ptr<relocalizer::KeyFrameFeed> feed)
     : nh_(std::move(nh)),
       private_nh_(std::move(private_nh)),
       params_(std::move(params)),
@@ -66,7 +66,7 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   sources.input_status = [this] { return inputs_ ? inputs_->status() : std::string("no input yet"); };
   sources.output = &output_;
   service_ = std::make_unique<RelocalizeService>(private_nh_, params_, std::move(sources), service_calls_);
-  if (learner) learning_ = std::make_unique<LearningFeed>(nh_, private_nh_, params_, std::move(learner), service_calls_);
+  if (feed) learning_ = std::make_unique<LearningFeed>(nh_, private_nh_, params_, std::move(feed), service_calls_);
   if (params_.mode == Mode::Continuous) worker_ = std::thread(&RelocalizerNode::workerLoop, this);
 
   NodeInputs::Handlers handlers;
@@ -98,7 +98,7 @@ void RelocalizerNode::logStartup() const {
     const relocalizer::LearningStatus status = learning_->status();
     model_text += std::string(", learning from TF ") + params_.map_frame + " -> camera (" +
                   std::to_string(status.keyframes_stored) + " key frames so far, key frames at " +
-                  params_.learn_min_motion + " m,deg" +
+                  relocalizer::formatMinMotion(params_.learning.min_motion) + " m,deg" +
                   (params_.save_on_exit.empty() ? "" : ", saved to " + params_.save_on_exit + " on exit") + ")";
   }
   const std::string tf_text =

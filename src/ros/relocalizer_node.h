@@ -50,7 +50,7 @@ class RelocalizerNode {
 
   RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
                   std::shared_ptr<const relocalizer::Relocalizer> relocalizer,
-                  std::unique_ptr<relocalizer::OnlineLearner> learner);
+                  std::unique_ptr<relocalizer::KeyFrameFeed> feed);
 
   // The model relocalizations use now: the loaded one, or the learner's newest
   // (null while learning has produced none yet).
