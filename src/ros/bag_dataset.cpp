@@ -1,4 +1,4 @@
-#include "bag_dataset.h"
+#include "bag_dataset_impl.h"
 
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
@@ -44,79 +44,7 @@ std::string typeName() {
   return ros::message_traits::DataType<T>::value();
 }
 
-// One image message as the scan saw it; pixels stay in the bag.
-struct ImageEntry {
-  ros::Time stamp;
-  std::string frame_id;
-  uint32_t width = 0, height = 0;
-  size_t message = 0;  // index into Impl::messages
-};
-
 }  // namespace
-
-struct BagDataset::Impl {
-  std::string path;
-  BagOptions options;
-  std::unique_ptr<rosbag::Bag> bag;
-  mutable std::mutex bag_mutex;  // rosbag reads share one file and chunk buffer
-
-  std::vector<rosbag::MessageInstance> messages;  // image messages, read on load()
-  std::vector<ImageEntry> colour, depth;
-  std::vector<sensor_msgs::CameraInfo> infos;                 // sorted by stamp
-  std::map<std::string, std::pair<std::string, int>> topics;  // topic -> (type, messages)
-  std::set<std::string> colour_encodings, depth_encodings;
-
-  struct Frame {
-    int id = -1;
-    size_t colour = 0, depth = 0, info = 0;  // into colour, depth, infos
-    std::optional<Pose> pose;
-  };
-  std::vector<Frame> synced;  // all synchronized frames, by colour stamp; id = index
-  std::vector<size_t> kept;   // into synced
-  PoseReport poses;
-  std::string pose_child;  // Odometry / TransformStamped child_frame_id on the pose topic
-  BagCounts counts;
-  CameraIntrinsics camera;
-  bool distorted = false;  // some kept frame's camera_info has non-zero D
-
-  std::string where() const { return path + ": "; }
-  std::string topicList() const {
-    std::string text;
-    for (const auto& [topic, info] : topics)
-      text += (text.empty() ? "" : ", ") + topic + " (" + info.first + ", " +
-              std::to_string(info.second) + (info.second == 1 ? " message)" : " messages)");
-    return text.empty() ? "none" : text;
-  }
-
-  // What the pose source gave while reading the bag.
-  struct PoseInputs {
-    std::vector<geometry_msgs::TransformStamped> transforms;  // /tf and /tf_static
-    std::vector<bool> is_static;                              // per transform
-    std::vector<PoseSample> samples;                          // the pose topic
-    std::string pose_type;                                    // the pose topic's message type
-  };
-
-  // Reads the bag: checkTopics, readMessages, synchronize, poses, select.
-  relocalizer::Status scan();
-  // The topics exist with the right types (from the index, no message read).
-  relocalizer::Status checkTopics(std::string& pose_type);
-  // One pass in bag order: image headers, camera_infos and the pose source.
-  relocalizer::Status readMessages(PoseInputs& inputs);
-  relocalizer::Status readPoseMessage(const rosbag::MessageInstance& m, const std::string& topic,
-                                      std::vector<PoseSample>& samples,
-                                      std::string& pose_frame_error);
-  // Colour, depth and camera_info paired by nearest stamps.
-  relocalizer::Status synchronize();
-  // The synchronized frames as pose queries, and their answers back.
-  std::vector<PoseQuery> poseQueries() const;
-  void takePoses(const std::vector<PoseQuery>& queries);
-  // The frame selection, frames with a pose, key frames.
-  relocalizer::Status select();
-  std::string cameraFrameOf(const Frame& f) const {
-    return options.camera_frame.empty() ? stripLeadingSlashes(colour[f.colour].frame_id)
-                                        : stripLeadingSlashes(options.camera_frame);
-  }
-};
 
 relocalizer::Status BagDataset::Impl::scan() {
   PoseInputs inputs;
@@ -314,145 +242,6 @@ relocalizer::Status BagDataset::Impl::readPoseMessage(const rosbag::MessageInsta
   return relocalizer::okStatus();
 }
 
-std::vector<PoseQuery> BagDataset::Impl::poseQueries() const {
-  std::vector<PoseQuery> queries;
-  queries.reserve(synced.size());
-  for (const Frame& f : synced) {
-    PoseQuery q;
-    q.id = f.id;
-    q.camera_frame = cameraFrameOf(f);
-    q.stamp = colour[f.colour].stamp;
-    queries.push_back(std::move(q));
-  }
-  return queries;
-}
-
-void BagDataset::Impl::takePoses(const std::vector<PoseQuery>& queries) {
-  for (size_t i = 0; i < synced.size(); ++i) synced[i].pose = queries[i].pose;
-}
-
-relocalizer::Status BagDataset::Impl::synchronize() {
-  const auto by_stamp = [](const ImageEntry& a, const ImageEntry& b) { return a.stamp < b.stamp; };
-  std::stable_sort(colour.begin(), colour.end(), by_stamp);
-  std::stable_sort(depth.begin(), depth.end(), by_stamp);
-  std::stable_sort(infos.begin(), infos.end(),
-                   [](const auto& a, const auto& b) { return a.header.stamp < b.header.stamp; });
-
-  // Colour-depth pairs within the tolerance, nearest first, each image used
-  // once, as the TUM reader pairs its lists.
-  const auto seconds_of = [](const std::vector<ImageEntry>& images) {
-    std::vector<double> out;
-    out.reserve(images.size());
-    for (const ImageEntry& e : images) out.push_back(e.stamp.toSec());
-    return out;
-  };
-  std::vector<long> depth_of(colour.size(), -1);
-  for (const auto& [c, d] :
-       relocalizer::associateByStamp(seconds_of(colour), seconds_of(depth), options.sync_tolerance))
-    depth_of[c] = static_cast<long>(d);
-
-  for (size_t c = 0; c < colour.size(); ++c) {
-    if (depth_of[c] < 0) {
-      ++counts.colour_without_depth;
-      continue;
-    }
-    // Nearest camera_info; several frames may share one.
-    const auto [before, after] = bracket(
-        infos, colour[c].stamp, [](const sensor_msgs::CameraInfo& i) { return i.header.stamp; });
-    long best = -1;
-    double gap = 0;
-    for (long candidate : {before, after}) {
-      if (candidate < 0) continue;
-      const double g = std::abs((infos[candidate].header.stamp - colour[c].stamp).toSec());
-      if (best < 0 || g < gap) best = candidate, gap = g;
-    }
-    if (best < 0 || gap > options.sync_tolerance) {
-      ++counts.colour_without_info;
-      continue;
-    }
-    // Checked here rather than frame by frame in load(): an unregistered depth
-    // topic is a property of the recording, so say so before any work.
-    const ImageEntry& c_entry = colour[c];
-    const ImageEntry& d_entry = depth[static_cast<size_t>(depth_of[c])];
-    const sensor_msgs::CameraInfo& info = infos[static_cast<size_t>(best)];
-    const auto size = [](uint32_t w, uint32_t h) {
-      return std::to_string(w) + "x" + std::to_string(h);
-    };
-    if (stripLeadingSlashes(c_entry.frame_id) != stripLeadingSlashes(d_entry.frame_id))
-      return makeError(where() + "depth on '" + normalTopic(options.depth_topic) +
-                       "' is in frame '" + messageExcerpt(d_entry.frame_id) + "' but colour on '" +
-                       normalTopic(options.rgb_topic) + "' is in frame '" + messageExcerpt(c_entry.frame_id) +
-                       "' (at " + seconds(c_entry.stamp) +
-                       "): depth must be registered to colour (e.g. a depth_registered topic)");
-    if (c_entry.width != d_entry.width || c_entry.height != d_entry.height ||
-        info.width != c_entry.width || info.height != c_entry.height)
-      return makeError(where() + "sizes differ at " + seconds(c_entry.stamp) + ": colour on '" +
-                       normalTopic(options.rgb_topic) + "' " + size(c_entry.width, c_entry.height) +
-                       ", depth on '" + normalTopic(options.depth_topic) + "' " +
-                       size(d_entry.width, d_entry.height) + ", camera_info on '" +
-                       normalTopic(options.camera_info_topic) + "' " +
-                       size(info.width, info.height) + "; depth must be registered to colour");
-    Frame f;
-    f.id = static_cast<int>(synced.size());
-    f.colour = c;
-    f.depth = static_cast<size_t>(depth_of[c]);
-    f.info = static_cast<size_t>(best);
-    synced.push_back(f);
-  }
-  counts.synchronized = static_cast<int>(synced.size());
-  if (synced.empty()) {
-    const auto range = [](const auto& items, auto get) {
-      return items.empty() ? std::string("none")
-                           : seconds(get(items.front())) + " - " + seconds(get(items.back()));
-    };
-    const auto image_stamp = [](const ImageEntry& e) { return e.stamp; };
-    return makeError(where() + "no colour image on '" + normalTopic(options.rgb_topic) +
-                     "' has a depth image on '" + normalTopic(options.depth_topic) +
-                     "' and a camera_info on '" + normalTopic(options.camera_info_topic) +
-                     "' within " + number(options.sync_tolerance) +
-                     " s (--sync-tolerance); stamps: colour " + range(colour, image_stamp) +
-                     ", depth " + range(depth, image_stamp) + ", camera_info " +
-                     range(infos, [](const sensor_msgs::CameraInfo& i) { return i.header.stamp; }));
-  }
-  return relocalizer::okStatus();
-}
-
-relocalizer::Status BagDataset::Impl::select() {
-  auto selection = FrameSelection::parse(options.frames);
-  if (!selection) return makeError(selection.error());
-  KeyFrameSelector key_frames(options.min_translation, options.min_rotation_degrees);
-  for (size_t i = 0; i < synced.size(); ++i) {
-    const Frame& f = synced[i];
-    if (!selection->contains(f.id)) continue;
-    ++counts.selected;
-    if (!f.pose) {
-      ++counts.without_pose;
-      continue;
-    }
-    ++counts.with_pose;
-    if (key_frames.keep(*f.pose)) kept.push_back(i);
-  }
-  counts.key_frames = static_cast<int>(kept.size());
-  if (counts.selected == 0)
-    return makeError(where() + "frame selection '" + options.frames + "' matches none of the " +
-                     std::to_string(synced.size()) + " synchronized frames (ids 0-" +
-                     std::to_string(synced.size() - 1) + ")");
-  if (kept.empty())
-    return makeError(
-        where() + "none of the " + std::to_string(counts.selected) +
-        " selected frames (colour stamps " + seconds(colour[synced.front().colour].stamp) + " - " +
-        seconds(colour[synced.back().colour].stamp) + ") has a pose from " + poses.source +
-        " within " + number(options.pose_tolerance) + " s (--pose-tolerance); pose samples span " +
-        (poses.begin.isZero() && poses.end.isZero()
-             ? std::string("nothing (static only)")
-             : seconds(poses.begin) + " - " + seconds(poses.end)) +
-        (poses.no_pose_hint.empty() ? std::string() : "; " + poses.no_pose_hint));
-  for (size_t k : kept)
-    for (double coefficient : infos[synced[k].info].D) distorted = distorted || coefficient != 0.0;
-  camera = cameraFromInfo(infos[synced[kept.front()].info]);
-  return relocalizer::okStatus();
-}
-
 BagDataset::BagDataset(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 BagDataset::~BagDataset() = default;
 
@@ -515,8 +304,8 @@ Expected<RgbdFrame> BagDataset::load(size_t i) const {
     return makeError("frame index " + std::to_string(i) + " is out of range: " + impl_->path +
                      " has " + std::to_string(size()) + " kept frames");
   const Impl::Frame& f = impl_->synced[impl_->kept[i]];
-  const ImageEntry& c = impl_->colour[f.colour];
-  const ImageEntry& d = impl_->depth[f.depth];
+  const Impl::ImageEntry& c = impl_->colour[f.colour];
+  const Impl::ImageEntry& d = impl_->depth[f.depth];
   const std::string where = impl_->path + ": frame " + std::to_string(f.id) + " (" +
                             normalTopic(impl_->options.rgb_topic) + " at " + seconds(c.stamp) +
                             ", " + normalTopic(impl_->options.depth_topic) + " at " +
