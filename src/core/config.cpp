@@ -52,7 +52,8 @@ std::string overlay(const YAML::Node& node, json& target, const std::string& pat
       target = node.as<bool>();
     } else if (target.is_number_integer()) {  // signed or unsigned
       const json v = integer(node);
-      if (target.is_number_unsigned() && v.get<double>() < 0) return "'" + path + "' must not be negative";
+      if (target.is_number_unsigned() && v.get<double>() < 0)
+        return "'" + path + "' must not be negative";
       target = v;
     } else if (target.is_number_float()) {
       // .nan and .inf, or a value beyond float range, cannot be a parameter and
@@ -75,7 +76,8 @@ std::string overlay(const YAML::Node& node, json& target, const std::string& pat
 
 }  // namespace
 
-Expected<std::string> mergeYamlOntoJson(const std::string& yaml_text, const std::string& defaults_json,
+Expected<std::string> mergeYamlOntoJson(const std::string& yaml_text,
+                                        const std::string& defaults_json,
                                         const std::string& source) {
   YAML::Node root;
   try {

@@ -18,7 +18,9 @@ namespace {
 
 std::string systemReason(int error) { return std::strerror(error); }
 
-std::string temporaryPath(const std::string& path) { return path + ".tmp" + std::to_string(::getpid()); }
+std::string temporaryPath(const std::string& path) {
+  return path + ".tmp" + std::to_string(::getpid());
+}
 
 std::filesystem::path folderOf(const std::string& path) {
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
@@ -37,18 +39,24 @@ void removeStaleTemporaries(const std::string& path) {
     if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) continue;
     long pid = 0;
     const char* digits = name.data() + prefix.size();
-    const auto [end_of_number, parse_error] = std::from_chars(digits, name.data() + name.size(), pid);
-    if (parse_error != std::errc() || end_of_number != name.data() + name.size() || pid <= 0) continue;
+    const auto [end_of_number, parse_error] =
+        std::from_chars(digits, name.data() + name.size(), pid);
+    if (parse_error != std::errc() || end_of_number != name.data() + name.size() || pid <= 0)
+      continue;
     if (pid == ::getpid() || (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH))
       ::unlink(it->path().c_str());
   }
 }
 
-Status writeAndSync(const std::string& path, const std::string& temporary, const std::vector<uint8_t>& bytes) {
-  ::unlink(temporary.c_str());  // ours by name; O_EXCL below then never opens a planted FIFO or link
-  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
+Status writeAndSync(const std::string& path, const std::string& temporary,
+                    const std::vector<uint8_t>& bytes) {
+  ::unlink(
+      temporary.c_str());  // ours by name; O_EXCL below then never opens a planted FIFO or link
+  const int fd =
+      ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
   if (fd < 0)
-    return makeError(path + ": cannot create the temporary file " + temporary + ": " + systemReason(errno));
+    return makeError(path + ": cannot create the temporary file " + temporary + ": " +
+                     systemReason(errno));
   size_t written = 0;
   while (written < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
@@ -114,14 +122,16 @@ Expected<std::vector<uint8_t>> readRegularFile(const std::string& path, const st
   return bytes;
 }
 
-std::string replaceableError(const std::string& path, std::string_view magic, const std::string& what) {
+std::string replaceableError(const std::string& path, std::string_view magic,
+                             const std::string& what) {
   struct stat info {};
   if (::lstat(path.c_str(), &info) != 0) {
     if (errno == ENOENT) return {};  // a new file; a missing folder is reported by the write
     return path + ": cannot check what is there: " + systemReason(errno);
   }
   if (S_ISLNK(info.st_mode))
-    return path + ": is a symbolic link; refusing to replace it (name the file itself or a new path)";
+    return path +
+           ": is a symbolic link; refusing to replace it (name the file itself or a new path)";
   if (S_ISDIR(info.st_mode)) return path + ": is a directory; refusing to replace it (name a file)";
   if (!S_ISREG(info.st_mode))
     return path + ": is not a regular file (a FIFO, socket or device); refusing to replace it";
@@ -131,7 +141,8 @@ std::string replaceableError(const std::string& path, std::string_view magic, co
   const ssize_t n = ::read(fd, head.data(), head.size());
   ::close(fd);
   if (n != static_cast<ssize_t>(magic.size()) || head != magic)
-    return path + ": exists and is not a " + what + "; refusing to overwrite it (remove it or choose another path)";
+    return path + ": exists and is not a " + what +
+           "; refusing to overwrite it (remove it or choose another path)";
   return {};
 }
 
@@ -140,7 +151,8 @@ Status replaceFiles(const std::vector<FileReplacement>& files) {
   static std::mutex one_at_a_time;
   std::lock_guard<std::mutex> lock(one_at_a_time);
   for (const FileReplacement& f : files)
-    if (const std::string why = replaceableError(f.path, f.magic, f.what); !why.empty()) return makeError(why);
+    if (const std::string why = replaceableError(f.path, f.magic, f.what); !why.empty())
+      return makeError(why);
   std::vector<std::string> temporaries;
   const auto fail = [&](const std::string& why) {
     for (const std::string& t : temporaries) ::unlink(t.c_str());
@@ -156,7 +168,8 @@ Status replaceFiles(const std::vector<FileReplacement>& files) {
     if (::rename(temporaries[i].c_str(), files[i].path.c_str()) != 0) {
       const int error = errno;
       temporaries.erase(temporaries.begin(), temporaries.begin() + static_cast<std::ptrdiff_t>(i));
-      return fail(files[i].path + ": cannot rename " + temporaries.front() + " into place: " + systemReason(error));
+      return fail(files[i].path + ": cannot rename " + temporaries.front() +
+                  " into place: " + systemReason(error));
     }
   }
   // The renames are entries of the folder: durable only once it is flushed.

@@ -28,9 +28,10 @@ Expected<cv::Mat> depthToMetres(const cv::Mat& raw, double units_per_metre) {
     }
     return out;
   }
-  return makeError("depth must be 16-bit unsigned (millimetres) or 32-bit float (metres) with one "
-                   "channel, got OpenCV type " + std::to_string(raw.type()) + " with " +
-                   std::to_string(raw.channels()) + " channels");
+  return makeError(
+      "depth must be 16-bit unsigned (millimetres) or 32-bit float (metres) with one "
+      "channel, got OpenCV type " +
+      std::to_string(raw.type()) + " with " + std::to_string(raw.channels()) + " channels");
 }
 
 cv::Mat depthToMillimetres(const cv::Mat& metres) {
@@ -54,9 +55,9 @@ std::string frameValidationError(const RgbdFrame& frame) {
   if (frame.colour.type() != CV_8UC3) return "colour image is not 8-bit BGR";
   if (frame.depth.type() != CV_32FC1) return "depth image is not 32-bit float metres";
   if (frame.colour.size() != frame.depth.size())
-    return "colour (" + std::to_string(frame.colour.cols) + "x" + std::to_string(frame.colour.rows) +
-           ") and depth (" + std::to_string(frame.depth.cols) + "x" +
-           std::to_string(frame.depth.rows) + ") differ in size";
+    return "colour (" + std::to_string(frame.colour.cols) + "x" +
+           std::to_string(frame.colour.rows) + ") and depth (" + std::to_string(frame.depth.cols) +
+           "x" + std::to_string(frame.depth.rows) + ") differ in size";
   const std::string camera_error = frame.camera.validationError();
   if (!camera_error.empty()) return "camera intrinsics: " + camera_error;
   if (frame.camera.width != frame.depth.cols || frame.camera.height != frame.depth.rows)

@@ -8,7 +8,8 @@ std::string joinIdRanges(const std::vector<std::pair<int, int>>& ranges) {
   std::string out;
   for (const auto& [first, last] : ranges) {
     if (!out.empty()) out += ',';
-    out += first == last ? std::to_string(first) : std::to_string(first) + "-" + std::to_string(last);
+    out +=
+        first == last ? std::to_string(first) : std::to_string(first) + "-" + std::to_string(last);
   }
   return out;
 }

@@ -21,8 +21,8 @@ Expected<Pose> poseFromMatrix(const Eigen::Matrix4d& m) {
     return makeError("pose matrix last row is not 0 0 0 1");
   const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
   if (std::abs(r.determinant() - 1.0) > 0.05)
-    return makeError("pose rotation block is not a rotation (det = " +
-                     std::to_string(r.determinant()) + ")");
+    return makeError(
+        "pose rotation block is not a rotation (det = " + std::to_string(r.determinant()) + ")");
   Pose pose = Pose::Identity();
   pose.linear() = nearestRotation(r);
   pose.translation() = m.topRightCorner<3, 1>();

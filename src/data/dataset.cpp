@@ -39,14 +39,30 @@ std::string sizeText(const cv::Mat& image) { return sizeText(image.cols, image.r
 std::string describeType(const cv::Mat& image) {
   std::string depth;
   switch (image.depth()) {
-    case CV_8U: depth = "8-bit"; break;
-    case CV_8S: depth = "8-bit signed"; break;
-    case CV_16U: depth = "16-bit"; break;
-    case CV_16S: depth = "16-bit signed"; break;
-    case CV_32S: depth = "32-bit integer"; break;
-    case CV_32F: depth = "32-bit float"; break;
-    case CV_64F: depth = "64-bit float"; break;
-    default: depth = "OpenCV depth " + std::to_string(image.depth()); break;
+    case CV_8U:
+      depth = "8-bit";
+      break;
+    case CV_8S:
+      depth = "8-bit signed";
+      break;
+    case CV_16U:
+      depth = "16-bit";
+      break;
+    case CV_16S:
+      depth = "16-bit signed";
+      break;
+    case CV_32S:
+      depth = "32-bit integer";
+      break;
+    case CV_32F:
+      depth = "32-bit float";
+      break;
+    case CV_64F:
+      depth = "64-bit float";
+      break;
+    default:
+      depth = "OpenCV depth " + std::to_string(image.depth());
+      break;
   }
   return depth + " " + std::to_string(image.channels()) + "-channel";
 }
@@ -77,8 +93,8 @@ Expected<RgbdFrame> loadFrame(const DatasetData& data, const DatasetFrame& entry
 
   if (colour->size() != raw_depth->size()) {
     if (!data.resample_colour)
-      return makeError(entry.colour_path + " (" + sizeText(*colour) + ") and " +
-                       entry.depth_path + " (" + sizeText(*raw_depth) +
+      return makeError(entry.colour_path + " (" + sizeText(*colour) + ") and " + entry.depth_path +
+                       " (" + sizeText(*raw_depth) +
                        ") differ in size; colour and depth must match");
     cv::Mat resampled;
     cv::resize(*colour, resampled, raw_depth->size(), 0, 0, cv::INTER_AREA);
@@ -175,11 +191,16 @@ double groundTruthPathLength(const std::vector<DatasetFrame>& frames) {
 
 Expected<DatasetData> readLayout(DatasetFormat format, const detail::ReaderInput& input) {
   switch (format) {
-    case DatasetFormat::SevenScenesFolder: return detail::readSevenScenesFolder(input);
-    case DatasetFormat::SevenScenesScene: return detail::readSevenScenesScene(input);
-    case DatasetFormat::TwelveScenes: return detail::readTwelveScenes(input);
-    case DatasetFormat::Tum: return detail::readTum(input);
-    case DatasetFormat::Auto: break;
+    case DatasetFormat::SevenScenesFolder:
+      return detail::readSevenScenesFolder(input);
+    case DatasetFormat::SevenScenesScene:
+      return detail::readSevenScenesScene(input);
+    case DatasetFormat::TwelveScenes:
+      return detail::readTwelveScenes(input);
+    case DatasetFormat::Tum:
+      return detail::readTum(input);
+    case DatasetFormat::Auto:
+      break;
   }
   return makeError("internal error: no reader for format " + formatName(format));
 }
@@ -259,7 +280,8 @@ namespace detail {
 Expected<std::vector<std::string>> readLines(const fs::path& file) {
   std::ifstream in(file);
   if (!in) {
-    return makeError(file.string() + (isFile(file) ? ": cannot be opened for reading" : ": missing"));
+    return makeError(file.string() +
+                     (isFile(file) ? ": cannot be opened for reading" : ": missing"));
   }
   std::vector<std::string> lines;
   std::string line;
@@ -338,15 +360,16 @@ Expected<CameraIntrinsics> readIntrinsicsFile(const fs::path& file) {
     if (!numbers) return makeError(numbers.error());
     if (numbers->empty()) continue;
     if (rows == 3 || numbers->size() != 3)
-      return makeError(file.string() + ": line " + std::to_string(line_number) +
-                       ": expected a 3x3 camera matrix K (3 lines of 3 numbers), got " +
-                       (rows == 3 ? std::string("a fourth row") :
-                                    std::to_string(numbers->size()) + " numbers"));
+      return makeError(
+          file.string() + ": line " + std::to_string(line_number) +
+          ": expected a 3x3 camera matrix K (3 lines of 3 numbers), got " +
+          (rows == 3 ? std::string("a fourth row") : std::to_string(numbers->size()) + " numbers"));
     for (int c = 0; c < 3; ++c) k(rows, c) = (*numbers)[c];
     ++rows;
   }
   if (rows != 3)
-    return makeError(file.string() + ": expected a 3x3 camera matrix K (3 lines of 3 numbers), got " +
+    return makeError(file.string() +
+                     ": expected a 3x3 camera matrix K (3 lines of 3 numbers), got " +
                      std::to_string(rows) + " rows");
   if (!k.allFinite() || k(2, 0) != 0 || k(2, 1) != 0 || k(2, 2) != 1)
     return makeError(file.string() + ": not a camera matrix (last row must be 0 0 1)");
@@ -382,11 +405,16 @@ Expected<DatasetFormat> parseDatasetFormat(const std::string& name) {
 
 std::string formatName(DatasetFormat format) {
   switch (format) {
-    case DatasetFormat::Auto: return "auto";
-    case DatasetFormat::SevenScenesFolder: return "7-Scenes folder";
-    case DatasetFormat::SevenScenesScene: return "7-Scenes scene";
-    case DatasetFormat::TwelveScenes: return "12-Scenes";
-    case DatasetFormat::Tum: return "TUM RGB-D";
+    case DatasetFormat::Auto:
+      return "auto";
+    case DatasetFormat::SevenScenesFolder:
+      return "7-Scenes folder";
+    case DatasetFormat::SevenScenesScene:
+      return "7-Scenes scene";
+    case DatasetFormat::TwelveScenes:
+      return "12-Scenes";
+    case DatasetFormat::Tum:
+      return "TUM RGB-D";
   }
   return "unknown";
 }
@@ -433,8 +461,8 @@ std::string Dataset::summary() const {
   if (d.selection != "all") out << " selected by '" << d.selection << "'";
   out << ", ids " << formatIdRanges(ids) << "\n";
   out << "image size:   " << sizeText(d.camera.width, d.camera.height);
-  if (d.colour_size && (d.colour_size->width != d.camera.width ||
-                        d.colour_size->height != d.camera.height))
+  if (d.colour_size &&
+      (d.colour_size->width != d.camera.width || d.colour_size->height != d.camera.height))
     out << " (colour resampled from " << sizeText(d.colour_size->width, d.colour_size->height)
         << ")";
   out << "\n";

@@ -1,9 +1,9 @@
 // 7-Scenes folders and scenes; the frame-folder reader is shared with 12-Scenes,
 // whose data/ folder uses the same file names.
 
-#include <cmath>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <set>
@@ -43,10 +43,14 @@ Expected<std::map<int, FrameFiles>> listFrameFiles(const fs::path& dir) {
     FrameFiles& frame = files[number];
     frame.stem = name.substr(0, digits_end);
     const std::string path = it->path().string();
-    if (suffix == ".color.png") frame.colour_png = path;
-    else if (suffix == ".color.jpg") frame.colour_jpg = path;
-    else if (suffix == ".depth.png") frame.depth = path;
-    else if (suffix == ".pose.txt") frame.pose = path;
+    if (suffix == ".color.png")
+      frame.colour_png = path;
+    else if (suffix == ".color.jpg")
+      frame.colour_jpg = path;
+    else if (suffix == ".depth.png")
+      frame.depth = path;
+    else if (suffix == ".pose.txt")
+      frame.pose = path;
   }
   if (ec) return makeError(dir.string() + ": cannot be listed: " + ec.message());
   // Numbers seen only in unrelated files (frame-000001.notes.txt) are not frames.

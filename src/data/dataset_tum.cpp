@@ -103,18 +103,17 @@ Expected<std::vector<GroundTruthSample>> readGroundTruth(const fs::path& file) {
     if (q.norm() < 1e-6) return makeError(where + ": quaternion has zero length");
     samples.push_back({v[0], Eigen::Vector3d(v[1], v[2], v[3]), q.normalized()});
   }
-  std::stable_sort(samples.begin(), samples.end(),
-                   [](const GroundTruthSample& a, const GroundTruthSample& b) {
-                     return a.stamp < b.stamp;
-                   });
+  std::stable_sort(
+      samples.begin(), samples.end(),
+      [](const GroundTruthSample& a, const GroundTruthSample& b) { return a.stamp < b.stamp; });
   return samples;
 }
 
 std::optional<Pose> groundTruthAt(const std::vector<GroundTruthSample>& samples, double stamp) {
   if (samples.empty()) return std::nullopt;
-  const auto after = std::lower_bound(
-      samples.begin(), samples.end(), stamp,
-      [](const GroundTruthSample& s, double t) { return s.stamp < t; });
+  const auto after =
+      std::lower_bound(samples.begin(), samples.end(), stamp,
+                       [](const GroundTruthSample& s, double t) { return s.stamp < t; });
   if (after != samples.end() && after->stamp == stamp)
     return poseFromTranslationQuaternion(after->translation, after->rotation);
   if (after != samples.begin() && after != samples.end()) {
@@ -122,9 +121,8 @@ std::optional<Pose> groundTruthAt(const std::vector<GroundTruthSample>& samples,
     const double gap = after->stamp - before->stamp;
     if (gap <= kMaxInterpolationGap) {
       const double a = (stamp - before->stamp) / gap;
-      return poseFromTranslationQuaternion(
-          (1.0 - a) * before->translation + a * after->translation,
-          before->rotation.slerp(a, after->rotation));
+      return poseFromTranslationQuaternion((1.0 - a) * before->translation + a * after->translation,
+                                           before->rotation.slerp(a, after->rotation));
     }
   }
   const GroundTruthSample* nearest = nullptr;
@@ -167,8 +165,8 @@ void setDefaultIntrinsics(const fs::path& root, DatasetData& data) {
     data.camera_source = "TUM freiburg3 calibration" + from;
   } else {
     set(525.0, 525.0, 319.5, 239.5);
-    data.camera_source = "TUM default calibration; folder name '" +
-                         resolved.filename().string() + "' names no freiburg1/2/3 camera";
+    data.camera_source = "TUM default calibration; folder name '" + resolved.filename().string() +
+                         "' names no freiburg1/2/3 camera";
   }
 }
 
@@ -214,11 +212,11 @@ Expected<DatasetData> readTum(const ReaderInput& input) {
     // Checked now so a broken copy fails at open, not hours into a run.
     std::error_code exists_ec;
     if (!fs::exists(frame.colour_path, exists_ec))
-      return makeError(frame.colour_path + ": missing (listed in " + rgb_file.string() +
-                       " line " + std::to_string(colour.line) + ")");
+      return makeError(frame.colour_path + ": missing (listed in " + rgb_file.string() + " line " +
+                       std::to_string(colour.line) + ")");
     if (!fs::exists(frame.depth_path, exists_ec))
-      return makeError(frame.depth_path + ": missing (listed in " + depth_file.string() +
-                       " line " + std::to_string(depth_entry.line) + ")");
+      return makeError(frame.depth_path + ": missing (listed in " + depth_file.string() + " line " +
+                       std::to_string(depth_entry.line) + ")");
     frame.ground_truth = groundTruthAt(truth, colour.stamp);
     data.frames.push_back(std::move(frame));
   }

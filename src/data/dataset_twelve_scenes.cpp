@@ -58,8 +58,7 @@ class InfoFile {
                        (count == 1 ? " number" : " numbers") + ", got " +
                        std::to_string(numbers->size()));
     for (double value : *numbers)
-      if (!std::isfinite(value))
-        return makeError(where + ": " + key + ": expected finite numbers");
+      if (!std::isfinite(value)) return makeError(where + ": " + key + ": expected finite numbers");
     return numbers;
   }
 
@@ -91,8 +90,8 @@ Expected<DatasetData> readTwelveScenes(const ReaderInput& input) {
   auto height = info->positiveInteger("m_depthHeight", "480");
   if (!height) return makeError(height.error());
   // Row-major 4x4 K, as in the .sens header.
-  auto k = info->numbers("m_calibrationDepthIntrinsic", 16,
-                         "572 0 320 0 0 572 240 0 0 0 1 0 0 0 0 1");
+  auto k =
+      info->numbers("m_calibrationDepthIntrinsic", 16, "572 0 320 0 0 572 240 0 0 0 1 0 0 0 0 1");
   if (!k) return makeError(k.error());
   data.camera.fx = (*k)[0];
   data.camera.cx = (*k)[2];
@@ -124,8 +123,8 @@ Expected<DatasetData> readTwelveScenes(const ReaderInput& input) {
   const fs::path frames_dir = input.root / "data";
   if (std::string problem = folderProblem(frames_dir); !problem.empty())
     return makeError(problem + " (12-Scenes frames are expected in data/)");
-  if (auto status = readFrameFolder(frames_dir, input.selection, 0, -1,
-                                    NonFinitePose::NoGroundTruth, data);
+  if (auto status =
+          readFrameFolder(frames_dir, input.selection, 0, -1, NonFinitePose::NoGroundTruth, data);
       !status)
     return makeError(status.error());
   return data;

@@ -50,7 +50,6 @@ PointToPlaneSystem linearise(const cv::Mat& fixed, const cv::Mat& moving,
   return system;
 }
 
-
 }  // namespace
 
 DepthAlignment alignDepth(const cv::Mat& fixed_depth, const cv::Mat& moving_depth,

@@ -20,8 +20,8 @@ std::string trim(const std::string& s) {
 // The problem with `text` as a frame number, or empty when `value` was set.
 std::string parseFrameNumber(const std::string& text, int& value) {
   const bool digits_only =
-      !text.empty() && std::all_of(text.begin(), text.end(),
-                                   [](unsigned char c) { return std::isdigit(c) != 0; });
+      !text.empty() &&
+      std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c) != 0; });
   if (!digits_only)
     return "'" + text + "' is not a frame number (expected digits, or a range like 0-99)";
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
@@ -47,8 +47,7 @@ std::string parseItem(const std::string& item, std::pair<int, int>& range) {
   if (end.empty()) return "missing range end after '-'";
   if (std::string problem = parseFrameNumber(start, range.first); !problem.empty()) return problem;
   if (std::string problem = parseFrameNumber(end, range.second); !problem.empty()) return problem;
-  if (range.second < range.first)
-    return "range end " + end + " is before its start " + start;
+  if (range.second < range.first) return "range end " + end + " is before its start " + start;
   return {};
 }
 
@@ -99,15 +98,14 @@ Expected<FrameSelection> FrameSelection::parse(const std::string& expression) {
 bool FrameSelection::contains(int id) const {
   if (all_) return true;
   // First range starting after `id`; the one before it is the only candidate.
-  auto it = std::upper_bound(ranges_.begin(), ranges_.end(), id,
-                             [](int value, const std::pair<int, int>& r) { return value < r.first; });
+  auto it =
+      std::upper_bound(ranges_.begin(), ranges_.end(), id,
+                       [](int value, const std::pair<int, int>& r) { return value < r.first; });
   if (it == ranges_.begin()) return false;
   --it;
   return id <= it->second;
 }
 
-std::string FrameSelection::str() const {
-  return all_ ? "all" : joinIdRanges(ranges_);
-}
+std::string FrameSelection::str() const { return all_ ? "all" : joinIdRanges(ranges_); }
 
 }  // namespace relocalizer

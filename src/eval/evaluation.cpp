@@ -28,7 +28,8 @@ nlohmann::json jsonNumber(double value) {
 
 }  // namespace
 
-EvaluationRecord recordAttempt(int id, double stamp, const Pose& truth, const Relocalization& result) {
+EvaluationRecord recordAttempt(int id, double stamp, const Pose& truth,
+                               const Relocalization& result) {
   EvaluationRecord r;
   r.id = id;
   r.stamp = stamp;
@@ -88,7 +89,8 @@ std::string formatEvaluationTable(const EvaluationSummary& s, const std::string&
   out << "  frames with no pose        " << (a.frames - a.frames_with_pose) << "\n";
   out << "  latency, median / p95 (ms)\n";
   const auto row = [&](const char* name, const LatencySummary& l) {
-    out << "    " << name << number(l.median_ms, "%8.1f") << " / " << number(l.p95_ms, "%.1f") << "\n";
+    out << "    " << name << number(l.median_ms, "%8.1f") << " / " << number(l.p95_ms, "%.1f")
+        << "\n";
   };
   row("whole call   ", s.total);
   row("sampling     ", s.sampling);
@@ -99,7 +101,8 @@ std::string formatEvaluationTable(const EvaluationSummary& s, const std::string&
   return out.str();
 }
 
-Status writeEvaluationOutputs(const std::string& folder, const std::vector<EvaluationRecord>& records,
+Status writeEvaluationOutputs(const std::string& folder,
+                              const std::vector<EvaluationRecord>& records,
                               const EvaluationSummary& summary,
                               const EvaluationOutputOptions& options) {
   std::error_code ec;
@@ -137,16 +140,15 @@ Status writeEvaluationOutputs(const std::string& folder, const std::vector<Evalu
       for (char& c : message)
         if (c == '"') c = '\'';
       char line[512];
-      std::snprintf(line, sizeof line,
-                    "%d,%.6f,%d,%s,%s,%d,%d,%.4f,%s,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,\"%s\"\n",
-                    r.id, r.stamp, e.has_pose ? 1 : 0,
-                    e.has_pose ? number(e.translation_m, "%.5f").c_str() : "",
-                    e.has_pose ? number(e.rotation_deg, "%.4f").c_str() : "", r.point_inliers,
-                    r.line_inliers, r.score,
-                    r.surface_agreement >= 0 ? number(r.surface_agreement, "%.4f").c_str() : "",
-                    1000 * r.timings.total, 1000 * r.timings.sampling, 1000 * r.timings.forest,
-                    1000 * r.timings.ransac, 1000 * r.timings.refinement, 1000 * r.timings.surface,
-                    message.c_str());
+      std::snprintf(
+          line, sizeof line,
+          "%d,%.6f,%d,%s,%s,%d,%d,%.4f,%s,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,\"%s\"\n", r.id, r.stamp,
+          e.has_pose ? 1 : 0, e.has_pose ? number(e.translation_m, "%.5f").c_str() : "",
+          e.has_pose ? number(e.rotation_deg, "%.4f").c_str() : "", r.point_inliers, r.line_inliers,
+          r.score, r.surface_agreement >= 0 ? number(r.surface_agreement, "%.4f").c_str() : "",
+          1000 * r.timings.total, 1000 * r.timings.sampling, 1000 * r.timings.forest,
+          1000 * r.timings.ransac, 1000 * r.timings.refinement, 1000 * r.timings.surface,
+          message.c_str());
       csv << line;
     }
   }
@@ -163,12 +165,12 @@ Status writeEvaluationOutputs(const std::string& folder, const std::vector<Evalu
     j["median_rotation_deg"] = jsonNumber(a.median_rotation_deg);
     j["ate_rmse_cm"] = jsonNumber(100.0 * a.ate_rmse_m);
     const auto lat = [](const LatencySummary& l) {
-      return nlohmann::json{{"median_ms", jsonNumber(l.median_ms)}, {"p95_ms", jsonNumber(l.p95_ms)}};
+      return nlohmann::json{{"median_ms", jsonNumber(l.median_ms)},
+                            {"p95_ms", jsonNumber(l.p95_ms)}};
     };
-    j["latency"] = {{"total", lat(summary.total)},   {"sampling", lat(summary.sampling)},
-                    {"forest", lat(summary.forest)}, {"ransac", lat(summary.ransac)},
-                    {"refinement", lat(summary.refinement)},
-                    {"surface", lat(summary.surface)}};
+    j["latency"] = {{"total", lat(summary.total)},           {"sampling", lat(summary.sampling)},
+                    {"forest", lat(summary.forest)},         {"ransac", lat(summary.ransac)},
+                    {"refinement", lat(summary.refinement)}, {"surface", lat(summary.surface)}};
     if (!options.extra_json.empty()) {
       try {
         j.update(nlohmann::json::parse(options.extra_json));
@@ -214,7 +216,8 @@ Status writeEvaluationOutputs(const std::string& folder, const std::vector<Evalu
     PlotSeries& target = within(e, kCorrectPose) ? good : bad;
     // Estimates far off the map would squash the picture; clamp them to its edge.
     Eigen::Vector3d p = r.estimate->translation();
-    const Eigen::Vector3d margin = Eigen::Vector3d::Constant(std::max(0.5, extent.maxCoeff() * 0.5));
+    const Eigen::Vector3d margin =
+        Eigen::Vector3d::Constant(std::max(0.5, extent.maxCoeff() * 0.5));
     p = p.cwiseMax(lo - margin).cwiseMin(hi + margin);
     target.x.push_back(p[ax]);
     target.y.push_back(p[ay]);
@@ -241,7 +244,8 @@ Status writeEvaluationOutputs(const std::string& folder, const std::vector<Evalu
     r_series.y.push_back(e.has_pose ? std::max(e.rotation_deg, 0.05) : NAN);
   }
   errors.series = {t_series, r_series};
-  if (!errors.save(folder + "/errors.png", 1100, 500)) return makeError(folder + "/errors.png: cannot write");
+  if (!errors.save(folder + "/errors.png", 1100, 500))
+    return makeError(folder + "/errors.png: cannot write");
   return okStatus();
 }
 

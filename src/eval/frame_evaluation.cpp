@@ -30,7 +30,8 @@ Status addPredictionQuality(const Relocalizer& relocalizer, const RgbdFrame& fra
 }  // namespace
 
 Expected<FrameEvaluation> evaluateFrames(const Relocalizer& relocalizer, const FrameSource& source,
-                                         bool measure_predictions, const std::string& progress_label) {
+                                         bool measure_predictions,
+                                         const std::string& progress_label) {
   FrameEvaluation evaluation;
   ProgressBar bar(progress_label, source.size());
   for (size_t i = 0; i < source.size(); ++i) {

@@ -46,7 +46,8 @@ void frameSweepPlot(Plot& plot) {
   double most_ms = 0, least_share = 100, most_share = 0;
   for (const PlotSeries& s : plot.series) {
     for (double x : s.x) most_ms = std::max(most_ms, x);
-    for (double y : s.y) least_share = std::min(least_share, y), most_share = std::max(most_share, y);
+    for (double y : s.y)
+      least_share = std::min(least_share, y), most_share = std::max(most_share, y);
   }
   plot.x_min = 0;
   plot.x_max = 1.08 * most_ms;
@@ -124,7 +125,8 @@ std::string formatStageTableRows(const std::vector<TimedRun>& runs) {
     out += "\n";
   }
   out += printed("%-18s", "within 5cm/5deg");
-  for (const TimedRun& run : runs) out += printed("  %14.1f %%         ", 100 * run.accuracy.within_5cm_5deg);
+  for (const TimedRun& run : runs)
+    out += printed("  %14.1f %%         ", 100 * run.accuracy.within_5cm_5deg);
   return out + "\n";
 }
 
@@ -171,8 +173,8 @@ Expected<nlohmann::json> speedAccuracySweep(const Model& model, const Relocalize
       p.line_samples = pixels / 2;
       p.solver.hypotheses = hypotheses;
       const Relocalizer variant(model, p);
-      const TimedRun run =
-          timeFrames(variant, frames, 1, "sweep " + std::to_string(pixels) + "/" + std::to_string(hypotheses));
+      const TimedRun run = timeFrames(
+          variant, frames, 1, "sweep " + std::to_string(pixels) + "/" + std::to_string(hypotheses));
       const LatencySummary total = stageLatency(run.timings, &StageTimings::total);
       const AccuracySummary& a = run.accuracy;
       csv << pixels << "," << pixels / 2 << "," << hypotheses << "," << total.median_ms << ","
@@ -182,7 +184,8 @@ Expected<nlohmann::json> speedAccuracySweep(const Model& model, const Relocalize
       tight.y.push_back(100 * a.within_2cm_2deg);
       series.x.push_back(total.median_ms);
       series.y.push_back(100 * a.within_5cm_5deg);
-      const bool is_default = pixels == params.point_samples && hypotheses == params.solver.hypotheses;
+      const bool is_default =
+          pixels == params.point_samples && hypotheses == params.solver.hypotheses;
       series.point_labels.push_back(std::to_string(pixels) + (is_default ? " (default)" : ""));
       points.push_back({{"point_samples", pixels},
                         {"hypotheses", hypotheses},
@@ -195,7 +198,8 @@ Expected<nlohmann::json> speedAccuracySweep(const Model& model, const Relocalize
   }
   frameSweepPlot(plot);
   if (!csv) return makeError(folder + "/sweep.csv: cannot write");
-  if (!plot.save(folder + "/sweep.png", 1000, 650)) return makeError(folder + "/sweep.png: cannot write");
+  if (!plot.save(folder + "/sweep.png", 1000, 650))
+    return makeError(folder + "/sweep.png: cannot write");
   return points;
 }
 

@@ -11,8 +11,8 @@ namespace relocalizer {
 
 cv::Scalar plotColour(int index) {
   // Okabe-Ito palette, BGR.
-  static const cv::Scalar kColours[] = {{178, 114, 0},   {0, 159, 230}, {115, 158, 0},
-                                        {0, 94, 213},    {167, 121, 204}, {233, 180, 86},
+  static const cv::Scalar kColours[] = {{178, 114, 0},  {0, 159, 230},   {115, 158, 0},
+                                        {0, 94, 213},   {167, 121, 204}, {233, 180, 86},
                                         {66, 228, 240}, {0, 0, 0}};
   return kColours[index % 8];
 }
@@ -86,8 +86,9 @@ cv::Mat Plot::render(int width, int height) const {
   }
   const auto to_pixel = [&](double x, double y) {
     const double ty = transform_y(y);
-    return cv::Point(static_cast<int>(std::lround(area.x + (x - x0) / (x1 - x0) * area.width)),
-                     static_cast<int>(std::lround(area.y + area.height - (ty - y0) / (y1 - y0) * area.height)));
+    return cv::Point(
+        static_cast<int>(std::lround(area.x + (x - x0) / (x1 - x0) * area.width)),
+        static_cast<int>(std::lround(area.y + area.height - (ty - y0) / (y1 - y0) * area.height)));
   };
 
   const cv::Scalar grid(230, 230, 230), ink(40, 40, 40);
@@ -99,12 +100,15 @@ cv::Mat Plot::render(int width, int height) const {
     const std::string t = tickText(x, x_step);
     int baseline = 0;
     const cv::Size size = cv::getTextSize(t, font, 0.45, 1, &baseline);
-    cv::putText(image, t, {px - size.width / 2, area.y + area.height + 18}, font, 0.45, ink, 1, cv::LINE_AA);
+    cv::putText(image, t, {px - size.width / 2, area.y + area.height + 18}, font, 0.45, ink, 1,
+                cv::LINE_AA);
   }
   for (double y = std::ceil(y0 / y_step) * y_step; y <= y1 + 1e-9; y += y_step) {
-    const int py = static_cast<int>(std::lround(area.y + area.height - (y - y0) / (y1 - y0) * area.height));
+    const int py =
+        static_cast<int>(std::lround(area.y + area.height - (y - y0) / (y1 - y0) * area.height));
     cv::line(image, {area.x, py}, {area.x + area.width, py}, grid, 1);
-    const std::string t = log_y ? tickText(std::pow(10.0, y), std::pow(10.0, y) / 10) : tickText(y, y_step);
+    const std::string t =
+        log_y ? tickText(std::pow(10.0, y), std::pow(10.0, y) / 10) : tickText(y, y_step);
     int baseline = 0;
     const cv::Size size = cv::getTextSize(t, font, 0.45, 1, &baseline);
     cv::putText(image, t, {area.x - size.width - 6, py + 5}, font, 0.45, ink, 1, cv::LINE_AA);
@@ -142,7 +146,8 @@ cv::Mat Plot::render(int width, int height) const {
       }
       if (s.marker == 3) cv::circle(clip, q, 6, s.colour, 2, cv::LINE_AA);
       if (i < s.point_labels.size() && !s.point_labels[i].empty())
-        cv::putText(clip, s.point_labels[i], q + cv::Point(8, -6), font, 0.45, s.colour, 1, cv::LINE_AA);
+        cv::putText(clip, s.point_labels[i], q + cv::Point(8, -6), font, 0.45, s.colour, 1,
+                    cv::LINE_AA);
     }
     flush();
   }
@@ -158,7 +163,8 @@ cv::Mat Plot::render(int width, int height) const {
   cv::putText(label, y_label, {2, y_size.height + 2}, font, 0.5, ink, 1, cv::LINE_AA);
   cv::rotate(label, label, cv::ROTATE_90_COUNTERCLOCKWISE);
   const int ly = std::max(0, area.y + (area.height - label.rows) / 2);
-  if (label.rows + ly <= height && label.cols + 4 <= left) label.copyTo(image(cv::Rect(4, ly, label.cols, label.rows)));
+  if (label.rows + ly <= height && label.cols + 4 <= left)
+    label.copyTo(image(cv::Rect(4, ly, label.cols, label.rows)));
 
   // Legend, top right inside the chart.
   int row = 0;
@@ -167,7 +173,8 @@ cv::Mat Plot::render(int width, int height) const {
     const cv::Size size = cv::getTextSize(s.label, font, 0.45, 1, &baseline);
     const int y = area.y + 16 + 18 * row++;
     const int x = area.x + area.width - size.width - 40;
-    cv::rectangle(image, {x - 32, y - 12}, {area.x + area.width - 4, y + 5}, cv::Scalar(255, 255, 255), cv::FILLED);
+    cv::rectangle(image, {x - 32, y - 12}, {area.x + area.width - 4, y + 5},
+                  cv::Scalar(255, 255, 255), cv::FILLED);
     if (s.line) cv::line(image, {x - 28, y - 4}, {x - 8, y - 4}, s.colour, 2, cv::LINE_AA);
     if (s.marker) cv::circle(image, {x - 18, y - 4}, 3, s.colour, cv::FILLED, cv::LINE_AA);
     cv::putText(image, s.label, {x, y}, font, 0.45, ink, 1, cv::LINE_AA);

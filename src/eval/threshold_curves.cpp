@@ -28,8 +28,9 @@ struct Sweep {
 
 std::vector<Sweep> sweepsFor(const std::vector<GateAnswer>& answers, const GateSettings& c) {
   std::vector<Sweep> sweeps;
-  sweeps.push_back({"min_inlier_ratio", "curves", "min_inlier_ratio (share of samples that are inliers)",
-                    c.min_inlier_ratio, [c](const GateAnswer& a, float t) {
+  sweeps.push_back({"min_inlier_ratio", "curves",
+                    "min_inlier_ratio (share of samples that are inliers)", c.min_inlier_ratio,
+                    [c](const GateAnswer& a, float t) {
                       return a.score >= t && a.inliers >= c.min_inliers &&
                              (a.agreement < 0 || a.agreement >= c.min_agreement);
                     }});
@@ -60,9 +61,12 @@ void runSweep(Sweep& sweep, const std::vector<GateAnswer>& answers, int in_total
     int c = 0, w = 0, o = 0;
     for (const GateAnswer& a : answers) {
       if (!a.has_pose || !sweep.accepts(a, threshold)) continue;
-      if (!a.in_scene) ++o;
-      else if (a.correct) ++c;
-      else ++w;
+      if (!a.in_scene)
+        ++o;
+      else if (a.correct)
+        ++c;
+      else
+        ++w;
     }
     const double cs = in_total ? 100.0 * c / in_total : 0, ws = in_total ? 100.0 * w / in_total : 0,
                  os = out_total ? 100.0 * o / out_total : 0;
@@ -73,7 +77,8 @@ void runSweep(Sweep& sweep, const std::vector<GateAnswer>& answers, int in_total
     wrong.y.push_back(ws);
     outside_answered.x.push_back(threshold);
     outside_answered.y.push_back(os);
-    sweep.curve.push_back({{sweep.name, threshold}, {"correct", cs}, {"wrong", ws}, {"out_of_scene", os}});
+    sweep.curve.push_back(
+        {{sweep.name, threshold}, {"correct", cs}, {"wrong", ws}, {"out_of_scene", os}});
     if (sweep.chosen < 0 && os <= 5.0) sweep.chosen = threshold;
   }
   Plot plot;
@@ -91,7 +96,8 @@ void runSweep(Sweep& sweep, const std::vector<GateAnswer>& answers, int in_total
 std::string report(const std::vector<Sweep>& sweeps, int in_total, int out_total) {
   std::string text;
   char line[512];
-  std::snprintf(line, sizeof line, "%d in-scene and %d out-of-scene frames%s\n", in_total, out_total,
+  std::snprintf(line, sizeof line, "%d in-scene and %d out-of-scene frames%s\n", in_total,
+                out_total,
                 sweeps.size() > 1 ? "" : " (the model has no scene surface: no agreement curve)");
   text += line;
   for (const Sweep& sweep : sweeps) {
@@ -101,11 +107,12 @@ std::string report(const std::vector<Sweep>& sweeps, int in_total, int out_total
     text += line;
     for (const auto& point : sweep.curve)
       if (std::abs(point[sweep.name].get<double>() - sweep.configured) < 1e-6) {
-        std::snprintf(line, sizeof line,
-                      "  at the configured value: %.1f%% correct, %.1f%% wrong, %.1f%% out-of-scene "
-                      "answered\n",
-                      point["correct"].get<double>(), point["wrong"].get<double>(),
-                      point["out_of_scene"].get<double>());
+        std::snprintf(
+            line, sizeof line,
+            "  at the configured value: %.1f%% correct, %.1f%% wrong, %.1f%% out-of-scene "
+            "answered\n",
+            point["correct"].get<double>(), point["wrong"].get<double>(),
+            point["out_of_scene"].get<double>());
         text += line;
       }
   }
@@ -148,7 +155,8 @@ Expected<std::vector<GateAnswer>> answerFrames(const Relocalizer& relocalizer,
 }
 
 Expected<std::string> writeThresholdCurves(const std::vector<GateAnswer>& answers,
-                                           const GateSettings& configured, const std::string& folder,
+                                           const GateSettings& configured,
+                                           const std::string& folder,
                                            const std::string& extra_json) {
   std::error_code ec;
   std::filesystem::create_directories(folder, ec);

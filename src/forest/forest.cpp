@@ -1,10 +1,10 @@
 #include "relocalizer/forest/forest.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <Eigen/LU>
 #include <algorithm>
 #include <limits>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 namespace relocalizer {
 
@@ -19,8 +19,8 @@ Eigen::Matrix3f LeafMode::covariance() const { return informationMatrix().invers
 
 void LeafMode::setCovariance(const Eigen::Matrix3f& covariance) {
   const Eigen::Matrix3f inverse = covariance.inverse();
-  information = {inverse(0, 0), inverse(0, 1), inverse(0, 2), inverse(1, 1), inverse(1, 2),
-                 inverse(2, 2)};
+  information = {inverse(0, 0), inverse(0, 1), inverse(0, 2),
+                 inverse(1, 1), inverse(1, 2), inverse(2, 2)};
 }
 
 int Tree::depth() const {
@@ -47,7 +47,8 @@ LeafRange Tree::descend(const FeatureImage& image, int u, int v, float depth) co
   int32_t index = 0;
   while (!nodes[index].isLeaf()) {
     const SplitNode& node = nodes[index];
-    index = node.left + (evaluateFeature(node.feature, image, u, v, depth) < node.threshold ? 0 : 1);
+    index =
+        node.left + (evaluateFeature(node.feature, image, u, v, depth) < node.threshold ? 0 : 1);
   }
   return nodes[index].leafModes();
 }
@@ -116,8 +117,9 @@ class BranchQueue {
 
 // One step of a descent at a split node: the child to take, and the sibling
 // queued for backtracking by how narrowly the sample missed it.
-inline int32_t splitStep(const std::vector<SplitNode>& nodes, int32_t index, const FeatureImage& image,
-                         const Sample& sample, int max_leaves, BranchQueue& queue) {
+inline int32_t splitStep(const std::vector<SplitNode>& nodes, int32_t index,
+                         const FeatureImage& image, const Sample& sample, int max_leaves,
+                         BranchQueue& queue) {
   const SplitNode& node = nodes[index];
   // Start fetching both children while the feature reads the image: deep
   // nodes are rarely cached, and this overlaps the two memory latencies.
@@ -151,10 +153,9 @@ ModeCandidate noCandidate() {
 // dependent cache misses (each node's address comes from its parent, and a
 // model of tens of MB does not fit the cache), so one sample at a time leaves
 // the core waiting on DRAM. Here kLanes samples advance in turn, one memory
-// access each per round (a node, or a leaf's modes' descriptors) with the next access prefetched, so up to kLanes misses are in
-// flight. Each lane runs exactly predictInTree's steps in its order, so every
-// candidate is the one predictInTree gives. Writes candidates[slot] of each
-// prediction.
+// access each per round (a node, or a leaf's modes' descriptors) with the next access prefetched,
+// so up to kLanes misses are in flight. Each lane runs exactly predictInTree's steps in its order,
+// so every candidate is the one predictInTree gives. Writes candidates[slot] of each prediction.
 class LockStepDescent {
  public:
   static constexpr int kLanes = 16;
@@ -211,7 +212,8 @@ class LockStepDescent {
     switch (lane.step) {
       case Step::Descend:
         if (!nodes[lane.node].isLeaf()) {
-          lane.node = splitStep(nodes, lane.node, image_, samples_[lane.sample], max_leaves_, lane.queue);
+          lane.node =
+              splitStep(nodes, lane.node, image_, samples_[lane.sample], max_leaves_, lane.queue);
         } else {
           lane.range = nodes[lane.node].leafModes();
           const LeafRange& r = lane.range;
@@ -282,7 +284,8 @@ void predictForest(const Forest& forest, const FeatureImage& image,
                       const size_t first = range.begin(), count = range.size();
                       for (int t = 0; t < trees; ++t) {
                         if (forest.trees[t].nodes.empty()) {
-                          for (size_t i = first; i < range.end(); ++i) out[i].candidates[t] = noCandidate();
+                          for (size_t i = first; i < range.end(); ++i)
+                            out[i].candidates[t] = noCandidate();
                           continue;
                         }
                         LockStepDescent(forest.trees[t], image, params.max_leaves)
@@ -302,12 +305,12 @@ void predictForest(const Forest& forest, const FeatureImage& image,
 void computeDescriptors(const FeatureImage& image, const std::vector<Sample>& samples,
                         std::vector<Descriptor>& out) {
   out.resize(samples.size());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, samples.size(), 128),
-                    [&](const tbb::blocked_range<size_t>& range) {
-                      for (size_t i = range.begin(); i < range.end(); ++i)
-                        out[i] = quantizeDescriptor(
-                            computeDescriptor(image, samples[i].u, samples[i].v));
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, samples.size(), 128),
+      [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i < range.end(); ++i)
+          out[i] = quantizeDescriptor(computeDescriptor(image, samples[i].u, samples[i].v));
+      });
 }
 
 }  // namespace relocalizer

@@ -14,7 +14,8 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
 
 bool ModelBuilder::add(const RgbdFrame& frame) { return appendTrainingImage(frame, images_); }
 
-Expected<Model> ModelBuilder::build(TrainingSummary provenance, const ModelBuildProgress& progress) {
+Expected<Model> ModelBuilder::build(TrainingSummary provenance,
+                                    const ModelBuildProgress& progress) {
   if (images_.empty()) return makeError("no posed frame to train on");
   const auto start = std::chrono::steady_clock::now();
   Model model;

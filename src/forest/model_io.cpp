@@ -8,6 +8,7 @@
 
 #include <zlib.h>
 
+#include <tbb/parallel_for.h>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -15,7 +16,6 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
-#include <tbb/parallel_for.h>
 #include <type_traits>
 
 namespace relocalizer {
@@ -67,11 +67,18 @@ json headerJson(const Model& m) {
             {"scene_max", vec3Json(s.scene_max)},
             {"software_version", s.software_version}}},
           {"forests",
-           {{"points", {{"trees", m.points.trees.size()}, {"nodes", m.points.nodeCount()},
-                        {"leaves", m.points.leafCount()}, {"modes", m.points.modeCount()}}},
-            {"lines", {{"trees", m.lines.trees.size()}, {"nodes", m.lines.nodeCount()},
-                       {"leaves", m.lines.leafCount()}, {"modes", m.lines.modeCount()}}}}},
-          {"surface", {{"elements", m.surface.elements().size()}, {"voxel_size", m.surface.voxelSize()}}}};
+           {{"points",
+             {{"trees", m.points.trees.size()},
+              {"nodes", m.points.nodeCount()},
+              {"leaves", m.points.leafCount()},
+              {"modes", m.points.modeCount()}}},
+            {"lines",
+             {{"trees", m.lines.trees.size()},
+              {"nodes", m.lines.nodeCount()},
+              {"leaves", m.lines.leafCount()},
+              {"modes", m.lines.modeCount()}}}}},
+          {"surface",
+           {{"elements", m.surface.elements().size()}, {"voxel_size", m.surface.voxelSize()}}}};
 }
 
 // A tree's arrays as version 2 stores them: each array byte plane by byte
@@ -110,7 +117,8 @@ std::vector<uint8_t> packTree(const Tree& t) {
   if (compress2(packed.data() + 16, &stored, raw.data(), static_cast<uLong>(raw.size()), 6) != Z_OK)
     throw std::runtime_error("zlib could not deflate a tree");
   packed.resize(16 + stored);
-  const uint32_t nodes = static_cast<uint32_t>(t.nodes.size()), modes = static_cast<uint32_t>(t.modes.size());
+  const uint32_t nodes = static_cast<uint32_t>(t.nodes.size()),
+                 modes = static_cast<uint32_t>(t.modes.size());
   const uint64_t stored_size = stored;
   std::memcpy(packed.data(), &nodes, 4);
   std::memcpy(packed.data() + 4, &modes, 4);
@@ -181,7 +189,8 @@ bool readTrees(ByteReader& r, Forest& forest, std::string& why) {
     Tree& t = forest.trees[k];
     std::vector<uint8_t> raw(treeBytes(s.nodes, s.modes));
     uLongf size = static_cast<uLongf>(raw.size());
-    if (uncompress(raw.data(), &size, s.data, static_cast<uLong>(s.stored)) != Z_OK || size != raw.size()) {
+    if (uncompress(raw.data(), &size, s.data, static_cast<uLong>(s.stored)) != Z_OK ||
+        size != raw.size()) {
       errors[k] = "a tree's compressed data is corrupt";
       return;
     }
@@ -262,7 +271,9 @@ bool readSurface(ByteReader& r, SurfaceModel& surface, std::string& why) {
 
 }  // namespace
 
-std::string modelHeaderJson(const Model& model, int indent) { return headerJson(model).dump(indent); }
+std::string modelHeaderJson(const Model& model, int indent) {
+  return headerJson(model).dump(indent);
+}
 
 std::vector<uint8_t> serializeModel(const Model& model) {
   std::vector<uint8_t> body;
@@ -273,7 +284,8 @@ std::vector<uint8_t> serializeModel(const Model& model) {
   for (const Forest* forest : {&model.points, &model.lines}) {
     // Deflating is most of saving: the trees in parallel, in order.
     std::vector<std::vector<uint8_t>> packed(forest->trees.size());
-    tbb::parallel_for(size_t{0}, packed.size(), [&](size_t t) { packed[t] = packTree(forest->trees[t]); });
+    tbb::parallel_for(size_t{0}, packed.size(),
+                      [&](size_t t) { packed[t] = packTree(forest->trees[t]); });
     w.value(static_cast<uint32_t>(forest->trees.size()));
     for (const auto& tree : packed) w.bytes(tree.data(), tree.size());
   }
@@ -294,8 +306,9 @@ std::vector<uint8_t> serializeModel(const Model& model) {
 Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::string& source) {
   const std::string where = source + ": ";
   if (size < kModelMagic.size() || std::memcmp(data, kModelMagic.data(), kModelMagic.size()) != 0)
-    return makeError(where + "not a relocalizer model (wrong magic number; expected a file "
-                             "written by `train`)");
+    return makeError(where +
+                     "not a relocalizer model (wrong magic number; expected a file "
+                     "written by `train`)");
   ByteReader r(data, size);
   char magic[8];
   uint32_t version = 0, reserved = 0, crc = 0;
@@ -340,12 +353,13 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
   std::string why;
   const auto read = version <= 2 ? readTreesV1 : readTrees;
   if (!read(b, model.points, why) || !read(b, model.lines, why))
-    return makeError(where + (why.empty() ? "truncated model file (forest data)"
-                                          : "invalid forest: " + why));
+    return makeError(
+        where + (why.empty() ? "truncated model file (forest data)" : "invalid forest: " + why));
   if (version >= 2 && !readSurface(b, model.surface, why))
-    return makeError(where + (why.empty() ? "truncated model file (surface data)"
-                                          : "invalid surface: " + why));
-  if (b.remaining() != 0) return makeError(where + "unexpected bytes after the forests and surface");
+    return makeError(
+        where + (why.empty() ? "truncated model file (surface data)" : "invalid surface: " + why));
+  if (b.remaining() != 0)
+    return makeError(where + "unexpected bytes after the forests and surface");
   return model;
 }
 
@@ -374,7 +388,8 @@ Status saveModel(const Model& model, const std::string& path) {
   const std::vector<uint8_t> bytes = serializeModel(model);
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) return makeError(path + ": cannot open for writing");
-  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  out.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
   if (!out) return makeError(path + ": write failed");
   return okStatus();
 }

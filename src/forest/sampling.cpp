@@ -114,7 +114,8 @@ LineSamples sampleLines(const RgbdFrame& frame, const LineSamplingParams& params
       const Eigen::Vector2f shift = normal * (sides == 2 ? offset : 0.0f);
       for (int i = 0; i < steps; ++i) {
         const Eigen::Vector2f p = a + (b - a) * (static_cast<float>(i) / (steps - 1)) + shift;
-        const int u = static_cast<int>(std::lround(p.x())), v = static_cast<int>(std::lround(p.y()));
+        const int u = static_cast<int>(std::lround(p.x())),
+                  v = static_cast<int>(std::lround(p.y()));
         if (u < 0 || v < 0 || u >= width || v >= height) continue;
         const float d = frame.depth.ptr<float>(v)[u];
         if (!validDepth(d)) continue;
@@ -124,7 +125,8 @@ LineSamples sampleLines(const RgbdFrame& frame, const LineSamplingParams& params
     }
     if (static_cast<int>(points.size()) < params.min_inliers) continue;
     Line3D line;
-    if (!fitLineRansac(points, params.ransac_inlier_m, params.ransac_iterations, rng, line, inliers))
+    if (!fitLineRansac(points, params.ransac_inlier_m, params.ransac_iterations, rng, line,
+                       inliers))
       continue;
     if (static_cast<int>(inliers.size()) < params.min_inliers ||
         inliers.size() < params.min_inlier_ratio * points.size())

@@ -1,12 +1,12 @@
 #include "relocalizer/forest/training.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <numeric>
 #include <random>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 namespace relocalizer {
 
@@ -17,7 +17,7 @@ const char* forestKindName(ForestKind kind) {
 uint64_t treeSeed(uint64_t seed, ForestKind kind, int tree) {
   // splitmix64 over the combined key: well-mixed, independent streams.
   uint64_t z = seed + 0x9E3779B97F4A7C15ULL * (1 + static_cast<uint64_t>(tree) +
-                                              (kind == ForestKind::Lines ? 1000 : 0));
+                                               (kind == ForestKind::Lines ? 1000 : 0));
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
   return z ^ (z >> 31);
@@ -109,7 +109,8 @@ void drawFromImage(TreeDraw& draw, const std::vector<TrainingImage>& images, int
 // stream in that order, so the samples are the same as drawing tree by tree;
 // and once an image is passed no tree needs its depth again, which
 // `image_done` may use to free it.
-std::vector<TreeDraw> drawSamples(const std::vector<TrainingImage>& images, const TrainingParams& params,
+std::vector<TreeDraw> drawSamples(const std::vector<TrainingImage>& images,
+                                  const TrainingParams& params,
                                   const std::vector<ForestKind>& kinds,
                                   const std::function<void(int)>& image_done) {
   const int n_images = static_cast<int>(images.size());
@@ -119,7 +120,9 @@ std::vector<TreeDraw> drawSamples(const std::vector<TrainingImage>& images, cons
     const ForestParams& forest = kind == ForestKind::Points ? params.points : params.lines;
     if (kind == ForestKind::Lines) line_cache = lineSamplesPerImage(images, params);
     for (int t = 0; t < forest.trees; ++t) {
-      TreeDraw draw{kind, t, &forest, std::mt19937(static_cast<uint32_t>(treeSeed(params.seed, kind, t))), {}, 0, {}};
+      TreeDraw draw{
+          kind, t, &forest, std::mt19937(static_cast<uint32_t>(treeSeed(params.seed, kind, t))),
+          {},   0, {}};
       draw.chosen = chooseImages(n_images, forest.images_per_tree, draw.rng);
       // Reserved to size (points: at most samples_per_image an image; lines:
       // what each image has), so the largest allocation of training grows
@@ -128,7 +131,8 @@ std::vector<TreeDraw> drawSamples(const std::vector<TrainingImage>& images, cons
       for (int i : draw.chosen)
         expected += kind == ForestKind::Points
                         ? static_cast<size_t>(std::max(0, forest.samples_per_image))
-                        : std::min<size_t>(std::max(0, forest.samples_per_image), line_cache[i].samples.size());
+                        : std::min<size_t>(std::max(0, forest.samples_per_image),
+                                           line_cache[i].samples.size());
       draw.samples.items.reserve(expected);
       draws.push_back(std::move(draw));
     }
@@ -163,19 +167,23 @@ void growTrees(const std::vector<TrainingImage>& images, std::vector<TreeDraw>& 
   }
   std::atomic<size_t> next{0};
   const int workers = std::max(1, tbb::this_task_arena::max_concurrency());
-  tbb::parallel_for(0, workers, [&](int) {
-    for (size_t k = next++; k < order.size(); k = next++) {
-      TreeDraw& draw = draws[order[k]];
-      const auto start = std::chrono::steady_clock::now();
-      forests[static_cast<int>(draw.kind)]->trees[draw.tree] =
-          growTree(images, draw.samples, *draw.params, treeSeed(seed, draw.kind, draw.tree), progress);
-      if (progress.tree_done)
-        progress.tree_done(draw.kind, draw.tree,
-                           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-      draw.samples.items.clear();
-      draw.samples.items.shrink_to_fit();
-    }
-  }, tbb::simple_partitioner());
+  tbb::parallel_for(
+      0, workers,
+      [&](int) {
+        for (size_t k = next++; k < order.size(); k = next++) {
+          TreeDraw& draw = draws[order[k]];
+          const auto start = std::chrono::steady_clock::now();
+          forests[static_cast<int>(draw.kind)]->trees[draw.tree] = growTree(
+              images, draw.samples, *draw.params, treeSeed(seed, draw.kind, draw.tree), progress);
+          if (progress.tree_done)
+            progress.tree_done(
+                draw.kind, draw.tree,
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+          draw.samples.items.clear();
+          draw.samples.items.shrink_to_fit();
+        }
+      },
+      tbb::simple_partitioner());
 }
 
 void reportDrawn(const std::vector<TreeDraw>& draws, const TrainingProgress& progress) {

@@ -8,7 +8,8 @@
 
 namespace relocalizer {
 
-Expected<TrainingParams> parseTrainingParams(const std::string& yaml_text, const std::string& source,
+Expected<TrainingParams> parseTrainingParams(const std::string& yaml_text,
+                                             const std::string& source,
                                              const TrainingParams& defaults) {
   auto merged = mergeYamlOntoJson(yaml_text, trainingParamsToJson(defaults), source);
   if (!merged) return makeError(merged.error());
@@ -17,7 +18,8 @@ Expected<TrainingParams> parseTrainingParams(const std::string& yaml_text, const
   return params;
 }
 
-Expected<TrainingParams> loadTrainingParams(const std::string& path, const TrainingParams& defaults) {
+Expected<TrainingParams> loadTrainingParams(const std::string& path,
+                                            const TrainingParams& defaults) {
   std::ifstream in(path);
   if (!in) return makeError(path + ": cannot open configuration file");
   std::stringstream text;

@@ -12,7 +12,7 @@ using detail::readField;
 using nlohmann::json;
 
 json meanShiftJson(const MeanShiftParams& p) {
-  return {{"bandwidth", p.bandwidth},   {"max_seeds", p.max_seeds},
+  return {{"bandwidth", p.bandwidth},           {"max_seeds", p.max_seeds},
           {"max_iterations", p.max_iterations}, {"max_modes", p.max_modes},
           {"min_mode_share", p.min_mode_share}, {"min_std", p.min_std}};
 }
@@ -33,7 +33,7 @@ json forestJson(const ForestParams& p) {
 
 json surfaceJson(const TrainingParams& p) {
   const SurfaceParams& s = p.surface;
-  return {{"enabled", p.build_surface}, {"voxel_size", s.voxel_size},
+  return {{"enabled", p.build_surface},     {"voxel_size", s.voxel_size},
           {"pixel_stride", s.pixel_stride}, {"normal_step", s.normal_step},
           {"max_depth", s.max_depth},       {"min_frames", s.min_frames}};
 }
@@ -130,7 +130,9 @@ void readTrainingParams(const json& j, TrainingParams& p) {
 
 }  // namespace detail
 
-std::string trainingParamsToJson(const TrainingParams& params) { return detail::trainingParamsJson(params).dump(2); }
+std::string trainingParamsToJson(const TrainingParams& params) {
+  return detail::trainingParamsJson(params).dump(2);
+}
 
 Expected<TrainingParams> trainingParamsFromJson(const std::string& json_text) {
   TrainingParams params;

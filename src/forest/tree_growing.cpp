@@ -71,12 +71,14 @@ class TreeGrower {
   // Inlined into the loops that issue prefetches: called out of line, its
   // miss no longer overlaps with the prefetches (a point tree took 28 s
   // instead of 19).
-  __attribute__((always_inline)) float evaluate(const PixelFeature& f, const TreeSamples::Item& item) const;
+  __attribute__((always_inline)) float evaluate(const PixelFeature& f,
+                                                const TreeSamples::Item& item) const;
 
   // use(i, value) for every sample of items[0, n), with the pixel of the
   // sample some places ahead prefetched.
   template <typename Use>
-  void forEachValue(const PixelFeature& feature, const TreeSamples::Item* items, size_t n, Use use) const;
+  void forEachValue(const PixelFeature& feature, const TreeSamples::Item* items, size_t n,
+                    Use use) const;
 
   PixelFeature randomFeature();
 

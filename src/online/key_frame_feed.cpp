@@ -22,7 +22,8 @@ KeyFrameFeed::Result KeyFrameFeed::offer(const std::optional<Pose>& camera_to_wo
   const auto start = std::chrono::steady_clock::now();
   if (Status added = learner_.addKeyFrame(*frame, *camera_to_world); !added)
     return {Outcome::Failed, added.error(), 0.0};
-  return {Outcome::Learned, {},
+  return {Outcome::Learned,
+          {},
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
 }
 

@@ -49,7 +49,8 @@ double keyFrameDistance(const Pose& a, const Pose& b) {
 bool KeyFrameSelector::keep(const Pose& pose) {
   if (active() && last_) {
     const bool moved = motion_.metres > 0 && translationError(pose, *last_) >= motion_.metres;
-    const bool turned = motion_.degrees > 0 && rotationErrorDegrees(pose, *last_) >= motion_.degrees;
+    const bool turned =
+        motion_.degrees > 0 && rotationErrorDegrees(pose, *last_) >= motion_.degrees;
     if (!moved && !turned) return false;
   }
   last_ = pose;

@@ -136,7 +136,8 @@ Expected<KeyFrameFile> loadKeyFrames(const std::string& path) {
   const uint8_t* body = file.data() + kHeaderBytes;
   if (length != file.size() - kHeaderBytes)
     return makeError(path + ": key-frame file is truncated or has trailing bytes");
-  if (crc32Of(body, length) != crc) return makeError(path + ": key-frame file is corrupt (CRC mismatch)");
+  if (crc32Of(body, length) != crc)
+    return makeError(path + ": key-frame file is corrupt (CRC mismatch)");
   ByteReader r(body, length);
   KeyFrameFile loaded;
   if (version >= 2) {
@@ -146,9 +147,10 @@ Expected<KeyFrameFile> loadKeyFrames(const std::string& path) {
     loaded.model = model;
   }
   if (count > r.remaining() / kMinKeyFrameBytes)
-    return makeError(path + ": key-frame file claims " + std::to_string(count) + " key frames, but its " +
-                     std::to_string(r.remaining()) + " bytes hold at most " +
-                     std::to_string(r.remaining() / kMinKeyFrameBytes) + " (damaged header)");
+    return makeError(path + ": key-frame file claims " + std::to_string(count) +
+                     " key frames, but its " + std::to_string(r.remaining()) +
+                     " bytes hold at most " + std::to_string(r.remaining() / kMinKeyFrameBytes) +
+                     " (damaged header)");
   std::vector<StoredKeyFrame>& key_frames = loaded.key_frames;
   key_frames.resize(count);
   for (StoredKeyFrame& k : key_frames) {
@@ -167,7 +169,8 @@ Expected<KeyFrameFile> loadKeyFrames(const std::string& path) {
     if (!pose) return makeError(path + ": key frame " + std::to_string(id) + ": " + pose.error());
     k.pose = *pose;
   }
-  if (r.remaining() != 0) return makeError(path + ": key-frame file has bytes after its last key frame");
+  if (r.remaining() != 0)
+    return makeError(path + ": key-frame file has bytes after its last key frame");
   return loaded;
 }
 

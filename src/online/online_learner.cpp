@@ -20,8 +20,8 @@ namespace relocalizer {
 
 std::string learningParamsError(const LearningParams& p, const SettingName& name) {
   const auto n = [&](const std::string& field) { return name ? name(field) : field; };
-  if (!(p.min_motion.metres >= 0.0 && std::isfinite(p.min_motion.metres) && p.min_motion.degrees >= 0.0 &&
-        std::isfinite(p.min_motion.degrees)))
+  if (!(p.min_motion.metres >= 0.0 && std::isfinite(p.min_motion.metres) &&
+        p.min_motion.degrees >= 0.0 && std::isfinite(p.min_motion.degrees)))
     return n("min_motion") + " must be finite and >= 0 (got " + formatMinMotion(p.min_motion) + ")";
   if (p.max_keyframes < 2)
     return n("max_keyframes") + " must be at least 2 (got " + std::to_string(p.max_keyframes) + ")";
@@ -29,7 +29,8 @@ std::string learningParamsError(const LearningParams& p, const SettingName& name
     return n("first_retrain") + " must be between 1 and " + n("max_keyframes") + " (got " +
            std::to_string(p.first_retrain) + ")";
   if (!(p.retrain_growth >= 0.0 && std::isfinite(p.retrain_growth)))
-    return n("retrain_growth") + " must be a finite share >= 0 (got " + std::to_string(p.retrain_growth) + ")";
+    return n("retrain_growth") + " must be a finite share >= 0 (got " +
+           std::to_string(p.retrain_growth) + ")";
   if (p.jpeg_quality < 1 || p.jpeg_quality > 100)
     return n("jpeg_quality") + " must be 1-100 (got " + std::to_string(p.jpeg_quality) + ")";
   if (p.worker_threads < 1) return n("worker_threads") + " must be at least 1";
@@ -42,7 +43,8 @@ std::string learningParamsError(const LearningParams& p, const SettingName& name
 }
 
 Expected<LearningParams> readLearningParams(LearningParams params, const std::string& min_motion,
-                                            const std::string& training_config, const SettingName& name) {
+                                            const std::string& training_config,
+                                            const SettingName& name) {
   const auto n = [&](const std::string& field) { return name ? name(field) : field; };
   auto motion = parseMinMotion(min_motion);
   if (!motion) return makeError(n("min_motion") + ": " + motion.error());
@@ -52,7 +54,8 @@ Expected<LearningParams> readLearningParams(LearningParams params, const std::st
     if (!training) return makeError(n("config") + ": " + training.error());
     params.training = *training;
   }
-  if (const std::string why = learningParamsError(params, name); !why.empty()) return makeError(why);
+  if (const std::string why = learningParamsError(params, name); !why.empty())
+    return makeError(why);
   return params;
 }
 
@@ -67,7 +70,8 @@ std::string slamPoseError(const Pose& pose) {
   const Eigen::Matrix3d r = pose.linear();
   // SLAM's quaternions arrive as doubles, normalised to far better than this.
   constexpr double kTolerance = 1e-3;
-  const double off_orthonormal = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  const double off_orthonormal =
+      (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (off_orthonormal > kTolerance || std::abs(r.determinant() - 1.0) > kTolerance)
     return "SLAM pose's rotation is not a rotation (det " + std::to_string(r.determinant()) +
            ", off orthonormal by " + std::to_string(off_orthonormal) + ")";
@@ -111,7 +115,8 @@ OnlineLearner::~OnlineLearner() {
 }
 
 Status OnlineLearner::resume(Model model, std::vector<StoredKeyFrame> key_frames) {
-  if (key_frames.empty()) return makeError("cannot resume learning: the saved place has no key frames");
+  if (key_frames.empty())
+    return makeError("cannot resume learning: the saved place has no key frames");
   auto relocalizer = std::make_shared<Relocalizer>(std::move(model), relocalizer_params_);
   if (const std::string why = relocalizer->validationError(); !why.empty()) return makeError(why);
   return adoptKeyFrames(std::move(key_frames), std::move(relocalizer), {});
@@ -122,7 +127,8 @@ Status OnlineLearner::adoptKeyFrames(std::vector<StoredKeyFrame> key_frames,
   std::lock_guard<std::mutex> lock(mutex_);
   if (generation_ != 0) return makeError("resume() must come before the first key frame");
   for (StoredKeyFrame& k : key_frames) {
-    if (store_.add(std::make_shared<const StoredKeyFrame>(std::move(k)))) ++status_.keyframes_evicted;
+    if (store_.add(std::make_shared<const StoredKeyFrame>(std::move(k))))
+      ++status_.keyframes_evicted;
     ++generation_;
   }
   status_.keyframes_added = static_cast<int>(generation_);
@@ -143,20 +149,24 @@ Status OnlineLearner::resume(const std::string& model_path) {
   const std::string key_frames_path = keyFramesPath(model_path);
   auto saved = loadKeyFrames(key_frames_path);
   if (!saved)
-    return makeError("cannot continue learning " + model_path + " without its key frames: " +
-                     saved.error() + " (a model saved by ~save_model or evaluate --save-model has them)");
+    return makeError("cannot continue learning " + model_path +
+                     " without its key frames: " + saved.error() +
+                     " (a model saved by ~save_model or evaluate --save-model has them)");
   // Version-1 key frames carry no identity and resume as they always did.
   if (saved->model && *saved->model != modelFileId(*model_file)) {
     // Retrain rather than refuse: the key frames are the place and the model
     // is derived from them, so they lose nothing; the model beside them is
     // from an older save and would answer as if it knew frames it never saw.
     // Refusing would leave the user only the choice of starting over.
-    if (saved->key_frames.empty()) return makeError(key_frames_path + ": the saved place has no key frames");
+    if (saved->key_frames.empty())
+      return makeError(key_frames_path + ": the saved place has no key frames");
     const size_t count = saved->key_frames.size();
-    return adoptKeyFrames(std::move(saved->key_frames), nullptr,
-                          key_frames_path + " was saved with another model than " + model_path +
-                              " (a save was interrupted between the two files): not using that model, "
-                              "retraining on the " + std::to_string(count) + " key frames");
+    return adoptKeyFrames(
+        std::move(saved->key_frames), nullptr,
+        key_frames_path + " was saved with another model than " + model_path +
+            " (a save was interrupted between the two files): not using that model, "
+            "retraining on the " +
+            std::to_string(count) + " key frames");
   }
   return resume(std::move(*model), std::move(saved->key_frames));
 }
@@ -168,7 +178,8 @@ Status OnlineLearner::addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_
   if (!compressed) return makeError(compressed.error());
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (store_.add(std::make_shared<const StoredKeyFrame>(std::move(*compressed)))) ++status_.keyframes_evicted;
+    if (store_.add(std::make_shared<const StoredKeyFrame>(std::move(*compressed))))
+      ++status_.keyframes_evicted;
     ++generation_;
     status_.keyframes_added = static_cast<int>(generation_);
   }
@@ -201,9 +212,9 @@ Status OnlineLearner::retrain(std::unique_lock<std::mutex>& lock) {
     training.surface.min_frames = params_.surface_min_frames;
     if (params_.samples_budget_per_tree > 0)
       for (ForestParams* forest : {&training.points, &training.lines})
-        forest->samples_per_image = std::clamp(
-            params_.samples_budget_per_tree / static_cast<int>(entries.size()),
-            std::min(1000, forest->samples_per_image), forest->samples_per_image);
+        forest->samples_per_image =
+            std::clamp(params_.samples_budget_per_tree / static_cast<int>(entries.size()),
+                       std::min(1000, forest->samples_per_image), forest->samples_per_image);
     ModelBuilder builder(training);
     for (const auto& entry : entries) {
       auto image = decompressKeyFrame(*entry);
@@ -226,12 +237,15 @@ Status OnlineLearner::retrain(std::unique_lock<std::mutex>& lock) {
     auto model = builder.build(std::move(provenance), progress);
     if (!model) throw std::runtime_error(model.error());
     auto relocalizer = std::make_shared<Relocalizer>(std::move(*model), relocalizer_params_);
-    if (const std::string why = relocalizer->validationError(); !why.empty()) throw std::runtime_error(why);
+    if (const std::string why = relocalizer->validationError(); !why.empty())
+      throw std::runtime_error(why);
     fresh = std::move(relocalizer);
   } catch (const std::exception& e) {
-    error = std::string("retrain on ") + std::to_string(entries.size()) + " key frames failed: " + e.what();
+    error = std::string("retrain on ") + std::to_string(entries.size()) +
+            " key frames failed: " + e.what();
   }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   lock.lock();
   status_.retraining = false;
@@ -304,7 +318,9 @@ Status OnlineLearner::save(const std::string& path) const {
     model = current_;
     entries = store_.entries();
   }
-  if (!model) return makeError(path + ": nothing to save yet: no model has been learned (too few key frames)");
+  if (!model)
+    return makeError(path +
+                     ": nothing to save yet: no model has been learned (too few key frames)");
   std::vector<uint8_t> model_file = serializeModel(model->model());
   const ModelFileId model_id = modelFileId(model_file);
   // Key frames first: renamed before the model they name, a save interrupted

@@ -1,12 +1,12 @@
 #include "relocalizer/pose/pose_solver.h"
 
+#include <tbb/parallel_for.h>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <limits>
 #include <numeric>
-#include <tbb/parallel_for.h>
 
 #include "relocalizer/core/rigid_alignment.h"
 #include "relocalizer/pose/refinement.h"
@@ -36,7 +36,7 @@ struct Hypothesis {
   Pose pose;
   Eigen::Matrix3f rotation;
   Eigen::Vector3f translation;
-  int score = 0;  // inliers accumulated over rounds
+  int score = 0;          // inliers accumulated over rounds
   AlignmentSums inliers;  // camera point -> mode mean of those inliers, for Kabsch refits
   int index = 0;
 
@@ -113,7 +113,9 @@ inline int bestMode(const Prediction& prediction, const Eigen::Vector3f& world, 
   return chosen;
 }
 
-Eigen::Matrix3d informationOf(const LeafMode& mode) { return mode.informationMatrix().cast<double>(); }
+Eigen::Matrix3d informationOf(const LeafMode& mode) {
+  return mode.informationMatrix().cast<double>();
+}
 
 // Refinement terms for every sample that is an inlier of `pose`.
 void collectTerms(const std::vector<const SolverSample*>& samples, const Pose& pose,
@@ -170,7 +172,8 @@ bool plausibleMinimalSet(const Eigen::Vector3d (&camera)[3], const Eigen::Vector
     const int b = (a + 1) % 3;
     const double dc = (camera[a] - camera[b]).norm(), dw = (world[a] - world[b]).norm();
     if (dc * dc < min_d2) return false;
-    const double tolerance = std::max<double>(params.rigidity_tolerance, params.rigidity_ratio * dc);
+    const double tolerance =
+        std::max<double>(params.rigidity_tolerance, params.rigidity_ratio * dc);
     if (std::abs(dc - dw) > tolerance) return false;
   }
   return !((camera[1] - camera[0]).cross(camera[2] - camera[0]).norm() < 0.5 * min_d2);

@@ -46,8 +46,9 @@ Pose applyDelta(const double* delta, const Pose& base) {
 const std::vector<RefinementTerm>& solveTerms(const std::vector<RefinementTerm>& terms,
                                               const PoseSolverParams& params,
                                               std::vector<RefinementTerm>& subset) {
-  const size_t limit = params.max_refinement_terms > 0 ? static_cast<size_t>(params.max_refinement_terms)
-                                                       : terms.size();
+  const size_t limit = params.max_refinement_terms > 0
+                           ? static_cast<size_t>(params.max_refinement_terms)
+                           : terms.size();
   if (terms.size() <= limit) return terms;
   subset.reserve(limit);
   for (size_t k = 0; k < limit; ++k) subset.push_back(terms[k * terms.size() / limit]);

@@ -48,8 +48,9 @@ void SharedPerturbation::update(const double* delta) {
   std::memcpy(delta_, delta, sizeof delta_);
   const Eigen::Vector3d w(delta[3], delta[4], delta[5]);
   const double theta = w.norm();
-  const Eigen::Matrix3d exp_w = theta < 1e-12 ? Eigen::Matrix3d(Eigen::Matrix3d::Identity() + skew(w))
-                                              : Eigen::Matrix3d(Eigen::AngleAxisd(theta, w / theta));
+  const Eigen::Matrix3d exp_w = theta < 1e-12
+                                    ? Eigen::Matrix3d(Eigen::Matrix3d::Identity() + skew(w))
+                                    : Eigen::Matrix3d(Eigen::AngleAxisd(theta, w / theta));
   r_ = exp_w * r0_;
   t_ = t0_ + Eigen::Vector3d(delta[0], delta[1], delta[2]);
   jl_ = so3LeftJacobian(w);

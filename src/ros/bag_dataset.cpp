@@ -163,8 +163,8 @@ relocalizer::Status BagDataset::Impl::readMessages(PoseInputs& inputs) {
                     : !depthEncodingSupported(image->encoding))
         return makeError(
             where() + "topic '" + topic + "' (" + (is_colour ? "--rgb-topic" : "--depth-topic") +
-            "): unsupported " + (is_colour ? "colour" : "depth") + " encoding '" + messageExcerpt(image->encoding) +
-            "' at stamp " + seconds(image->header.stamp) +
+            "): unsupported " + (is_colour ? "colour" : "depth") + " encoding '" +
+            messageExcerpt(image->encoding) + "' at stamp " + seconds(image->header.stamp) +
             (is_colour ? " (expected bgr8, rgb8, bgra8, rgba8 or mono8)"
                        : " (expected 16UC1 or mono16 millimetres, or 32FC1 metres, REP 118)"));
       (is_colour ? colour_encodings : depth_encodings).insert(image->encoding);
@@ -223,8 +223,7 @@ relocalizer::Status BagDataset::Impl::readPoseMessage(const rosbag::MessageInsta
                      m.getDataType() + ")");
   }
   const std::string frame = stripLeadingSlashes(header.frame_id);
-  if (!frame.empty() && frame != stripLeadingSlashes(options.map_frame) &&
-      pose_frame_error.empty())
+  if (!frame.empty() && frame != stripLeadingSlashes(options.map_frame) && pose_frame_error.empty())
     pose_frame_error = where() + "poses on '" + topic + "' are in frame '" + frame +
                        "', not the map frame '" + stripLeadingSlashes(options.map_frame) +
                        "' (pass --map-frame " + frame + ")";

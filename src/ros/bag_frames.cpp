@@ -85,8 +85,8 @@ relocalizer::Status BagDataset::Impl::synchronize() {
     if (stripLeadingSlashes(c_entry.frame_id) != stripLeadingSlashes(d_entry.frame_id))
       return makeError(where() + "depth on '" + normalTopic(options.depth_topic) +
                        "' is in frame '" + messageExcerpt(d_entry.frame_id) + "' but colour on '" +
-                       normalTopic(options.rgb_topic) + "' is in frame '" + messageExcerpt(c_entry.frame_id) +
-                       "' (at " + seconds(c_entry.stamp) +
+                       normalTopic(options.rgb_topic) + "' is in frame '" +
+                       messageExcerpt(c_entry.frame_id) + "' (at " + seconds(c_entry.stamp) +
                        "): depth must be registered to colour (e.g. a depth_registered topic)");
     if (c_entry.width != d_entry.width || c_entry.height != d_entry.height ||
         info.width != c_entry.width || info.height != c_entry.height)

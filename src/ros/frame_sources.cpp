@@ -6,10 +6,13 @@ namespace relocalizer_ros {
 
 using relocalizer::makeError;
 
-std::string BagFrameSource::formatDescription() const { return "rosbag (" + reader().poseSource() + ")"; }
+std::string BagFrameSource::formatDescription() const {
+  return "rosbag (" + reader().poseSource() + ")";
+}
 bool BagFrameSource::integerStamps() const { return false; }
 
-Expected<std::unique_ptr<relocalizer::FrameSource>> openFrameSource(const FrameSourceRequest& request) {
+Expected<std::unique_ptr<relocalizer::FrameSource>> openFrameSource(
+    const FrameSourceRequest& request) {
   if (request.dataset.empty() == request.bag.empty())
     return makeError(request.dataset.empty() ? "one of --dataset or --bag is required"
                                              : "--dataset and --bag exclude each other");
@@ -23,7 +26,8 @@ Expected<std::unique_ptr<relocalizer::FrameSource>> openFrameSource(const FrameS
     }
     auto opened = BagDataset::open(request.bag, options);
     if (!opened) return makeError(opened.error());
-    return std::unique_ptr<relocalizer::FrameSource>(new BagFrameSource(std::move(*opened), request.bag));
+    return std::unique_ptr<relocalizer::FrameSource>(
+        new BagFrameSource(std::move(*opened), request.bag));
   }
   return relocalizer::openDatasetSource(request.dataset, request.dataset_options);
 }

@@ -31,6 +31,7 @@ struct FrameSourceRequest {
 };
 
 // The opened source, or a one-line reason.
-Expected<std::unique_ptr<relocalizer::FrameSource>> openFrameSource(const FrameSourceRequest& request);
+Expected<std::unique_ptr<relocalizer::FrameSource>> openFrameSource(
+    const FrameSourceRequest& request);
 
 }  // namespace relocalizer_ros

@@ -41,7 +41,8 @@ class InputSynchronizer {
     std::function<void(int input, StampGate::Drop why, int64_t stamp_ns)> on_drop;
   };
 
-  InputSynchronizer(Options options, Events events) : options_(options), events_(std::move(events)) {
+  InputSynchronizer(Options options, Events events)
+      : options_(options), events_(std::move(events)) {
     rebuild();
   }
 
@@ -71,10 +72,12 @@ class InputSynchronizer {
   }
 
  private:
-  using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
-      sensor_msgs::Image, sensor_msgs::Image, sensor_msgs::CameraInfo>;
-  using ExactPolicy = message_filters::sync_policies::ExactTime<sensor_msgs::Image, sensor_msgs::Image,
-                                                                sensor_msgs::CameraInfo>;
+  using ApproximatePolicy =
+      message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image,
+                                                      sensor_msgs::CameraInfo>;
+  using ExactPolicy =
+      message_filters::sync_policies::ExactTime<sensor_msgs::Image, sensor_msgs::Image,
+                                                sensor_msgs::CameraInfo>;
 
   void rebuild() {
     const auto forward = boost::bind(&InputSynchronizer::forward, this, boost::placeholders::_1,
@@ -88,7 +91,8 @@ class InputSynchronizer {
         approximate_->setMaxIntervalDuration(ros::Duration(options_.max_interval));
       approximate_->registerCallback(forward);
     } else {
-      exact_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(ExactPolicy(options_.queue_size));
+      exact_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
+          ExactPolicy(options_.queue_size));
       exact_->registerCallback(forward);
     }
   }

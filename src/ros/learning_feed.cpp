@@ -8,9 +8,10 @@
 
 namespace relocalizer_ros {
 
-relocalizer::Expected<std::unique_ptr<relocalizer::KeyFrameFeed>> LearningFeed::makeFeed(const NodeParams& params) {
-  auto feed = std::make_unique<relocalizer::KeyFrameFeed>(params.learning, params.relocalizer,
-                                                          relocalizer::OnlineLearner::Mode::Background);
+relocalizer::Expected<std::unique_ptr<relocalizer::KeyFrameFeed>> LearningFeed::makeFeed(
+    const NodeParams& params) {
+  auto feed = std::make_unique<relocalizer::KeyFrameFeed>(
+      params.learning, params.relocalizer, relocalizer::OnlineLearner::Mode::Background);
   if (!params.model.empty()) {
     relocalizer::Status resumed = relocalizer::makeError("not loaded");
     try {
@@ -32,7 +33,8 @@ LearningFeed::LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const
     : params_(params), feed_(std::move(feed)) {
   auto save_options = ros::AdvertiseServiceOptions::create<relocalizer::SaveModel>(
       "save_model",
-      boost::bind(&LearningFeed::onSaveModel, this, boost::placeholders::_1, boost::placeholders::_2),
+      boost::bind(&LearningFeed::onSaveModel, this, boost::placeholders::_1,
+                  boost::placeholders::_2),
       ros::VoidConstPtr(), &calls);
   save_service_ = private_nh.advertiseService(save_options);
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
@@ -75,8 +77,8 @@ std::string LearningFeed::noModelYet() const {
   const relocalizer::LearningStatus status = feed_->learner().status();
   return "no model yet: learning has " + std::to_string(status.keyframes_stored) +
          " key frames, the first model needs " + std::to_string(params_.learning.first_retrain) +
-         (status.retraining ? " (being trained now)" : "") + "; is SLAM publishing " + params_.map_frame +
-         " -> camera on TF?";
+         (status.retraining ? " (being trained now)" : "") + "; is SLAM publishing " +
+         params_.map_frame + " -> camera on TF?";
 }
 
 void LearningFeed::learnLoop() {
@@ -92,14 +94,16 @@ void LearningFeed::learnLoop() {
     try {
       // SLAM's pose at the frame's own stamp (interpolated), never a later
       // one: a frame whose stamp TF cannot cover was not tracked.
-      pose = fromTransformMsg(
-          tf_buffer_->lookupTransform(params_.map_frame, camera_frame, stamp, ros::Duration(params_.tf_timeout))
-              .transform);
+      pose = fromTransformMsg(tf_buffer_
+                                  ->lookupTransform(params_.map_frame, camera_frame, stamp,
+                                                    ros::Duration(params_.tf_timeout))
+                                  .transform);
     } catch (const tf2::TransformException& e) {
       if (log_.allow("learn: no TF"))
-        ROS_INFO("relocalizer: not learning from the frame at %.3f: no pose %s -> %s from SLAM (%s)",
-                 stamp.toSec(), params_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(),
-                 messageExcerpt(e.what(), 256).c_str());
+        ROS_INFO(
+            "relocalizer: not learning from the frame at %.3f: no pose %s -> %s from SLAM (%s)",
+            stamp.toSec(), params_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(),
+            messageExcerpt(e.what(), 256).c_str());
     }
     const relocalizer::KeyFrameFeed::Result fed = feed_->offer(pose, [&] {
       auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
@@ -118,7 +122,7 @@ void LearningFeed::learnLoop() {
 }
 
 bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
-                                  relocalizer::SaveModel::Response& response) {
+                               relocalizer::SaveModel::Response& response) {
   if (request.path.empty()) {
     response.success = false;
     response.message = "path is empty: name the model file to write";
@@ -127,7 +131,8 @@ bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
   // Relative to the node's working folder (ROS_HOME), which the caller does
   // not know: the answer names the file absolutely.
   std::error_code ignored;
-  const std::string path = std::filesystem::absolute(request.path, ignored).lexically_normal().string();
+  const std::string path =
+      std::filesystem::absolute(request.path, ignored).lexically_normal().string();
   std::lock_guard<std::mutex> lock(save_mutex_);
   const relocalizer::Status saved = feed_->learner().save(path);
   response.success = saved.ok();

@@ -33,7 +33,8 @@ class LearningFeed {
  public:
   // The feed (key-frame rule, store, learner) the parameters describe,
   // resumed from `model` when set; the error names the file at fault.
-  static relocalizer::Expected<std::unique_ptr<relocalizer::KeyFrameFeed>> makeFeed(const NodeParams& params);
+  static relocalizer::Expected<std::unique_ptr<relocalizer::KeyFrameFeed>> makeFeed(
+      const NodeParams& params);
 
   LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
                std::unique_ptr<relocalizer::KeyFrameFeed> feed, ServiceCallQueue& calls);
@@ -46,7 +47,9 @@ class LearningFeed {
   // Ends the learning thread's wait and the save service; the destructor does the rest.
   void close();
 
-  std::shared_ptr<const relocalizer::Relocalizer> current() const { return feed_->learner().current(); }
+  std::shared_ptr<const relocalizer::Relocalizer> current() const {
+    return feed_->learner().current();
+  }
   relocalizer::LearningStatus status() const { return feed_->learner().status(); }
   // Learn mode's fields of ~result.
   void fill(relocalizer::RelocalizationResult& result) const;
@@ -55,7 +58,8 @@ class LearningFeed {
 
  private:
   void learnLoop();
-  bool onSaveModel(relocalizer::SaveModel::Request& request, relocalizer::SaveModel::Response& response);
+  bool onSaveModel(relocalizer::SaveModel::Request& request,
+                   relocalizer::SaveModel::Response& response);
 
   const NodeParams& params_;
   const std::unique_ptr<relocalizer::KeyFrameFeed> feed_;

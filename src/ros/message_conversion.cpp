@@ -72,30 +72,33 @@ std::string size(uint32_t width, uint32_t height) {
 
 std::string checkBuffer(const sensor_msgs::Image& image, const PixelLayout& layout,
                         const std::string& what) {
-  if (image.width == 0 || image.height == 0) return what + " image is empty (" + size(image.width, image.height) + ")";
-  if (static_cast<uint64_t>(image.step) < static_cast<uint64_t>(image.width) * layout.bytes_per_pixel)
+  if (image.width == 0 || image.height == 0)
+    return what + " image is empty (" + size(image.width, image.height) + ")";
+  if (static_cast<uint64_t>(image.step) <
+      static_cast<uint64_t>(image.width) * layout.bytes_per_pixel)
     return what + " image step " + std::to_string(image.step) + " is shorter than a row of " +
            std::to_string(image.width) + " '" + messageExcerpt(image.encoding) + "' pixels";
   const uint64_t needed = static_cast<uint64_t>(image.step) * image.height;
   if (static_cast<uint64_t>(image.data.size()) < needed)
-    return what + " image holds " + std::to_string(image.data.size()) + " bytes, step x height needs " +
-           std::to_string(needed);
+    return what + " image holds " + std::to_string(image.data.size()) +
+           " bytes, step x height needs " + std::to_string(needed);
   // sensor_msgs/Image: data is exactly step x height. More means the header
   // describes another image than the buffer holds (e.g. colour relabelled).
   if (static_cast<uint64_t>(image.data.size()) > needed)
-    return what + " image holds " + std::to_string(image.data.size()) + " bytes, more than step x height (" +
-           std::to_string(needed) + ") for '" + messageExcerpt(image.encoding) + "' " +
-           size(image.width, image.height);
+    return what + " image holds " + std::to_string(image.data.size()) +
+           " bytes, more than step x height (" + std::to_string(needed) + ") for '" +
+           messageExcerpt(image.encoding) + "' " + size(image.width, image.height);
   // A colour buffer published as 16-bit depth (cv_bridge with the wrong
   // encoding keeps the colour step) reads as noise in metres. Row padding is
   // legal, but rows of exactly 3 or 4 bytes a pixel are a colour image's.
   if (layout.bytes_per_pixel == 2 && image.width > 0 &&
       (image.step == 3 * image.width || image.step == 4 * image.width))
-    return what + " image is labelled '" + messageExcerpt(image.encoding) + "' (2 bytes a pixel) but its rows hold " +
-           std::to_string(image.step / image.width) + " bytes a pixel (step " + std::to_string(image.step) +
-           " for width " + std::to_string(image.width) + "): a colour image on the depth topic?";
-  // Multi-byte depth in the other byte order would be read as garbage
-  // distances, which is worse than no frame.
+    return what + " image is labelled '" + messageExcerpt(image.encoding) +
+           "' (2 bytes a pixel) but its rows hold " + std::to_string(image.step / image.width) +
+           " bytes a pixel (step " + std::to_string(image.step) + " for width " +
+           std::to_string(image.width) + "): a colour image on the depth topic?";
+    // Multi-byte depth in the other byte order would be read as garbage
+    // distances, which is worse than no frame.
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
   constexpr bool host_big_endian = true;
 #else
@@ -138,10 +141,14 @@ std::string describeInvalidDepth(const cv::Mat& raw) {
       const auto* row = raw.ptr<float>(v);
       for (int u = 0; u < raw.cols; ++u) {
         const float d = row[u];
-        if (std::isnan(d)) ++nan;
-        else if (std::isinf(d)) ++infinite;
-        else if (d < 0) ++negative;
-        else if (d == 0) ++zero;
+        if (std::isnan(d))
+          ++nan;
+        else if (std::isinf(d))
+          ++infinite;
+        else if (d < 0)
+          ++negative;
+        else if (d == 0)
+          ++zero;
       }
     }
   }
@@ -161,7 +168,9 @@ std::string describeInvalidDepth(const cv::Mat& raw) {
 // Finite, positive intrinsics can still be nonsense that only shows up as "no
 // pose hypothesis passed the rigidity checks"; the field of view names it.
 std::string checkFieldOfView(const relocalizer::CameraIntrinsics& camera, const char* matrix) {
-  auto degrees = [](double pixels, double focal) { return 2.0 * std::atan(0.5 * pixels / focal) * 180.0 / M_PI; };
+  auto degrees = [](double pixels, double focal) {
+    return 2.0 * std::atan(0.5 * pixels / focal) * 180.0 / M_PI;
+  };
   const struct {
     const char* direction;
     double fov;
@@ -169,14 +178,17 @@ std::string checkFieldOfView(const relocalizer::CameraIntrinsics& camera, const 
     double focal;
     const char* size_name;
     int size;
-  } axes[] = {{"horizontal", degrees(camera.width, camera.fx), "fx", camera.fx, "width", camera.width},
-              {"vertical", degrees(camera.height, camera.fy), "fy", camera.fy, "height", camera.height}};
+  } axes[] = {
+      {"horizontal", degrees(camera.width, camera.fx), "fx", camera.fx, "width", camera.width},
+      {"vertical", degrees(camera.height, camera.fy), "fy", camera.fy, "height", camera.height}};
   for (const auto& axis : axes)
     if (!(axis.fov >= kMinFieldOfViewDeg && axis.fov <= kMaxFieldOfViewDeg))
-      return std::string("camera_info ") + matrix + " gives a " + fixed1(axis.fov) + " deg " + axis.direction +
-             " field of view (" + axis.focal_name + "=" + general(axis.focal) + " for " + axis.size_name + " " +
-             std::to_string(axis.size) + "): an RGB-D camera sees " + general(kMinFieldOfViewDeg) + " to " +
-             general(kMaxFieldOfViewDeg) + " deg; is " + matrix + " in pixels, for this image size?";
+      return std::string("camera_info ") + matrix + " gives a " + fixed1(axis.fov) + " deg " +
+             axis.direction + " field of view (" + axis.focal_name + "=" + general(axis.focal) +
+             " for " + axis.size_name + " " + std::to_string(axis.size) +
+             "): an RGB-D camera sees " + general(kMinFieldOfViewDeg) + " to " +
+             general(kMaxFieldOfViewDeg) + " deg; is " + matrix +
+             " in pixels, for this image size?";
   return {};
 }
 
@@ -194,7 +206,8 @@ std::string checkMetres(const cv::Mat& metres) {
   const double median = relocalizer::median(std::move(valid));
   if (median <= kMaxMedianDepthMetres) return {};
   return "32FC1 depth must be metres (REP 118): median valid depth " + fixed1(median) +
-         " m, beyond any RGB-D sensor's range (" + general(kMaxMedianDepthMetres) + " m); millimetres?";
+         " m, beyond any RGB-D sensor's range (" + general(kMaxMedianDepthMetres) +
+         " m); millimetres?";
 }
 
 }  // namespace
@@ -250,7 +263,8 @@ std::string checkFrameMessages(const sensor_msgs::Image& colour, const sensor_ms
   if (depth_layout.cv_type < 0)
     return "unsupported depth encoding '" + messageExcerpt(depth.encoding) +
            "' (expected 16UC1 millimetres or 32FC1 metres, REP 118)" +
-           (colourLayout(depth.encoding).cv_type >= 0 ? "; a colour image on the depth topic?" : "");
+           (colourLayout(depth.encoding).cv_type >= 0 ? "; a colour image on the depth topic?"
+                                                      : "");
   if (std::string why = checkColour(colour); !why.empty()) return why;
   if (std::string why = checkBuffer(depth, depth_layout, "depth"); !why.empty()) return why;
   if (colour.width != depth.width || colour.height != depth.height)
@@ -275,8 +289,9 @@ Expected<cv::Mat> colourToBgr8(const sensor_msgs::Image& colour) {
   try {
     return cv_bridge::toCvCopy(colour, enc::BGR8)->image;
   } catch (const cv_bridge::Exception& e) {
-    return relocalizer::makeError("colour '" + messageExcerpt(colour.encoding) +
-                                  "' cannot be converted to bgr8: " + messageExcerpt(e.what(), 256));
+    return relocalizer::makeError(
+        "colour '" + messageExcerpt(colour.encoding) +
+        "' cannot be converted to bgr8: " + messageExcerpt(e.what(), 256));
   }
 }
 

@@ -9,8 +9,8 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 
-#include <opencv2/core.hpp>
 #include <cstddef>
+#include <opencv2/core.hpp>
 #include <string>
 
 #include "relocalizer/core/expected.h"

@@ -19,7 +19,10 @@ const char* const kInputNames[3] = {"colour", "depth", "camera_info"};
 
 NodeInputs::NodeInputs(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
                        Handlers handlers)
-    : nh_(std::move(nh)), params_(params), handlers_(std::move(handlers)), start_ns_(steadyNanoseconds()) {
+    : nh_(std::move(nh)),
+      params_(params),
+      handlers_(std::move(handlers)),
+      start_ns_(steadyNanoseconds()) {
   image_transport_ = std::make_unique<image_transport::ImageTransport>(nh_);
   // Lets users pick compressed transports with ~image_transport, as image_proc does.
   const image_transport::TransportHints hints("raw", ros::TransportHints(), private_nh);
@@ -33,8 +36,9 @@ NodeInputs::NodeInputs(ros::NodeHandle nh, ros::NodeHandle private_nh, const Nod
   options.queue_size = static_cast<uint32_t>(params_.sync_queue_size);
   options.max_interval = params_.max_interval;
   InputSynchronizer::Events events;
-  events.on_set = [this](const sensor_msgs::ImageConstPtr& colour, const sensor_msgs::ImageConstPtr& depth,
-                         const sensor_msgs::CameraInfoConstPtr& info) { onSynchronised(colour, depth, info); };
+  events.on_set =
+      [this](const sensor_msgs::ImageConstPtr& colour, const sensor_msgs::ImageConstPtr& depth,
+             const sensor_msgs::CameraInfoConstPtr& info) { onSynchronised(colour, depth, info); };
   events.on_jump = [this](const StampGate::Jump& jump) { onTimeJump(jump); };
   events.on_drop = [this](int input, StampGate::Drop why, int64_t stamp_ns) {
     onStampDropped(input, why, stamp_ns);
@@ -79,7 +83,9 @@ void NodeInputs::onInput(const boost::shared_ptr<M const>& message) {
 }
 
 std::string NodeInputs::topic(int input) const {
-  return input == 0 ? colour_sub_.getTopic() : input == 1 ? depth_sub_.getTopic() : info_sub_.getTopic();
+  return input == 0   ? colour_sub_.getTopic()
+         : input == 1 ? depth_sub_.getTopic()
+                      : info_sub_.getTopic();
 }
 
 void NodeInputs::onStampDropped(int input, StampGate::Drop why, int64_t stamp_ns) {
@@ -88,19 +94,23 @@ void NodeInputs::onStampDropped(int input, StampGate::Drop why, int64_t stamp_ns
   std::string text;
   switch (why) {
     case StampGate::Drop::BeyondRange:
-      text = "stamped " + stamp + " s, at or past 2^31 s (the year 2038), where ROS time arithmetic "
+      text = "stamped " + stamp +
+             " s, at or past 2^31 s (the year 2038), where ROS time arithmetic "
              "overflows: an uninitialised driver stamp?";
       break;
     case StampGate::Drop::OutOfOrder:
-      text = "stamped " + stamp + " s, before the previous message on it (out of order by less than " +
+      text = "stamped " + stamp +
+             " s, before the previous message on it (out of order by less than " +
              secondsText(1e-9 * StampGate::kMinJumpNs) + " s, too little for a jump)";
       break;
     case StampGate::Drop::Unconfirmed:
-      text = "stamped " + stamp + " s, off the other messages' timeline, and no later message "
+      text = "stamped " + stamp +
+             " s, off the other messages' timeline, and no later message "
              "followed it there: a glitch, not a jump";
       break;
     case StampGate::Drop::OldTimeline:  // expected after every jump: counted, not logged
-    case StampGate::Drop::None: return;
+    case StampGate::Drop::None:
+      return;
   }
   const std::string key = "stamp drop " + std::to_string(static_cast<int>(why));
   if (log_.allow(key))
@@ -115,17 +125,20 @@ void NodeInputs::onTimeJump(const StampGate::Jump& jump) {
   const size_t dropped = handlers_.on_jump();
 
   const int64_t step = jump.to_ns - jump.from_ns;
-  const std::string what = std::string(step < 0 ? "stamps went back in time by " : "stamps jumped forward by ") +
-                           secondsText(1e-9 * static_cast<double>(step < 0 ? -step : step)) + " s on " +
-                           topic(jump.input) + " (" + kInputNames[jump.input] + ", " +
-                           stampText(jump.to_ns) + " after " + stampText(jump.from_ns) + ")";
-  const std::string done = std::string("; a looping bag or a restarted source? synchronizer reset, ") +
-                           std::to_string(dropped) + " pending frame" + (dropped == 1 ? "" : "s") +
-                           " dropped" + (params_.publish_tf && !params_.odom_frame.empty() ? ", TF buffer cleared" : "");
+  const std::string what =
+      std::string(step < 0 ? "stamps went back in time by " : "stamps jumped forward by ") +
+      secondsText(1e-9 * static_cast<double>(step < 0 ? -step : step)) + " s on " +
+      topic(jump.input) + " (" + kInputNames[jump.input] + ", " + stampText(jump.to_ns) +
+      " after " + stampText(jump.from_ns) + ")";
+  const std::string done =
+      std::string("; a looping bag or a restarted source? synchronizer reset, ") +
+      std::to_string(dropped) + " pending frame" + (dropped == 1 ? "" : "s") + " dropped" +
+      (params_.publish_tf && !params_.odom_frame.empty() ? ", TF buffer cleared" : "");
   const auto now = Clock::now();
   if (jumps == 1 || now - last_jump_log_ >= kJumpLogPeriod) {
-    const std::string more =
-        unlogged_jumps_ ? " (" + std::to_string(unlogged_jumps_) + " more jumps since the last report)" : "";
+    const std::string more = unlogged_jumps_ ? " (" + std::to_string(unlogged_jumps_) +
+                                                   " more jumps since the last report)"
+                                             : "";
     ROS_WARN("relocalizer: %s%s; jump %llu%s", what.c_str(), done.c_str(),
              static_cast<unsigned long long>(jumps), more.c_str());
     last_jump_log_ = now;
@@ -141,7 +154,8 @@ void NodeInputs::onTimeJump(const StampGate::Jump& jump) {
   }
 }
 
-void NodeInputs::onSynchronised(const sensor_msgs::ImageConstPtr& colour, const sensor_msgs::ImageConstPtr& depth,
+void NodeInputs::onSynchronised(const sensor_msgs::ImageConstPtr& colour,
+                                const sensor_msgs::ImageConstPtr& depth,
                                 const sensor_msgs::CameraInfoConstPtr& info) {
   auto input = std::make_shared<FrameInput>();
   input->colour = colour;
@@ -155,7 +169,8 @@ void NodeInputs::onSynchronised(const sensor_msgs::ImageConstPtr& colour, const 
   depth_at_sync_ = depth_count_.load();
   info_at_sync_ = info_count_.load();
   if (!input->error.empty() && log_.allow(input->error))
-    ROS_WARN("relocalizer: unusable frame on %s: %s", colour_sub_.getTopic().c_str(), input->error.c_str());
+    ROS_WARN("relocalizer: unusable frame on %s: %s", colour_sub_.getTopic().c_str(),
+             input->error.c_str());
   handlers_.on_frame(std::move(input));
 }
 
@@ -178,13 +193,15 @@ void NodeInputs::onWatchdog(const ros::WallTimerEvent&) {
   const double since_start = 1e-9 * static_cast<double>(now - start_ns_);
   const int64_t last_image = last_image_ns_.load();
   const int64_t last_frame = last_frame_ns_.load();
-  const double since_image = last_image ? 1e-9 * static_cast<double>(now - last_image) : since_start;
-  const double since_frame = last_frame ? 1e-9 * static_cast<double>(now - last_frame) : since_start;
+  const double since_image =
+      last_image ? 1e-9 * static_cast<double>(now - last_image) : since_start;
+  const double since_frame =
+      last_frame ? 1e-9 * static_cast<double>(now - last_frame) : since_start;
   if (since_image < timeout && since_frame >= timeout) {
     // Images flow but never form a set: a missing camera_info, or stamps that
     // never match. Nothing else would ever report it, so the watchdog does.
-    const std::string why = "images arrive but no synchronised frame for " + secondsText(since_frame) +
-                            " s; " + status();
+    const std::string why = "images arrive but no synchronised frame for " +
+                            secondsText(since_frame) + " s; " + status();
     if (log_.allow("unsynchronised")) ROS_WARN("relocalizer: %s", why.c_str());
     if (params_.mode == Mode::Continuous) {
       ros::Time stamp;
@@ -205,17 +222,17 @@ std::string NodeInputs::status() const {
   const uint64_t depth = depth_count_ - depth_at_sync_;
   const uint64_t info = info_count_ - info_at_sync_;
   const uint64_t sets = frames_received_;
-  std::string status = "received " + std::to_string(colour) + " on " + colour_sub_.getTopic() + ", " +
-                       std::to_string(depth) + " on " + depth_sub_.getTopic() + ", " +
-                       std::to_string(info) + " on " + info_sub_.getTopic() +
-                       (sets ? " since the last synchronised frame" : " and no synchronised frame yet");
+  std::string status =
+      "received " + std::to_string(colour) + " on " + colour_sub_.getTopic() + ", " +
+      std::to_string(depth) + " on " + depth_sub_.getTopic() + ", " + std::to_string(info) +
+      " on " + info_sub_.getTopic() +
+      (sets ? " since the last synchronised frame" : " and no synchronised frame yet");
   if (colour == 0 || depth == 0 || info == 0) {
     status += "; is every topic published?";
   } else {
-    status += params_.approx_sync
-                  ? "; do the stamps differ by more than max_interval (" +
-                        secondsText(params_.max_interval) + " s)?"
-                  : "; approx_sync is false but the stamps differ";
+    status += params_.approx_sync ? "; do the stamps differ by more than max_interval (" +
+                                        secondsText(params_.max_interval) + " s)?"
+                                  : "; approx_sync is false but the stamps differ";
   }
   return status;
 }

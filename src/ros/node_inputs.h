@@ -37,7 +37,8 @@ class NodeInputs {
   };
 
   // Subscribes at once (relative names rgb/image, depth/image, rgb/camera_info).
-  NodeInputs(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params, Handlers handlers);
+  NodeInputs(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
+             Handlers handlers);
   ~NodeInputs();
   NodeInputs(const NodeInputs&) = delete;
   NodeInputs& operator=(const NodeInputs&) = delete;
@@ -57,7 +58,8 @@ class NodeInputs {
  private:
   template <int I, typename M>
   void onInput(const boost::shared_ptr<M const>& message);
-  void onSynchronised(const sensor_msgs::ImageConstPtr& colour, const sensor_msgs::ImageConstPtr& depth,
+  void onSynchronised(const sensor_msgs::ImageConstPtr& colour,
+                      const sensor_msgs::ImageConstPtr& depth,
                       const sensor_msgs::CameraInfoConstPtr& info);
   // Called with input_mutex_ held, before the new timeline's first message is synchronised.
   void onTimeJump(const StampGate::Jump& jump);
@@ -71,7 +73,7 @@ class NodeInputs {
   ThrottledLog log_;
 
   std::atomic<uint64_t> frames_received_{0};
-  std::atomic<uint64_t> time_jumps_{0};  // also the epoch of new inputs
+  std::atomic<uint64_t> time_jumps_{0};        // also the epoch of new inputs
   std::atomic<uint64_t> messages_dropped_{0};  // refused for their stamps
   std::atomic<uint64_t> colour_count_{0}, depth_count_{0}, info_count_{0};
   // The counts at the last synchronised set: what arrived since says which

@@ -20,7 +20,8 @@ NodeOutput::NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const Nod
   }
 }
 
-NodeOutput::ResultMsg NodeOutput::failure(const ros::Time& stamp, const std::string& message) const {
+NodeOutput::ResultMsg NodeOutput::failure(const ros::Time& stamp,
+                                          const std::string& message) const {
   ResultMsg result;
   result.header.stamp = stamp;
   result.header.frame_id = params_.map_frame;
@@ -30,7 +31,8 @@ NodeOutput::ResultMsg NodeOutput::failure(const ros::Time& stamp, const std::str
   return result;
 }
 
-NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input, const relocalizer::Relocalization& solved,
+NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
+                                         const relocalizer::Relocalization& solved,
                                          Clock::time_point start) {
   const ros::Time stamp = input.colour->header.stamp;
   ResultMsg result = failure(stamp, "");
@@ -63,7 +65,8 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input, const relocali
     if (solved.success)  // TF trouble is a configuration fault, not a hard frame
       ROS_WARN("relocalizer: frame at %.3f: %s", stamp.toSec(), result.message.c_str());
     else
-      ROS_INFO("relocalizer: no pose for the frame at %.3f: %s", stamp.toSec(), result.message.c_str());
+      ROS_INFO("relocalizer: no pose for the frame at %.3f: %s", stamp.toSec(),
+               result.message.c_str());
   }
   if (result.success) {
     result.pose.header = result.header;
@@ -87,7 +90,8 @@ void NodeOutput::resetTransforms() {
   if (transforms_) transforms_->reset();
 }
 
-void NodeOutput::publish(ResultMsg& result, const std::optional<geometry_msgs::TransformStamped>& transform,
+void NodeOutput::publish(ResultMsg& result,
+                         const std::optional<geometry_msgs::TransformStamped>& transform,
                          uint64_t epoch) {
   counters_(result);
   result_pub_.publish(result);

@@ -15,7 +15,7 @@
 
 #include "frame_input.h"
 #include "node_params.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 #include "throttled_log.h"
 #include "transform_publisher.h"
 
@@ -34,7 +34,8 @@ class NodeOutput {
 
   // A relocalized frame's answer: ~result, and when the pose holds and its TF
   // could be prepared, ~pose and TF. Logs a failure (throttled per reason).
-  ResultMsg answer(const FrameInput& input, const relocalizer::Relocalization& solved, Clock::time_point start);
+  ResultMsg answer(const FrameInput& input, const relocalizer::Relocalization& solved,
+                   Clock::time_point start);
   // A frame that was not relocalized (unusable, no model yet, an internal error).
   void frameFailed(ResultMsg& result);
   // A report that is no frame's answer (no frame for a call, a time jump, the watchdog).
@@ -45,7 +46,8 @@ class NodeOutput {
   uint64_t framesFailed() const { return frames_failed_; }
 
  private:
-  void publish(ResultMsg& result, const std::optional<geometry_msgs::TransformStamped>& transform, uint64_t epoch);
+  void publish(ResultMsg& result, const std::optional<geometry_msgs::TransformStamped>& transform,
+               uint64_t epoch);
 
   const NodeParams& params_;
   const std::function<void(ResultMsg&)> counters_;

@@ -29,8 +29,7 @@ std::string number(double value) {
 template <typename T>
 std::string read(const ros::NodeHandle& nh, const std::string& key, T& value) {
   if (!nh.hasParam(key)) return {};
-  if (!nh.getParam(key, value))
-    return "parameter '" + nh.resolveName(key) + "' has the wrong type";
+  if (!nh.getParam(key, value)) return "parameter '" + nh.resolveName(key) + "' has the wrong type";
   return {};
 }
 
@@ -54,7 +53,8 @@ std::string readInt(const ros::NodeHandle& nh, const std::string& key, int& valu
   } else if (!nh.getParam(key, value)) {
     return "parameter '" + nh.resolveName(key) + "' has the wrong type";
   }
-  if (value < min) return "parameter '" + nh.resolveName(key) + "' is " + std::to_string(value) + range;
+  if (value < min)
+    return "parameter '" + nh.resolveName(key) + "' is " + std::to_string(value) + range;
   return {};
 }
 
@@ -92,7 +92,8 @@ constexpr double kMinMaxRate = 0.001, kMaxMaxRate = 1000.0;
 constexpr double kMaxInputTimeout = 3600.0;
 
 constexpr Bounded kBounded[] = {
-    {"transform_tolerance", &NodeParams::transform_tolerance, 0.0, kMaxTransformTolerance, "s", nullptr},
+    {"transform_tolerance", &NodeParams::transform_tolerance, 0.0, kMaxTransformTolerance, "s",
+     nullptr},
     {"tf_rate", &NodeParams::tf_rate, kMinTfRate, kMaxTfRate, "Hz", "only on updates"},
     {"tf_timeout", &NodeParams::tf_timeout, 0.0, kMaxTfTimeout, "s", nullptr},
     {"max_interval", &NodeParams::max_interval, 0.0, kMaxSyncInterval, "s", nullptr},
@@ -106,19 +107,23 @@ std::string checkBounded(const ros::NodeHandle& nh, const NodeParams& p) {
     const double value = p.*b.field;
     if ((value >= b.min && value <= b.max) || (b.zero && value == 0.0)) continue;
     const std::string unit = std::string(" ") + b.unit;
-    return "parameter '" + nh.resolveName(b.key) + "' is " + number(value) + unit + "; it must be " +
-           (b.zero ? "0 (" + std::string(b.zero) + ") or " : std::string()) + "from " + number(b.min) +
-           " to " + number(b.max) + unit;
+    return "parameter '" + nh.resolveName(b.key) + "' is " + number(value) + unit +
+           "; it must be " + (b.zero ? "0 (" + std::string(b.zero) + ") or " : std::string()) +
+           "from " + number(b.min) + " to " + number(b.max) + unit;
   }
   return {};
 }
 
 Expected<json> toJson(XmlRpc::XmlRpcValue value, const std::string& name) {
   switch (value.getType()) {
-    case XmlRpc::XmlRpcValue::TypeBoolean: return json(static_cast<bool>(value));
-    case XmlRpc::XmlRpcValue::TypeInt: return json(static_cast<int>(value));
-    case XmlRpc::XmlRpcValue::TypeDouble: return json(static_cast<double>(value));
-    case XmlRpc::XmlRpcValue::TypeString: return json(static_cast<std::string>(value));
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      return json(static_cast<bool>(value));
+    case XmlRpc::XmlRpcValue::TypeInt:
+      return json(static_cast<int>(value));
+    case XmlRpc::XmlRpcValue::TypeDouble:
+      return json(static_cast<double>(value));
+    case XmlRpc::XmlRpcValue::TypeString:
+      return json(static_cast<std::string>(value));
     case XmlRpc::XmlRpcValue::TypeStruct: {
       json object = json::object();
       for (auto& entry : value) {
@@ -128,7 +133,8 @@ Expected<json> toJson(XmlRpc::XmlRpcValue value, const std::string& name) {
       }
       return object;
     }
-    default: return makeError("parameter '" + name + "' has an unsupported type");
+    default:
+      return makeError("parameter '" + name + "' has an unsupported type");
   }
 }
 
@@ -143,8 +149,8 @@ Expected<relocalizer::RelocalizerParams> readRelocalizerParams(const ros::NodeHa
   auto as_json = toJson(tree, name);
   if (!as_json) return makeError(as_json.error());
   // YAML is a superset of JSON, so the JSON text is a valid YAML document.
-  auto merged =
-      relocalizer::mergeYamlOntoJson(as_json->dump(), relocalizer::relocalizerParamsToJson(defaults), name);
+  auto merged = relocalizer::mergeYamlOntoJson(
+      as_json->dump(), relocalizer::relocalizerParamsToJson(defaults), name);
   if (!merged) return makeError(merged.error());
   auto params = relocalizer::relocalizerParamsFromJson(*merged);
   if (!params) return makeError(name + ": " + params.error());
@@ -199,13 +205,16 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   p.map_frame = stripLeadingSlashes(p.map_frame);
   p.odom_frame = stripLeadingSlashes(p.odom_frame);
   if (p.model.empty() && !p.learn)
-    return makeError(ns("model") + " is not set (path to a model file from `train`, or learn: true)");
+    return makeError(ns("model") +
+                     " is not set (path to a model file from `train`, or learn: true)");
   if (p.learn && p.publish_tf)
-    return makeError(ns("learn") + " is true but publish_tf is true too: the node would learn from "
+    return makeError(ns("learn") +
+                     " is true but publish_tf is true too: the node would learn from "
                      "poses it published on TF itself; set publish_tf: false (SLAM owns " +
                      p.map_frame + " -> camera while learning)");
   if (!p.learn && !p.save_on_exit.empty())
-    return makeError(ns("save_on_exit") + " is set but learn is false: only a learned model is saved");
+    return makeError(ns("save_on_exit") +
+                     " is set but learn is false: only a learned model is saved");
   if (p.learn) {
     relocalizer::LearningParams learning;
     learning.max_keyframes = p.learn_max_keyframes;
@@ -213,8 +222,9 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
     learning.retrain_growth = p.learn_retrain_growth;
     learning.surface_gate = p.learn_surface_gate;
     auto checked = relocalizer::readLearningParams(
-        learning, p.learn_min_motion, p.learn_config,
-        [&](const std::string& field) { return ns(field == "config" ? "learn_config" : "learn_" + field); });
+        learning, p.learn_min_motion, p.learn_config, [&](const std::string& field) {
+          return ns(field == "config" ? "learn_config" : "learn_" + field);
+        });
     if (!checked) return makeError(checked.error());
     p.learning = *checked;
   }

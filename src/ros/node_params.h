@@ -9,7 +9,7 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/online/online_learner.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer_ros {
 
@@ -34,21 +34,23 @@ struct NodeParams {
   double tf_timeout = 0.2;           // seconds to wait for odom -> camera at the frame stamp
   bool approx_sync = true;
   int sync_queue_size = 5;
-  double max_interval = 0.05;  // seconds between colour, depth and info stamps (0: no limit)
-  double max_rate = 2.0;       // Hz, continuous mode (0: as fast as frames come)
-  bool process_all = false;    // continuous mode: queue every frame instead of dropping
-  double service_timeout = 2.0;   // seconds a call waits for a frame when it asks for <= 0
-  double input_timeout = 3.0;     // seconds of images without a synchronised frame before it is reported
-  int threads = 0;                // TBB threads inside a relocalization (0: every core)
+  double max_interval = 0.05;    // seconds between colour, depth and info stamps (0: no limit)
+  double max_rate = 2.0;         // Hz, continuous mode (0: as fast as frames come)
+  bool process_all = false;      // continuous mode: queue every frame instead of dropping
+  double service_timeout = 2.0;  // seconds a call waits for a frame when it asks for <= 0
+  double input_timeout =
+      3.0;          // seconds of images without a synchronised frame before it is reported
+  int threads = 0;  // TBB threads inside a relocalization (0: every core)
   // Online learning beside SLAM (docs/online_learning.md).
-  bool learn = false;             // learn the place from frames posed by TF map_frame -> camera
-  std::string save_on_exit;       // learn: write the model and its key frames here at shutdown
+  bool learn = false;        // learn the place from frames posed by TF map_frame -> camera
+  std::string save_on_exit;  // learn: write the model and its key frames here at shutdown
   std::string learn_min_motion = "0.05,5";  // key frames: metres,degrees since the last one
-  int learn_max_keyframes = 64;   // cap on stored key frames
-  int learn_first_retrain = 2;    // key frames before the first model
-  double learn_retrain_growth = 0.25;  // retrain when the store grew by this share
-  bool learn_surface_gate = false;  // learned models: refuse poses off the learned surface
-  std::string learn_config;       // training YAML (as `train --config`); empty: config/forest.yaml defaults
+  int learn_max_keyframes = 64;             // cap on stored key frames
+  int learn_first_retrain = 2;              // key frames before the first model
+  double learn_retrain_growth = 0.25;       // retrain when the store grew by this share
+  bool learn_surface_gate = false;          // learned models: refuse poses off the learned surface
+  std::string
+      learn_config;  // training YAML (as `train --config`); empty: config/forest.yaml defaults
   // The learn_* settings as the learner takes them, read and checked by
   // readLearningParams (online_learner.h), the one check the tools share.
   relocalizer::LearningParams learning;

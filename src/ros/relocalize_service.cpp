@@ -17,17 +17,19 @@ constexpr double kQueuedReportSeconds = 0.1;
 
 }  // namespace
 
-RelocalizeService::RelocalizeService(ros::NodeHandle private_nh, const NodeParams& params, Sources sources,
-                                     ServiceCallQueue& calls)
+RelocalizeService::RelocalizeService(ros::NodeHandle private_nh, const NodeParams& params,
+                                     Sources sources, ServiceCallQueue& calls)
     : params_(params), sources_(std::move(sources)) {
   auto options = ros::AdvertiseServiceOptions::create<relocalizer::Relocalize>(
       "relocalize",
-      boost::bind(&RelocalizeService::onRelocalize, this, boost::placeholders::_1, boost::placeholders::_2),
+      boost::bind(&RelocalizeService::onRelocalize, this, boost::placeholders::_1,
+                  boost::placeholders::_2),
       ros::VoidConstPtr(), &calls);
   server_ = private_nh.advertiseService(options);
 }
 
-RelocalizeService::ResultMsg RelocalizeService::processShared(uint64_t seq, const FrameInputPtr& input) {
+RelocalizeService::ResultMsg RelocalizeService::processShared(uint64_t seq,
+                                                              const FrameInputPtr& input) {
   std::promise<ResultMsg> promise;
   std::shared_future<ResultMsg> future;
   {
@@ -63,15 +65,17 @@ bool RelocalizeService::onRelocalize(relocalizer::Relocalize::Request& request,
   return true;
 }
 
-RelocalizeService::ResultMsg RelocalizeService::call(const relocalizer::Relocalize::Request& request) {
+RelocalizeService::ResultMsg RelocalizeService::call(
+    const relocalizer::Relocalize::Request& request) {
   ResultMsg result;
   if (std::isnan(request.timeout) || request.timeout == std::numeric_limits<double>::infinity()) {
     // NaN is no duration, and an endless wait would hold one of the few
     // service threads for good: both are refused at once.
-    result = sources_.output->failure(ros::Time::now(), std::string("timeout must be a finite number of seconds (got ") +
-                                           (std::isnan(request.timeout) ? "NaN" : "infinity") +
-                                           "); 0 or less means ~service_timeout (" +
-                                           secondsText(params_.service_timeout) + " s)");
+    result = sources_.output->failure(
+        ros::Time::now(), std::string("timeout must be a finite number of seconds (got ") +
+                              (std::isnan(request.timeout) ? "NaN" : "infinity") +
+                              "); 0 or less means ~service_timeout (" +
+                              secondsText(params_.service_timeout) + " s)");
     if (log_.allow("service timeout"))
       ROS_WARN("relocalizer: %s: %s", name().c_str(), result.message.c_str());
     sources_.output->report(result);
@@ -81,23 +85,26 @@ RelocalizeService::ResultMsg RelocalizeService::call(const relocalizer::Relocali
     // The wait counts from the call's arrival: time spent queued behind other
     // calls is part of what the caller waited.
     const Clock::time_point arrival = ServiceCallQueue::callArrival();
-    const auto deadline =
-        arrival + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout));
+    const auto deadline = arrival + std::chrono::duration_cast<Clock::duration>(
+                                        std::chrono::duration<double>(timeout));
     const double queued = std::chrono::duration<double>(Clock::now() - arrival).count();
     const uint64_t after = request.wait_for_next ? sources_.frames->lastSeq() : 0;
     auto entry = sources_.frames->newest(after, deadline);
     if (entry) {
       result = processShared(entry->seq, entry->value);
     } else {
-      const std::string capped = asked > kMaxServiceWaitSeconds ? " (the longest wait a call can ask for; it asked " +
-                                                                   secondsText(asked) + " s)"
-                                                             : "";
-      const std::string behind = queued >= kQueuedReportSeconds
-                                     ? ", " + secondsText(queued) + " s of it queued behind other calls"
-                                     : "";
-      result = sources_.output->failure(ros::Time::now(), std::string(request.wait_for_next ? "no new" : "no") +
-                                             " synchronised frame within " + secondsText(timeout) + " s" + capped +
-                                             behind + "; " + sources_.input_status());
+      const std::string capped =
+          asked > kMaxServiceWaitSeconds
+              ? " (the longest wait a call can ask for; it asked " + secondsText(asked) + " s)"
+              : "";
+      const std::string behind =
+          queued >= kQueuedReportSeconds
+              ? ", " + secondsText(queued) + " s of it queued behind other calls"
+              : "";
+      result = sources_.output->failure(
+          ros::Time::now(), std::string(request.wait_for_next ? "no new" : "no") +
+                                " synchronised frame within " + secondsText(timeout) + " s" +
+                                capped + behind + "; " + sources_.input_status());
       if (log_.allow("service without frame"))
         ROS_WARN("relocalizer: %s: %s", name().c_str(), result.message.c_str());
       sources_.output->report(result);

@@ -26,10 +26,10 @@ class RelocalizeService {
  public:
   using ResultMsg = NodeOutput::ResultMsg;
   struct Sources {
-    FrameBuffer<FrameInputPtr>* frames;                  // what calls wait on
-    std::function<ResultMsg(const FrameInput&)> process; // relocalize and publish one frame
-    std::function<std::string()> input_status;           // why no frame came
-    NodeOutput* output;                                  // reports of calls without a frame
+    FrameBuffer<FrameInputPtr>* frames;                   // what calls wait on
+    std::function<ResultMsg(const FrameInput&)> process;  // relocalize and publish one frame
+    std::function<std::string()> input_status;            // why no frame came
+    NodeOutput* output;                                   // reports of calls without a frame
   };
 
   RelocalizeService(ros::NodeHandle private_nh, const NodeParams& params, Sources sources,
@@ -38,7 +38,8 @@ class RelocalizeService {
   void shutdown() { server_.shutdown(); }
 
  private:
-  bool onRelocalize(relocalizer::Relocalize::Request& request, relocalizer::Relocalize::Response& response);
+  bool onRelocalize(relocalizer::Relocalize::Request& request,
+                    relocalizer::Relocalize::Response& response);
   // Whether the request can wait at all: NaN and infinity are refused at once.
   ResultMsg call(const relocalizer::Relocalize::Request& request);
   // Buffer entry `seq`'s relocalization, shared with any concurrent call that picked it.

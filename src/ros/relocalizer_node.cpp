@@ -40,9 +40,8 @@ relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
   if (!relocalizer) return relocalizer::makeError(relocalizer.error());
   if (std::string why = (*relocalizer)->validationError(); !why.empty())
     return relocalizer::makeError(params->model + ": " + why);
-  return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(std::move(nh), std::move(private_nh),
-                                                              std::move(*params),
-                                                              std::move(*relocalizer), nullptr));
+  return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(
+      std::move(nh), std::move(private_nh), std::move(*params), std::move(*relocalizer), nullptr));
 }
 
 RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
@@ -56,17 +55,23 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
                                               static_cast<size_t>(params_.threads))
                                         : nullptr),
       fixed_model_(std::move(relocalizer)),
-      frames_(params_.mode == Mode::Continuous && params_.process_all ? FrameBuffer<FrameInputPtr>::Policy::Fifo
-                                                                      : FrameBuffer<FrameInputPtr>::Policy::Latest),
+      frames_(params_.mode == Mode::Continuous && params_.process_all
+                  ? FrameBuffer<FrameInputPtr>::Policy::Fifo
+                  : FrameBuffer<FrameInputPtr>::Policy::Latest),
       output_(nh_, private_nh_, params_, [this](ResultMsg& result) { fillCounters(result); }),
       service_calls_(kServiceThreads) {
   RelocalizeService::Sources sources;
   sources.frames = &frames_;
   sources.process = [this](const FrameInput& input) { return process(input); };
-  sources.input_status = [this] { return inputs_ ? inputs_->status() : std::string("no input yet"); };
+  sources.input_status = [this] {
+    return inputs_ ? inputs_->status() : std::string("no input yet");
+  };
   sources.output = &output_;
-  service_ = std::make_unique<RelocalizeService>(private_nh_, params_, std::move(sources), service_calls_);
-  if (feed) learning_ = std::make_unique<LearningFeed>(nh_, private_nh_, params_, std::move(feed), service_calls_);
+  service_ =
+      std::make_unique<RelocalizeService>(private_nh_, params_, std::move(sources), service_calls_);
+  if (feed)
+    learning_ =
+        std::make_unique<LearningFeed>(nh_, private_nh_, params_, std::move(feed), service_calls_);
   if (params_.mode == Mode::Continuous) worker_ = std::thread(&RelocalizerNode::workerLoop, this);
 
   NodeInputs::Handlers handlers;
@@ -88,32 +93,33 @@ void RelocalizerNode::logStartup() const {
   std::string model_text;
   if (current) {
     const relocalizer::Model& model = current->model();
-    model_text = "model " + (params_.model.empty() ? std::string("(learned)") : params_.model) + " (" +
-                 std::to_string(model.points.trees.size()) + " point trees, " +
+    model_text = "model " + (params_.model.empty() ? std::string("(learned)") : params_.model) +
+                 " (" + std::to_string(model.points.trees.size()) + " point trees, " +
                  std::to_string(model.lines.trees.size()) + " line trees)";
   } else {
     model_text = "no model yet";
   }
   if (learning_) {
     const relocalizer::LearningStatus status = learning_->status();
-    model_text += std::string(", learning from TF ") + params_.map_frame + " -> camera (" +
-                  std::to_string(status.keyframes_stored) + " key frames so far, key frames at " +
-                  relocalizer::formatMinMotion(params_.learning.min_motion) + " m,deg" +
-                  (params_.save_on_exit.empty() ? "" : ", saved to " + params_.save_on_exit + " on exit") + ")";
+    model_text +=
+        std::string(", learning from TF ") + params_.map_frame + " -> camera (" +
+        std::to_string(status.keyframes_stored) + " key frames so far, key frames at " +
+        relocalizer::formatMinMotion(params_.learning.min_motion) + " m,deg" +
+        (params_.save_on_exit.empty() ? "" : ", saved to " + params_.save_on_exit + " on exit") +
+        ")";
   }
-  const std::string tf_text =
-      !params_.publish_tf ? "no TF"
-      : params_.odom_frame.empty()
-          ? params_.map_frame + " -> camera TF"
-          : params_.map_frame + " -> " + params_.odom_frame + " TF";
+  const std::string tf_text = !params_.publish_tf ? "no TF"
+                              : params_.odom_frame.empty()
+                                  ? params_.map_frame + " -> camera TF"
+                                  : params_.map_frame + " -> " + params_.odom_frame + " TF";
   const std::string mode_text =
       params_.mode == Mode::OnDemand
           ? "on demand (call " + service_->name() + ")"
           : std::string("continuous") +
                 (params_.max_rate > 0 ? " at up to " + secondsText(params_.max_rate) + " Hz" : "") +
                 (params_.process_all ? ", every frame" : "");
-  ROS_INFO("relocalizer: %s, %s, %s; frames from %s", model_text.c_str(), mode_text.c_str(), tf_text.c_str(),
-           inputs_->topics().c_str());
+  ROS_INFO("relocalizer: %s, %s, %s; frames from %s", model_text.c_str(), mode_text.c_str(),
+           tf_text.c_str(), inputs_->topics().c_str());
   if (current)
     if (const std::string limits = current->limitations(); !limits.empty())
       ROS_WARN("relocalizer: %s: %s", params_.model.c_str(), limits.c_str());
@@ -140,11 +146,12 @@ RelocalizerNode::~RelocalizerNode() {
 void RelocalizerNode::onFrame(FrameInputPtr input) {
   if (learning_) learning_->push(input);
   frames_.push(std::move(input));
-  if (params_.process_all && params_.mode == Mode::Continuous && frames_.pendingCount() > kBacklogWarning &&
-      log_.allow("backlog"))
-    ROS_WARN("relocalizer: %zu frames wait to be relocalized (process_all): the source is faster "
-             "than the node, and latency grows; pace it (replay.launch does) or slow it down",
-             frames_.pendingCount());
+  if (params_.process_all && params_.mode == Mode::Continuous &&
+      frames_.pendingCount() > kBacklogWarning && log_.allow("backlog"))
+    ROS_WARN(
+        "relocalizer: %zu frames wait to be relocalized (process_all): the source is faster "
+        "than the node, and latency grows; pace it (replay.launch does) or slow it down",
+        frames_.pendingCount());
 }
 
 void RelocalizerNode::fillCounters(ResultMsg& result) const {
@@ -196,13 +203,15 @@ RelocalizerNode::ResultMsg RelocalizerNode::process(const FrameInput& input) {
   }
 }
 
-RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const FrameInput& input, Clock::time_point start) {
+RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const FrameInput& input,
+                                                           Clock::time_point start) {
   const ros::Time stamp = input.colour->header.stamp;
   auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
   const std::shared_ptr<const relocalizer::Relocalizer> model = currentModel();
   if (!frame || !model) {
     ResultMsg result = output_.failure(stamp, frame ? learning_->noModelYet() : frame.error());
-    if (!frame && log_.allow(result.message)) ROS_WARN("relocalizer: unusable frame: %s", result.message.c_str());
+    if (!frame && log_.allow(result.message))
+      ROS_WARN("relocalizer: unusable frame: %s", result.message.c_str());
     result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
     output_.frameFailed(result);
     return result;

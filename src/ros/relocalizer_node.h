@@ -28,7 +28,7 @@
 #include "node_output.h"
 #include "node_params.h"
 #include "relocalize_service.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
 
@@ -40,7 +40,7 @@ class RelocalizerNode {
   // parameter or file at fault. Subscribes only once the model is ready, so a
   // publisher that waits for a subscriber (the replay player) waits for it.
   static relocalizer::Expected<std::unique_ptr<RelocalizerNode>> create(ros::NodeHandle nh,
-                                                                       ros::NodeHandle private_nh);
+                                                                        ros::NodeHandle private_nh);
   ~RelocalizerNode();
   RelocalizerNode(const RelocalizerNode&) = delete;
   RelocalizerNode& operator=(const RelocalizerNode&) = delete;

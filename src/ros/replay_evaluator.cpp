@@ -50,8 +50,8 @@ void ReplayEvaluator::onResult(const ResultMsg::ConstPtr& result) {
 
 void ReplayEvaluator::onTruth(const geometry_msgs::PoseStamped::ConstPtr& truth) {
   std::lock_guard<std::mutex> lock(mutex_);
-  collected_truths_.push_back({static_cast<int>(truth->header.seq), truth->header.stamp,
-                               fromPoseMsg(truth->pose)});
+  collected_truths_.push_back(
+      {static_cast<int>(truth->header.seq), truth->header.stamp, fromPoseMsg(truth->pose)});
   last_message_ = ros::WallTime::now();
 }
 
@@ -137,9 +137,9 @@ int ReplayEvaluator::play() {
         return true;
       }
       std::unique_lock<std::mutex> lock(mutex_);
-      const bool answered = result_arrived_.wait_for(
-          lock, std::chrono::duration<double>(options_.result_timeout),
-          [&] { return results_.count(stamp) > 0 || !ros::ok(); });
+      const bool answered =
+          result_arrived_.wait_for(lock, std::chrono::duration<double>(options_.result_timeout),
+                                   [&] { return results_.count(stamp) > 0 || !ros::ok(); });
       if (!ros::ok()) return false;
       if (!answered) {
         ++unanswered;
@@ -187,12 +187,14 @@ int ReplayEvaluator::play() {
     return 2;
   }
   if (incomplete)
-    ROS_WARN("replay: skipped %d frames whose colour, depth and camera_info do not share one stamp "
-             "(a make_bag bag has none; play other bags with rosbag play and collect mode)",
-             incomplete);
+    ROS_WARN(
+        "replay: skipped %d frames whose colour, depth and camera_info do not share one stamp "
+        "(a make_bag bag has none; play other bags with rosbag play and collect mode)",
+        incomplete);
   if (published == 0) {
     ROS_FATAL("replay: %s has no complete frame on %s, %s and %s", options_.bag.c_str(),
-              options_.colour_topic.c_str(), options_.depth_topic.c_str(), options_.info_topic.c_str());
+              options_.colour_topic.c_str(), options_.depth_topic.c_str(),
+              options_.info_topic.c_str());
     return 2;
   }
   std::printf("replayed %d frames of %s through %s (%d without an answer)\n", published,
@@ -207,7 +209,8 @@ void ReplayEvaluator::reportLatency(int published) {
     std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& [stamp, sent] : published_at_) {
       const auto answer = answered_at_.find(stamp);
-      if (answer != answered_at_.end()) latencies_ms.push_back((answer->second - sent).toSec() * 1e3);
+      if (answer != answered_at_.end())
+        latencies_ms.push_back((answer->second - sent).toSec() * 1e3);
     }
   }
   const double median_ms = relocalizer::median(latencies_ms);
@@ -216,9 +219,10 @@ void ReplayEvaluator::reportLatency(int published) {
                             ? std::nan("")
                             : *std::max_element(latencies_ms.begin(), latencies_ms.end());
   const double share = published > 0 ? static_cast<double>(latencies_ms.size()) / published : 0.0;
-  std::printf("paced at %.1f Hz: %zu of %d frames answered (%.1f %%); latency from publish to ~result: "
-              "median %.1f ms, 95th percentile %.1f ms, max %.1f ms\n",
-              options_.rate, latencies_ms.size(), published, 100.0 * share, median_ms, p95_ms, max_ms);
+  std::printf(
+      "paced at %.1f Hz: %zu of %d frames answered (%.1f %%); latency from publish to ~result: "
+      "median %.1f ms, 95th percentile %.1f ms, max %.1f ms\n",
+      options_.rate, latencies_ms.size(), published, 100.0 * share, median_ms, p95_ms, max_ms);
   if (options_.output.empty()) return;
   nlohmann::json out;
   out["rate_hz"] = options_.rate;
@@ -235,7 +239,8 @@ void ReplayEvaluator::reportLatency(int published) {
 }
 
 int ReplayEvaluator::collect() {
-  ros::Subscriber truth_sub = nh_.subscribe(options_.truth_topic, 100, &ReplayEvaluator::onTruth, this);
+  ros::Subscriber truth_sub =
+      nh_.subscribe(options_.truth_topic, 100, &ReplayEvaluator::onTruth, this);
   ros::Subscriber info_sub = nh_.subscribe<std_msgs::String>(
       options_.dataset_topic, 1, [this](const std_msgs::String::ConstPtr& info) {
         std::lock_guard<std::mutex> lock(mutex_);
@@ -256,13 +261,15 @@ int ReplayEvaluator::collect() {
     std::lock_guard<std::mutex> lock(mutex_);
     truths = collected_truths_;
   }
-  std::sort(truths.begin(), truths.end(), [](const Truth& a, const Truth& b) { return a.stamp < b.stamp; });
+  std::sort(truths.begin(), truths.end(),
+            [](const Truth& a, const Truth& b) { return a.stamp < b.stamp; });
   return report(truths);
 }
 
 int ReplayEvaluator::report(const std::vector<Truth>& truths) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const bool integer_stamps = dataset_info_.is_object() && dataset_info_.value("integer_stamps", false);
+  const bool integer_stamps =
+      dataset_info_.is_object() && dataset_info_.value("integer_stamps", false);
   std::vector<relocalizer::EvaluationRecord> records;
   int without_result = 0;
   uint32_t received = 0, processed = 0, dropped = 0;
@@ -302,9 +309,10 @@ int ReplayEvaluator::report(const std::vector<Truth>& truths) {
     return 1;
   }
   if (without_result)
-    std::printf("%d of %zu frames with ground truth got no result (dropped by the node: %u); they "
-                "are left out of the table\n",
-                without_result, truths.size(), dropped);
+    std::printf(
+        "%d of %zu frames with ground truth got no result (dropped by the node: %u); they "
+        "are left out of the table\n",
+        without_result, truths.size(), dropped);
 
   const std::string bag_name =
       options_.play ? std::filesystem::path(options_.bag).filename().string() : "live topics";
@@ -324,9 +332,8 @@ int ReplayEvaluator::report(const std::vector<Truth>& truths) {
   extra["dataset"] = dataset_info_;
   extra["result_topic"] = result_sub_.getTopic();
   extra["frames_without_result"] = without_result;
-  extra["node"] = {{"frames_received", received},
-                   {"frames_processed", processed},
-                   {"frames_dropped", dropped}};
+  extra["node"] = {
+      {"frames_received", received}, {"frames_processed", processed}, {"frames_dropped", dropped}};
   extra["software_version"] = relocalizer::kSoftwareVersion;
   // Ties the files to the roslaunch run that wrote them.
   std::string run_id;

@@ -26,8 +26,8 @@
 #include <string>
 #include <vector>
 
-#include "relocalizer/eval/evaluation.h"
 #include <relocalizer/RelocalizationResult.h>
+#include "relocalizer/eval/evaluation.h"
 
 namespace relocalizer_ros {
 
@@ -79,11 +79,11 @@ class ReplayEvaluator {
 
   std::mutex mutex_;
   std::condition_variable result_arrived_;
-  std::map<ros::Time, ResultMsg> results_;  // first answer per frame stamp
-  std::map<ros::Time, ros::WallTime> answered_at_;  // when that answer arrived
+  std::map<ros::Time, ResultMsg> results_;           // first answer per frame stamp
+  std::map<ros::Time, ros::WallTime> answered_at_;   // when that answer arrived
   std::map<ros::Time, ros::WallTime> published_at_;  // paced mode: when the frame went out
-  std::vector<Truth> collected_truths_;     // collect mode
-  nlohmann::json dataset_info_;             // from make_bag, when present
+  std::vector<Truth> collected_truths_;              // collect mode
+  nlohmann::json dataset_info_;                      // from make_bag, when present
   ros::WallTime last_message_;
 };
 

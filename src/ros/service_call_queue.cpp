@@ -11,7 +11,8 @@ thread_local ServiceCallQueue::Clock::time_point t_arrival;
 
 }  // namespace
 
-ServiceCallQueue::ServiceCallQueue(size_t max_threads) : max_threads_(std::max<size_t>(1, max_threads)) {}
+ServiceCallQueue::ServiceCallQueue(size_t max_threads)
+    : max_threads_(std::max<size_t>(1, max_threads)) {}
 
 ServiceCallQueue::~ServiceCallQueue() { stop(); }
 
@@ -22,7 +23,8 @@ void ServiceCallQueue::addCallback(const ros::CallbackInterfacePtr& callback, ui
     calls_.push_back({callback, owner_id, Clock::now()});
     // A thread per waiting call, so that one call's wait never delays another
     // (threads blocked on a condition variable cost a stack each, no CPU).
-    if (idle_ < calls_.size() && threads_.size() < max_threads_) threads_.emplace_back([this] { run(); });
+    if (idle_ < calls_.size() && threads_.size() < max_threads_)
+      threads_.emplace_back([this] { run(); });
   }
   wake_.notify_one();
 }

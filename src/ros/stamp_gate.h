@@ -60,16 +60,16 @@ class StampGate {
 
   enum class Drop {
     None,
-    BeyondRange,   // stamp at or past 2^31 s
-    OutOfOrder,    // a small step back on its own input
-    OldTimeline,   // sent before a jump that its input has not followed yet
-    Unconfirmed,   // held off the timeline, and no other message followed it there
+    BeyondRange,  // stamp at or past 2^31 s
+    OutOfOrder,   // a small step back on its own input
+    OldTimeline,  // sent before a jump that its input has not followed yet
+    Unconfirmed,  // held off the timeline, and no other message followed it there
   };
 
   struct Jump {
-    int input = 0;              // whose stamp opened it
-    int64_t from_ns = 0;        // newest admitted stamp before the jump
-    int64_t to_ns = 0;          // the new timeline's first stamp
+    int input = 0;        // whose stamp opened it
+    int64_t from_ns = 0;  // newest admitted stamp before the jump
+    int64_t to_ns = 0;    // the new timeline's first stamp
   };
 
   struct Decision {
@@ -104,7 +104,7 @@ class StampGate {
   void admit(int input, int64_t stamp_ns);
   void expire(Clock::time_point now, Decision& decision);
 
-  std::optional<int64_t> newest_;                  // newest admitted stamp, any input
+  std::optional<int64_t> newest_;                       // newest admitted stamp, any input
   std::array<std::optional<int64_t>, kInputs> last_{};  // newest admitted stamp per input
   std::optional<Held> held_;
   // An open jump: the inputs that have not followed it yet, and the two

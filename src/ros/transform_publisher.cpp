@@ -27,7 +27,8 @@ relocalizer::Expected<geometry_msgs::TransformStamped> TransformPublisher::prepa
   out.header.frame_id = options_.map_frame;
   if (options_.odom_frame.empty()) {
     if (camera_frame.empty())
-      return relocalizer::makeError("the image has no frame_id, so map -> camera cannot be published");
+      return relocalizer::makeError(
+          "the image has no frame_id, so map -> camera cannot be published");
     out.header.stamp = stamp;
     out.child_frame_id = camera_frame;
     out.transform = toTransformMsg(map_T_camera);
@@ -43,10 +44,10 @@ relocalizer::Expected<geometry_msgs::TransformStamped> TransformPublisher::prepa
   } catch (const tf2::TransformException& e) {
     char timeout[32];
     std::snprintf(timeout, sizeof(timeout), "%.2f", options_.tf_timeout);
-    return relocalizer::makeError("no " + options_.odom_frame + " -> " + messageExcerpt(camera_frame) +
-                                  " transform at the frame stamp within " + timeout +
-                                  " s: " + messageExcerpt(e.what(), 256) +
-                                  clearIfOnlyFuture(stamp, camera_frame));
+    return relocalizer::makeError(
+        "no " + options_.odom_frame + " -> " + messageExcerpt(camera_frame) +
+        " transform at the frame stamp within " + timeout + " s: " + messageExcerpt(e.what(), 256) +
+        clearIfOnlyFuture(stamp, camera_frame));
   }
   const relocalizer::Pose odom_T_camera = fromTransformMsg(odom_to_camera.transform);
   out.header.stamp = stamp + ros::Duration(options_.transform_tolerance);

@@ -47,9 +47,9 @@ class TransformPublisher {
   // e.g. a looping bag, and an old-timeline transform arrived after reset()),
   // tf2 would refuse every new transform as too old until time caught up
   // again; the buffer is cleared instead and the error says so.
-  relocalizer::Expected<geometry_msgs::TransformStamped> prepare(const relocalizer::Pose& map_T_camera,
-                                                                  const ros::Time& stamp,
-                                                                  const std::string& camera_frame) const;
+  relocalizer::Expected<geometry_msgs::TransformStamped> prepare(
+      const relocalizer::Pose& map_T_camera, const ros::Time& stamp,
+      const std::string& camera_frame) const;
 
   // Broadcasts a prepared transform and, in odom mode, keeps it for the
   // re-broadcast unless one from a later frame is already kept: the worker and

@@ -13,7 +13,6 @@ namespace relocalizer {
 
 using namespace synthetic;
 
-
 // ---------------------------------------------------------------- ray casting
 
 Hit SyntheticRoom::Impl::trace(const Ray& r, const FrameState* frame) const {

@@ -20,26 +20,30 @@ std::vector<Eigen::Vector3f> surfaceFitPoints(const RgbdFrame& frame, int count)
     const float* row = frame.depth.ptr<float>(v);
     for (int u = stride / 2; u < frame.depth.cols; u += stride)
       if (row[u] > 0.0f)  // false for NaN
-        points.push_back(frame.camera.backProject(static_cast<float>(u), static_cast<float>(v), row[u]));
+        points.push_back(
+            frame.camera.backProject(static_cast<float>(u), static_cast<float>(v), row[u]));
   }
   return points;
 }
 
-float surfaceAgreement(const SurfaceModel& surface, const std::vector<Eigen::Vector3f>& camera_points,
-                       const Pose& pose, const SurfaceFitParams& params) {
+float surfaceAgreement(const SurfaceModel& surface,
+                       const std::vector<Eigen::Vector3f>& camera_points, const Pose& pose,
+                       const SurfaceFitParams& params) {
   if (camera_points.empty() || surface.empty()) return 0.0f;
   const Eigen::Isometry3f to_world = pose.cast<float>();
   int agreeing = 0;
   for (const Eigen::Vector3f& c : camera_points) {
     const Eigen::Vector3f p = to_world * c;
     const SurfaceElement* element = surface.near(p);
-    if (element && std::abs(element->normal.dot(p - element->point)) <= params.tolerance) ++agreeing;
+    if (element && std::abs(element->normal.dot(p - element->point)) <= params.tolerance)
+      ++agreeing;
   }
   return static_cast<float>(agreeing) / static_cast<float>(camera_points.size());
 }
 
-SurfaceFit fitToSurface(const SurfaceModel& surface, const std::vector<Eigen::Vector3f>& camera_points,
-                        const Pose& initial, const SurfaceFitParams& params) {
+SurfaceFit fitToSurface(const SurfaceModel& surface,
+                        const std::vector<Eigen::Vector3f>& camera_points, const Pose& initial,
+                        const SurfaceFitParams& params) {
   SurfaceFit fit;
   fit.pose = initial;
   fit.points = static_cast<int>(camera_points.size());

@@ -93,12 +93,14 @@ void SurfaceModel::buildIndex() {
           if (occupied.count(key)) continue;
           const Eigen::Vector3f centre =
               (Eigen::Vector3f(voxel.x() + dx, voxel.y() + dy, voxel.z() + dz) +
-               Eigen::Vector3f::Constant(0.5f)) * voxel_size_;
+               Eigen::Vector3f::Constant(0.5f)) *
+              voxel_size_;
           const float d2 = (elements_[i].point - centre).squaredNorm();
           auto [it, added] = band.try_emplace(key, Candidate{static_cast<int32_t>(i), d2});
           // Ties go to the lower index: the band does not depend on hash order.
-          if (!added && (d2 < it->second.distance_squared ||
-                         (d2 == it->second.distance_squared && static_cast<int32_t>(i) < it->second.element)))
+          if (!added &&
+              (d2 < it->second.distance_squared ||
+               (d2 == it->second.distance_squared && static_cast<int32_t>(i) < it->second.element)))
             it->second = {static_cast<int32_t>(i), d2};
         }
   }

@@ -7,7 +7,7 @@
 
 #include "cli_support.h"
 #include "relocalizer/eval/latency_benchmark.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 #include "source_arguments.h"
 
 using namespace relocalizer;
@@ -46,9 +46,12 @@ int main(int argc, char** argv) {
   cli::SourceOptions source_options;
   app.add_option("-m,--model", model_path, "Model file written by train")->required();
   source_options.add(app, "Dataset folder", "Frame ids (default: all)");
-  app.add_option("-c,--config", config, "YAML with a 'relocalizer:' section (default: compiled defaults)");
+  app.add_option("-c,--config", config,
+                 "YAML with a 'relocalizer:' section (default: compiled defaults)");
   app.add_option("--threads", threads_text, "Comma-separated thread counts")->capture_default_str();
-  app.add_option("--repeat", repeat, "Passes over the frames")->check(CLI::Range(1, 100))->capture_default_str();
+  app.add_option("--repeat", repeat, "Passes over the frames")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
   app.add_option("--json", json_path, "Write the figures to this JSON file");
   app.add_option("--sweep", sweep_dir, "Run the speed-accuracy sweep (1 thread) into this folder");
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
@@ -69,7 +72,8 @@ int main(int argc, char** argv) {
   if (!frames) return cli::fail(app, frames.error());
   if (frames->empty()) return cli::fail(app, (*source)->path() + ": no frame selected");
   const Relocalizer relocalizer(*model, params);
-  if (const std::string why = relocalizer.validationError(); !why.empty()) return cli::fail(app, why);
+  if (const std::string why = relocalizer.validationError(); !why.empty())
+    return cli::fail(app, why);
 
   nlohmann::json out;
   out["cpu"] = cpuModel();

@@ -8,9 +8,9 @@
 #include <fstream>
 #include <vector>
 
-#include "source_arguments.h"
 #include "relocalizer/core/statistics.h"
 #include "relocalizer/data/depth_alignment.h"
+#include "source_arguments.h"
 
 using namespace relocalizer;
 

@@ -2,12 +2,12 @@
 // What every command-line tool shares: one-line failures and CLI11 parsing
 // that answers --help on stdout and a bad argument with a single line.
 
+#include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <string>
-#include <tbb/global_control.h>
 #include <thread>
 
 namespace relocalizer::cli {

@@ -25,8 +25,8 @@ struct DatasetArguments {
            bool required = true) {
     path_option = app.add_option("-d,--dataset", path, dataset_help);
     if (required) path_option->required();
-    format_option =
-        app.add_option("--format", format, "auto | 7scenes | 12scenes | tum")->capture_default_str();
+    format_option = app.add_option("--format", format, "auto | 7scenes | 12scenes | tum")
+                        ->capture_default_str();
     app.add_option("--frames", frames, frames_help);
     split_option = app.add_option("--split", split, "train | test | all (7-Scenes scenes)")
                        ->capture_default_str();

@@ -8,7 +8,8 @@ using namespace relocalizer;
 int main(int argc, char** argv) {
   CLI::App app{
       "Opens a dataset folder (7-Scenes, 12-Scenes, TUM or synthesize output) or a rosbag the way "
-      "train and evaluate do, prints its summary and checks that the first and last selected frames load.",
+      "train and evaluate do, prints its summary and checks that the first and last selected "
+      "frames load.",
       "dataset_info"};
   cli::SourceOptions arguments;
   arguments.add(app, "Dataset folder", "Frame ids, e.g. 0-99,200-299 (default: all)");

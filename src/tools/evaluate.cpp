@@ -13,7 +13,7 @@
 #include "relocalizer/eval/plot.h"
 #include "relocalizer/forest/training_config.h"
 #include "relocalizer/online/key_frame_feed.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 #include "source_arguments.h"
 
 using namespace relocalizer;
@@ -29,7 +29,8 @@ struct Options {
 
 // --learn-frames and the options that go with it.
 struct LearnOptions {
-  std::string learn_frames, learn_min_motion = formatMinMotion(KeyFrameMotion{}), learn_config, save_model;
+  std::string learn_frames, learn_min_motion = formatMinMotion(KeyFrameMotion{}), learn_config,
+                            save_model;
   int curve_every = 50;
   LearningParams learning;
 };
@@ -50,8 +51,9 @@ void addOptions(CLI::App& app, Options& o, LearnOptions& l) {
                "Frame ids to evaluate, e.g. 100-199,300-399 (default: all); for a bag, ids "
                "are indices in its synchronized frame order");
   app.add_option("-o,--output", o.output, "Folder for poses.txt, errors.csv, summary.json, plots");
-  app.add_option("-c,--config", o.config,
-                 "YAML file whose 'relocalizer:' section overrides the defaults (config/default.yaml)");
+  app.add_option(
+      "-c,--config", o.config,
+      "YAML file whose 'relocalizer:' section overrides the defaults (config/default.yaml)");
   app.add_option("--forests", o.forests, "points | lines | both")
       ->check(CLI::IsMember({"points", "lines", "both"}))
       ->capture_default_str();
@@ -90,8 +92,9 @@ void addOptions(CLI::App& app, Options& o, LearnOptions& l) {
 
 // --learn-frames: learns the model online from the learn frames, evaluating
 // `data` at every curve point. Returns -1 to go on, otherwise the exit code.
-int learnOnline(const CLI::App& app, const Options& o, LearnOptions l, const RelocalizerParams& params,
-                const FrameSource& data, int thread_count, Learned& out) {
+int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
+                const RelocalizerParams& params, const FrameSource& data, int thread_count,
+                Learned& out) {
   LearningParams& learning = l.learning;
   const std::string& learn_frames = l.learn_frames;
   const std::string& learn_min_motion = l.learn_min_motion;
@@ -102,16 +105,18 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l, const Rel
     auto checked = readLearningParams(learning, learn_min_motion, l.learn_config);
     if (!checked) return cli::fail(app, "learning: " + checked.error());
     learning = *checked;
-    auto learn_data = cli::DatasetArguments{o.source.path, o.source.format, learn_frames, o.source.split}
-                          .open();
+    auto learn_data =
+        cli::DatasetArguments{o.source.path, o.source.format, learn_frames, o.source.split}.open();
     if (!learn_data) return cli::fail(app, learn_data.error());
     const Dataset& learn = **learn_data;
     std::printf("learning from %zu frames (%s), key frames at %s m,deg, at most %d stored\n",
-                learn.size(), learn_frames.c_str(), learn_min_motion.c_str(), learning.max_keyframes);
+                learn.size(), learn_frames.c_str(), learn_min_motion.c_str(),
+                learning.max_keyframes);
     KeyFrameFeed feed(learning, params, OnlineLearner::Mode::Inline);
     OnlineLearner& learner = feed.learner();
     if (!model_path.empty())
-      if (Status resumed = learner.resume(model_path); !resumed) return cli::fail(app, resumed.error());
+      if (Status resumed = learner.resume(model_path); !resumed)
+        return cli::fail(app, resumed.error());
     nlohmann::json curve = nlohmann::json::array();
     Plot plot;
     plot.title = "learning curve: " + std::filesystem::path(dataset_path).filename().string();
@@ -124,7 +129,8 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l, const Rel
     int without_pose = 0, learned = 0;
     for (size_t i = 0; i < learn.size(); ++i) {
       // A frame without a pose is SLAM having lost track: never learned from.
-      const KeyFrameFeed::Result fed = feed.offer(learn.groundTruth(i), [&] { return learn.load(i); });
+      const KeyFrameFeed::Result fed =
+          feed.offer(learn.groundTruth(i), [&] { return learn.load(i); });
       if (!fed.why.empty()) return cli::fail(app, fed.why);
       if (fed.outcome == KeyFrameFeed::Result::Outcome::Untracked) ++without_pose;
       compress_seconds += fed.store_seconds;
@@ -132,19 +138,23 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l, const Rel
       if (learned % l.curve_every != 0 && i + 1 != learn.size()) continue;
       const auto start = std::chrono::steady_clock::now();
       if (Status drained = learner.drain(); !drained) return cli::fail(app, drained.error());
-      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       const LearningStatus status = learner.status();
       retrain_seconds = status.last_retrain_seconds;
       relocalizer = learner.current();
       double accuracy = 0.0;
       if (relocalizer) {
-        auto evaluated = evaluateFrames(*relocalizer, data, false, "curve " + std::to_string(learned));
+        auto evaluated =
+            evaluateFrames(*relocalizer, data, false, "curve " + std::to_string(learned));
         if (!evaluated) return cli::fail(app, evaluated.error());
         out.evaluation = std::move(*evaluated);
         accuracy = summarizeEvaluation(out.evaluation.records).accuracy.within_5cm_5deg;
       }
-      std::printf("after %4d frames: %3d key frames (%d stored), retrain %.1f s, %.1f %% within 5 cm / 5 deg\n",
-                  learned, status.keyframes_added, status.keyframes_stored, seconds, 100.0 * accuracy);
+      std::printf(
+          "after %4d frames: %3d key frames (%d stored), retrain %.1f s, %.1f %% within 5 cm / 5 "
+          "deg\n",
+          learned, status.keyframes_added, status.keyframes_stored, seconds, 100.0 * accuracy);
       curve.push_back({{"frames_learned", learned},
                        {"keyframes", status.keyframes_added},
                        {"keyframes_stored", status.keyframes_stored},
@@ -157,15 +167,19 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l, const Rel
     if (!relocalizer)
       return cli::fail(app, "learned no model: only " + std::to_string(status.keyframes_added) +
                                 " key frames in --learn-frames " + learn_frames);
-    if (without_pose) std::printf("%d learn frames without ground truth were not learned from\n", without_pose);
+    if (without_pose)
+      std::printf("%d learn frames without ground truth were not learned from\n", without_pose);
     const double per_keyframe_retrain = retrain_seconds / std::max(1, status.keyframes_learned);
     const double per_keyframe_compress = compress_seconds / std::max(1, status.keyframes_added);
-    std::printf("update time per key frame: %.1f ms to store (caller's thread), %.2f s of retraining "
-                "(%d threads; the last retrain took %.1f s for %d key frames); model %.1f MB, key frames %.1f MB\n",
-                1000.0 * per_keyframe_compress, per_keyframe_retrain, thread_count, retrain_seconds,
-                status.keyframes_learned, status.model_bytes / 1e6, status.store_bytes / 1e6);
+    std::printf(
+        "update time per key frame: %.1f ms to store (caller's thread), %.2f s of retraining "
+        "(%d threads; the last retrain took %.1f s for %d key frames); model %.1f MB, key frames "
+        "%.1f MB\n",
+        1000.0 * per_keyframe_compress, per_keyframe_retrain, thread_count, retrain_seconds,
+        status.keyframes_learned, status.model_bytes / 1e6, status.store_bytes / 1e6);
     if (!l.save_model.empty()) {
-      if (Status saved = learner.save(l.save_model); !saved) return cli::fail(app, saved.error(), 1);
+      if (Status saved = learner.save(l.save_model); !saved)
+        return cli::fail(app, saved.error(), 1);
       std::printf("wrote %s and %s\n", l.save_model.c_str(), keyFramesPath(l.save_model).c_str());
     }
     plot.series.push_back(series);
@@ -256,14 +270,16 @@ int main(int argc, char** argv) {
     auto loaded = Relocalizer::fromFile(o.model_path, params);
     if (!loaded) return cli::fail(app, loaded.error());
     learned.relocalizer = std::move(*loaded);
-  } else if (const int code = learnOnline(app, o, learn, params, data, thread_count, learned); code >= 0) {
+  } else if (const int code = learnOnline(app, o, learn, params, data, thread_count, learned);
+             code >= 0) {
     return code;
   }
   const Relocalizer& relocalizer = *learned.relocalizer;
   const Model& model = relocalizer.model();
   std::printf("model %s: %zu point trees, %zu line trees, trained on %d images of %s\n",
-              o.model_path.empty() ? "(learned online)" : o.model_path.c_str(), model.points.trees.size(),
-              model.lines.trees.size(), model.summary.images, model.summary.dataset.c_str());
+              o.model_path.empty() ? "(learned online)" : o.model_path.c_str(),
+              model.points.trees.size(), model.lines.trees.size(), model.summary.images,
+              model.summary.dataset.c_str());
   if (const std::string limits = relocalizer.limitations(); !limits.empty())
     std::printf("warning: %s\n", limits.c_str());
   FrameEvaluation evaluation = std::move(learned.evaluation);
@@ -274,7 +290,8 @@ int main(int argc, char** argv) {
   }
   const std::vector<EvaluationRecord>& records = evaluation.records;
   if (records.empty()) return cli::fail(app, data.path() + ": no selected frame has ground truth");
-  if (evaluation.skipped) std::printf("skipped %d frames without ground truth\n", evaluation.skipped);
+  if (evaluation.skipped)
+    std::printf("skipped %d frames without ground truth\n", evaluation.skipped);
 
   const EvaluationSummary summary = summarizeEvaluation(records);
   const std::string title = "evaluate: " + o.forests + " forests, " + std::to_string(thread_count) +

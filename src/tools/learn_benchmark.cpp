@@ -35,7 +35,9 @@ std::pair<double, double> residentMiB() {
   return {rss, peak};
 }
 
-double since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+double since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
 
 struct Attempt {
   double at, latency;
@@ -45,7 +47,8 @@ struct Attempt {
 
 // Relocalizes the test frames round-robin at `rate` on whatever model the
 // learner has, until `done`, reading each frame when used.
-std::vector<Attempt> relocalizeUntilDone(const Dataset& test_data, const std::vector<size_t>& test_frames,
+std::vector<Attempt> relocalizeUntilDone(const Dataset& test_data,
+                                         const std::vector<size_t>& test_frames,
                                          const OnlineLearner& learner, double rate,
                                          Clock::time_point start, const std::atomic<bool>& done) {
   std::vector<Attempt> attempts;
@@ -77,8 +80,8 @@ struct Stream {
   std::vector<std::array<double, 6>> timeline;  // t, frames, key frames, learned, backlog, RSS
 };
 
-void report(const Stream& stream, const std::vector<Attempt>& attempts, const LearningStatus& status,
-            const std::string& output) {
+void report(const Stream& stream, const std::vector<Attempt>& attempts,
+            const LearningStatus& status, const std::string& output) {
   const auto [rss, peak] = residentMiB();
   double first_correct = -1.0;
   std::vector<double> latencies;
@@ -90,34 +93,51 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts, const Le
   }
   const double p50 = latencies.empty() ? 0.0 : median(latencies);
   std::sort(latencies.begin(), latencies.end());
-  const double p95 = latencies.empty() ? 0.0 : latencies[static_cast<size_t>(0.95 * (latencies.size() - 1))];
-  std::printf("stream: %ld frames in %.1f s at %.0f Hz (%ld later than one frame period, worst lag %.0f ms)\n",
-              stream.frames, stream.seconds, stream.rate, stream.late, 1000.0 * stream.worst_lag);
-  std::printf("learning: %d key frames added, %d stored, %d evicted; %d retrains, the last %.1f s; backlog %d; "
-              "model %.1f MB, key frames %.1f MB\n",
-              status.keyframes_added, status.keyframes_stored, status.keyframes_evicted, status.retrains,
-              status.last_retrain_seconds, status.backlog, status.model_bytes / 1e6, status.store_bytes / 1e6);
-  std::printf("relocalization: %zu attempts, %d correct (5 cm / 5 deg); first correct at %.1f s of stream; "
-              "latency median %.0f ms, p95 %.0f ms\n",
-              attempts.size(), correct, first_correct, p50, p95);
+  const double p95 =
+      latencies.empty() ? 0.0 : latencies[static_cast<size_t>(0.95 * (latencies.size() - 1))];
+  std::printf(
+      "stream: %ld frames in %.1f s at %.0f Hz (%ld later than one frame period, worst lag %.0f "
+      "ms)\n",
+      stream.frames, stream.seconds, stream.rate, stream.late, 1000.0 * stream.worst_lag);
+  std::printf(
+      "learning: %d key frames added, %d stored, %d evicted; %d retrains, the last %.1f s; backlog "
+      "%d; "
+      "model %.1f MB, key frames %.1f MB\n",
+      status.keyframes_added, status.keyframes_stored, status.keyframes_evicted, status.retrains,
+      status.last_retrain_seconds, status.backlog, status.model_bytes / 1e6,
+      status.store_bytes / 1e6);
+  std::printf(
+      "relocalization: %zu attempts, %d correct (5 cm / 5 deg); first correct at %.1f s of stream; "
+      "latency median %.0f ms, p95 %.0f ms\n",
+      attempts.size(), correct, first_correct, p50, p95);
   std::printf("memory: resident %.0f MiB now, peak %.0f MiB\n", rss, peak);
   if (output.empty()) return;
   std::filesystem::create_directories(output);
   std::ofstream csv(output + "/timeline.csv");
   csv << "seconds,frames,keyframes_added,keyframes_learned,backlog,resident_mib\n";
   for (const auto& row : stream.timeline)
-    csv << row[0] << ',' << row[1] << ',' << row[2] << ',' << row[3] << ',' << row[4] << ',' << row[5] << '\n';
+    csv << row[0] << ',' << row[1] << ',' << row[2] << ',' << row[3] << ',' << row[4] << ','
+        << row[5] << '\n';
   std::ofstream attempts_csv(output + "/relocalizations.csv");
   attempts_csv << "seconds,latency_ms,correct,keyframes_learned\n";
   for (const Attempt& a : attempts)
-    attempts_csv << a.at << ',' << 1000.0 * a.latency << ',' << a.correct << ',' << a.keyframes_learned << '\n';
-  nlohmann::json summary = {{"frames", stream.frames}, {"rate", stream.rate}, {"late_frames", stream.late},
-                            {"worst_lag_s", stream.worst_lag}, {"keyframes_added", status.keyframes_added},
-                            {"keyframes_stored", status.keyframes_stored}, {"retrains", status.retrains},
-                            {"backlog", status.backlog}, {"attempts", attempts.size()},
-                            {"correct", correct}, {"first_correct_s", first_correct},
-                            {"latency_median_ms", p50}, {"latency_p95_ms", p95},
-                            {"resident_mib", rss}, {"peak_resident_mib", peak}};
+    attempts_csv << a.at << ',' << 1000.0 * a.latency << ',' << a.correct << ','
+                 << a.keyframes_learned << '\n';
+  nlohmann::json summary = {{"frames", stream.frames},
+                            {"rate", stream.rate},
+                            {"late_frames", stream.late},
+                            {"worst_lag_s", stream.worst_lag},
+                            {"keyframes_added", status.keyframes_added},
+                            {"keyframes_stored", status.keyframes_stored},
+                            {"retrains", status.retrains},
+                            {"backlog", status.backlog},
+                            {"attempts", attempts.size()},
+                            {"correct", correct},
+                            {"first_correct_s", first_correct},
+                            {"latency_median_ms", p50},
+                            {"latency_p95_ms", p95},
+                            {"resident_mib", rss},
+                            {"peak_resident_mib", peak}};
   std::ofstream(output + "/summary.json") << summary.dump(2) << '\n';
 }
 
@@ -137,8 +157,11 @@ int main(int argc, char** argv) {
   int threads = 1;
   LearningParams learning;
   arguments.add(app, "Dataset folder with ground truth", "Held-out frames to relocalize");
-  app.add_option("--learn-frames", learn_frames, "Frames streamed to the learner, in order")->required();
-  app.add_option("--rate", rate, "Stream rate, Hz")->check(CLI::Range(0.1, 1000.0))->capture_default_str();
+  app.add_option("--learn-frames", learn_frames, "Frames streamed to the learner, in order")
+      ->required();
+  app.add_option("--rate", rate, "Stream rate, Hz")
+      ->check(CLI::Range(0.1, 1000.0))
+      ->capture_default_str();
   app.add_option("--seconds", seconds, "Stream length, s (the learn frames loop)")
       ->check(CLI::Range(1.0, 1e6))
       ->capture_default_str();
@@ -159,7 +182,8 @@ int main(int argc, char** argv) {
   if (!checked) return cli::fail(app, "learning: " + checked.error());
   auto test = arguments.open();
   if (!test) return cli::fail(app, test.error());
-  auto learn = cli::DatasetArguments{arguments.path, arguments.format, learn_frames, arguments.split}.open();
+  auto learn =
+      cli::DatasetArguments{arguments.path, arguments.format, learn_frames, arguments.split}.open();
   if (!learn) return cli::fail(app, learn.error());
   const Dataset& test_data = **test;
   const Dataset& learn_data = **learn;
@@ -169,7 +193,8 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < test_data.size(); ++i)
     if (test_data.groundTruth(i)) test_frames.push_back(i);
   if (test_frames.empty()) return cli::fail(app, "--frames: no frame with ground truth");
-  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads) + 1);
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                            static_cast<size_t>(threads) + 1);
 
   KeyFrameFeed feed(*checked, RelocalizerParams{}, OnlineLearner::Mode::Background);
   OnlineLearner& learner = feed.learner();
@@ -177,8 +202,9 @@ int main(int argc, char** argv) {
   const Clock::time_point start = Clock::now();
 
   std::vector<Attempt> attempts;
-  std::thread relocalizing(
-      [&] { attempts = relocalizeUntilDone(test_data, test_frames, learner, reloc_rate, start, done); });
+  std::thread relocalizing([&] {
+    attempts = relocalizeUntilDone(test_data, test_frames, learner, reloc_rate, start, done);
+  });
 
   // The stream: frame k is due at k / rate; loading it stands for the camera
   // driver and the message conversion.
@@ -195,7 +221,8 @@ int main(int argc, char** argv) {
     stream.worst_lag = std::max(stream.worst_lag, lag);
     if (lag > 1.0 / rate) ++stream.late;
     const size_t i = static_cast<size_t>(frames) % learn_data.size();
-    const KeyFrameFeed::Result fed = feed.offer(learn_data.groundTruth(i), [&] { return learn_data.load(i); });
+    const KeyFrameFeed::Result fed =
+        feed.offer(learn_data.groundTruth(i), [&] { return learn_data.load(i); });
     if (!fed.why.empty()) {
       failure = fed.why;
       break;
@@ -204,7 +231,8 @@ int main(int argc, char** argv) {
     if (since(start) >= next_sample) {
       const LearningStatus s = learner.status();
       stream.timeline.push_back({since(start), static_cast<double>(frames),
-                                 static_cast<double>(s.keyframes_added), static_cast<double>(s.keyframes_learned),
+                                 static_cast<double>(s.keyframes_added),
+                                 static_cast<double>(s.keyframes_learned),
                                  static_cast<double>(s.backlog), residentMiB().first});
       next_sample = since(start) + 5.0;
     }

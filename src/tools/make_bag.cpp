@@ -29,7 +29,8 @@ namespace {
 // (and tf2 as "latest").
 constexpr double kSynthesizedStart = 1.0;
 
-sensor_msgs::CameraInfo cameraInfoMsg(const CameraIntrinsics& camera, const std_msgs::Header& header) {
+sensor_msgs::CameraInfo cameraInfoMsg(const CameraIntrinsics& camera,
+                                      const std_msgs::Header& header) {
   sensor_msgs::CameraInfo info;
   info.header = header;
   info.width = static_cast<uint32_t>(camera.width);
@@ -75,7 +76,8 @@ int main(int argc, char** argv) {
       "Writes the selected frames of a dataset as a rosbag: /camera/rgb/image_raw (bgr8), "
       "/camera/depth/image_raw (16UC1 millimetres or 32FC1 metres, registered to colour), "
       "/camera/rgb/camera_info, the camera-to-world ground truth on /ground_truth/pose "
-      "(PoseStamped, frame map), with --tf also on /tf, and a JSON description of the source on /dataset/info. Every "
+      "(PoseStamped, frame map), with --tf also on /tf, and a JSON description of the source on "
+      "/dataset/info. Every "
       "header carries the frame's stamp and its dataset id as seq. Stamps are the dataset's, "
       "or synthesized at --rate (7-Scenes and 12-Scenes stamps are frame numbers, so they are "
       "synthesized at 30 Hz unless --rate says otherwise).",
@@ -87,8 +89,9 @@ int main(int argc, char** argv) {
   arguments.add(app, "Dataset folder (7-Scenes, 12-Scenes, TUM, synthetic)",
                 "Frame ids to write, e.g. 100-199,300-399 (default: all)");
   app.add_option("-o,--output", output, "Bag file to write (replaced if it exists)")->required();
-  auto* rate_option = app.add_option("--rate", rate, "Synthesize stamps at this many frames per second")
-                          ->check(CLI::Range(0.001, 10000.0));
+  auto* rate_option =
+      app.add_option("--rate", rate, "Synthesize stamps at this many frames per second")
+          ->check(CLI::Range(0.001, 10000.0));
   app.add_option("--depth-encoding", depth_encoding, "16UC1 (millimetres) | 32FC1 (metres)")
       ->check(CLI::IsMember({"16UC1", "32FC1"}))
       ->capture_default_str();
@@ -124,17 +127,13 @@ int main(int argc, char** argv) {
     if (compression == "lz4") bag.setCompression(rosbag::compression::LZ4);
     if (compression == "bz2") bag.setCompression(rosbag::compression::BZ2);
 
-    nlohmann::json info = {{"dataset", arguments.path},
-                           {"format", formatName(data.format())},
-                           {"frames", arguments.frames},
-                           {"split", arguments.split},
-                           {"frame_count", data.size()},
-                           {"stamps", synthesize ? "synthesized" : "dataset"},
-                           {"rate", synthesize ? rate : 0.0},
-                           {"integer_stamps", numbered},
-                           {"depth_encoding", depth_encoding},
-                           {"frame_id", frame_id},
-                           {"software_version", kSoftwareVersion}};
+    nlohmann::json info = {
+        {"dataset", arguments.path},           {"format", formatName(data.format())},
+        {"frames", arguments.frames},          {"split", arguments.split},
+        {"frame_count", data.size()},          {"stamps", synthesize ? "synthesized" : "dataset"},
+        {"rate", synthesize ? rate : 0.0},     {"integer_stamps", numbered},
+        {"depth_encoding", depth_encoding},    {"frame_id", frame_id},
+        {"software_version", kSoftwareVersion}};
     std_msgs::String info_msg;
     info_msg.data = info.dump();
     ProgressBar bar("writing", data.size());
@@ -166,10 +165,10 @@ int main(int argc, char** argv) {
       bag.write("/camera/rgb/camera_info", header.stamp, cameraInfoMsg(frame->camera, header));
       // REP 118: 16UC1 millimetres with 0 for no reading, or 32FC1 metres with NaN.
       const cv_bridge::CvImage depth =
-          millimetres ? cv_bridge::CvImage(header, sensor_msgs::image_encodings::TYPE_16UC1,
-                                           depthToMillimetres(frame->depth))
-                      : cv_bridge::CvImage(header, sensor_msgs::image_encodings::TYPE_32FC1,
-                                           frame->depth);
+          millimetres
+              ? cv_bridge::CvImage(header, sensor_msgs::image_encodings::TYPE_16UC1,
+                                   depthToMillimetres(frame->depth))
+              : cv_bridge::CvImage(header, sensor_msgs::image_encodings::TYPE_32FC1, frame->depth);
       bag.write("/camera/depth/image_raw", header.stamp, *depth.toImageMsg());
       bag.write("/camera/rgb/image_raw", header.stamp,
                 *cv_bridge::CvImage(header, sensor_msgs::image_encodings::BGR8, frame->colour)
@@ -189,8 +188,9 @@ int main(int argc, char** argv) {
     std::snprintf(stamps, sizeof(stamps), "synthesized at %g Hz", rate);
   else
     std::snprintf(stamps, sizeof(stamps), "from the dataset");
-  std::printf("wrote %d frames (%d with ground truth, depth %s, stamps %s) to %s (%.1f MB) in %.1f s\n",
-              written, with_truth, depth_encoding.c_str(), stamps, output.c_str(),
-              ec ? 0.0 : static_cast<double>(bytes) / 1e6, elapsed);
+  std::printf(
+      "wrote %d frames (%d with ground truth, depth %s, stamps %s) to %s (%.1f MB) in %.1f s\n",
+      written, with_truth, depth_encoding.c_str(), stamps, output.c_str(),
+      ec ? 0.0 : static_cast<double>(bytes) / 1e6, elapsed);
   return 0;
 }

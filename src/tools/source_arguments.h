@@ -31,8 +31,8 @@ struct SourceOptions : DatasetArguments {
 
   // The topic, pose and key-frame options of a bag, needing `bag_option`
   // (nullptr: a tool with several bag options, any of which they apply to).
-  static void addBagOptions(CLI::App& app, CLI::Option* bag_option,
-                            relocalizer_ros::BagOptions& b, std::string& min_motion) {
+  static void addBagOptions(CLI::App& app, CLI::Option* bag_option, relocalizer_ros::BagOptions& b,
+                            std::string& min_motion) {
     const std::string group = "Rosbag (--bag)";
     const auto bag_only = [&](CLI::Option* option) {
       if (bag_option) option->needs(bag_option);
@@ -77,7 +77,8 @@ struct SourceOptions : DatasetArguments {
   }
 
   // The same selection and bag options applied to another folder or bag.
-  Expected<std::unique_ptr<FrameSource>> open(const std::string& folder, const std::string& bag_path,
+  Expected<std::unique_ptr<FrameSource>> open(const std::string& folder,
+                                              const std::string& bag_path,
                                               bool register_colour = true) const {
     relocalizer_ros::FrameSourceRequest request;
     auto folder_options = options(register_colour);

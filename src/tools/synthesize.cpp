@@ -13,8 +13,6 @@
 
 using relocalizer::cli::fail;
 
-
-
 int main(int argc, char** argv) {
   CLI::App app{
       "Writes a synthetic RGB-D relocalization dataset of a procedurally generated room: "

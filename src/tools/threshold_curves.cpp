@@ -18,7 +18,8 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Draws the trade-off behind the relocalizer's 'no pose' thresholds (solver.min_inlier_ratio "
       "and, for models with a scene surface, surface.min_agreement): for each threshold, the share "
-      "of in-scene frames answered correctly (within 5 cm / 5 deg), answered wrongly, and the share "
+      "of in-scene frames answered correctly (within 5 cm / 5 deg), answered wrongly, and the "
+      "share "
       "of out-of-scene frames answered at all (false relocalizations). Writes curves.csv/png, "
       "agreement_curves.csv/png and curves.json. Each scene is a dataset folder or a rosbag.",
       "threshold_curves"};
@@ -27,16 +28,21 @@ int main(int argc, char** argv) {
   int threads = 0;
   cli::SourceOptions bags;  // topic and pose options shared by every bag
   app.add_option("-m,--model", model_path, "Model file")->required();
-  auto* in_folder = app.add_option("--in-scene", in_scene, "Dataset of the model's scene, with ground truth");
-  auto* in_bag_option = app.add_option("--bag", in_bag, "Rosbag of the model's scene, instead of --in-scene");
+  auto* in_folder =
+      app.add_option("--in-scene", in_scene, "Dataset of the model's scene, with ground truth");
+  auto* in_bag_option =
+      app.add_option("--bag", in_bag, "Rosbag of the model's scene, instead of --in-scene");
   in_folder->excludes(in_bag_option);
-  app.add_option("--in-frames", in_frames, "Frame ids of the in-scene dataset or bag (default: all)");
-  auto* out_folders = app.add_option("--out-of-scene", out_of_scene, "Datasets of other scenes (repeatable)");
+  app.add_option("--in-frames", in_frames,
+                 "Frame ids of the in-scene dataset or bag (default: all)");
+  auto* out_folders =
+      app.add_option("--out-of-scene", out_of_scene, "Datasets of other scenes (repeatable)");
   auto* out_bags = app.add_option("--out-of-scene-bag", out_of_scene_bags,
                                   "Rosbags of other scenes (repeatable; frames need poses too)");
   cli::SourceOptions::addBagOptions(app, nullptr, bags.bag_options, bags.min_motion);
   app.add_option("-c,--config", config, "YAML with a 'relocalizer:' section");
-  app.add_option("-o,--output", output, "Folder for curves.csv, curves.png, curves.json")->required();
+  app.add_option("-o,--output", output, "Folder for curves.csv, curves.png, curves.json")
+      ->required();
   app.add_option("-j,--threads", threads, "Threads (0 = every core)")->check(CLI::Range(0, 1024));
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
   if (in_folder->count() + in_bag_option->count() == 0)
@@ -53,7 +59,8 @@ int main(int argc, char** argv) {
   const GateSettings configured = gateSettings(params);
   auto relocalizer = Relocalizer::fromFile(model_path, withGatesOpen(params));
   if (!relocalizer) return cli::fail(app, relocalizer.error());
-  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, cli::resolveThreads(threads));
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                            cli::resolveThreads(threads));
 
   // (folder, bag) of each scene, the in-scene one first.
   std::vector<std::pair<std::string, std::string>> scenes = {{in_scene, in_bag}};
@@ -70,8 +77,9 @@ int main(int argc, char** argv) {
   }
   std::vector<std::string> outside = out_of_scene;
   outside.insert(outside.end(), out_of_scene_bags.begin(), out_of_scene_bags.end());
-  const nlohmann::json extra = {
-      {"model", model_path}, {"in_scene", in_bag.empty() ? in_scene : in_bag}, {"out_of_scene", outside}};
+  const nlohmann::json extra = {{"model", model_path},
+                                {"in_scene", in_bag.empty() ? in_scene : in_bag},
+                                {"out_of_scene", outside}};
   auto report = writeThresholdCurves(answers, configured, output, extra.dump());
   if (!report) return cli::fail(app, report.error(), 1);
   std::printf("%s", report->c_str());

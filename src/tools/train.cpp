@@ -52,7 +52,8 @@ struct BuildTimes {
   double surface = 0.0;
 };
 
-Expected<Model> buildShowingProgress(ModelBuilder& builder, TrainingSummary provenance, BuildTimes& times) {
+Expected<Model> buildShowingProgress(ModelBuilder& builder, TrainingSummary provenance,
+                                     BuildTimes& times) {
   ProgressBar bar("training", 0);
   ModelBuildProgress progress;
   progress.surface_built = [&](double seconds) { times.surface = seconds; };
@@ -74,7 +75,8 @@ void printModel(const Model& model, const BuildTimes& times) {
     for (const Tree& t : f->trees) depth = std::max(depth, t.depth());
     std::string per_tree;
     for (double t : times.trees[f == &model.points ? 0 : 1])
-      per_tree += (per_tree.empty() ? "" : ", ") + std::to_string(static_cast<int>(std::lround(t))) + " s";
+      per_tree +=
+          (per_tree.empty() ? "" : ", ") + std::to_string(static_cast<int>(std::lround(t))) + " s";
     std::printf("  %-6s %zu trees, %zu nodes, %zu leaves, %zu modes, max depth %d; per tree %s\n",
                 f == &model.points ? "points" : "lines", f->trees.size(), f->nodeCount(),
                 f->leafCount(), f->modeCount(), depth, per_tree.c_str());
@@ -84,7 +86,8 @@ void printModel(const Model& model, const BuildTimes& times) {
                 model.surface.elements().size(), 1000.0 * model.surface.voxelSize(),
                 model.surface.elements().size() * sizeof(SurfaceElement) / 1e6, times.surface);
   else
-    std::printf("  no surface (surface.enabled: false): poses will not be checked against the scene\n");
+    std::printf(
+        "  no surface (surface.enabled: false): poses will not be checked against the scene\n");
 }
 
 }  // namespace
@@ -146,7 +149,8 @@ int main(int argc, char** argv) {
   int without_pose = 0;
   if (const Status loaded = loadPosedFrames(data, builder, without_pose); !loaded)
     return cli::fail(app, loaded.error());
-  if (builder.size() == 0) return cli::fail(app, dataset_path + ": no selected frame has a ground-truth pose");
+  if (builder.size() == 0)
+    return cli::fail(app, dataset_path + ": no selected frame has a ground-truth pose");
   if (without_pose > 0) std::printf("skipped %d frames without ground truth\n", without_pose);
 
   TrainingSummary provenance;
@@ -161,7 +165,8 @@ int main(int argc, char** argv) {
   const Model& model = *built;
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (const Status saved = saveModel(model, output); !saved) return cli::fail(app, saved.error(), 1);
+  if (const Status saved = saveModel(model, output); !saved)
+    return cli::fail(app, saved.error(), 1);
   const auto bytes = std::filesystem::file_size(output);
 
   std::printf("trained on %d images with %d threads in %.1f s (seed %llu)\n", model.summary.images,

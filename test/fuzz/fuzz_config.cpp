@@ -10,7 +10,7 @@
 #include "relocalizer/core/config.h"
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/forest/training_config.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 using namespace relocalizer;
 

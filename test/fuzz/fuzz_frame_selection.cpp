@@ -30,7 +30,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (canonical[i] < '0' || canonical[i] > '9') continue;
     long long value = 0;
     size_t j = i;
-    while (j < canonical.size() && canonical[j] >= '0' && canonical[j] <= '9' && value < (1LL << 40))
+    while (j < canonical.size() && canonical[j] >= '0' && canonical[j] <= '9' &&
+           value < (1LL << 40))
       value = value * 10 + (canonical[j++] - '0');
     if (value <= 2147483647LL) {
       probes.push_back(static_cast<int>(value));
@@ -41,8 +42,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   std::vector<int> inside;
   for (int id : probes)
-    if (selection->contains(id) != again->contains(id)) std::abort();
-    else if (selection->contains(id)) inside.push_back(id);
+    if (selection->contains(id) != again->contains(id))
+      std::abort();
+    else if (selection->contains(id))
+      inside.push_back(id);
   if (selection->all() && inside.size() != probes.size()) std::abort();
 
   // formatIdRanges of the selected probes parses back to a selection holding them.

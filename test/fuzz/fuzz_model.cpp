@@ -53,10 +53,12 @@ void checkInvariants(const Forest& forest) {
       const SplitNode& node = tree.nodes[i];
       if (node.left < 0) {
         const LeafRange leaf = node.leafModes();
-        if (static_cast<uint64_t>(leaf.first_mode) + leaf.mode_count > tree.modes.size()) std::abort();
+        if (static_cast<uint64_t>(leaf.first_mode) + leaf.mode_count > tree.modes.size())
+          std::abort();
         continue;
       }
-      if (static_cast<size_t>(node.left) <= i || static_cast<size_t>(node.left) + 1 >= tree.nodes.size())
+      if (static_cast<size_t>(node.left) <= i ||
+          static_cast<size_t>(node.left) + 1 >= tree.nodes.size())
         std::abort();
       const PixelFeature& f = node.feature;
       if (f.type == FeatureType::Colour && (f.channel_p > 2 || f.channel_q > 2)) std::abort();
@@ -119,8 +121,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     uint64_t body_size = 0;
     std::memcpy(&body_size, fixed.data() + kBodySizeOffset, sizeof body_size);
     const size_t body = std::min<uint64_t>(body_size, size - kBodyOffset);
-    const uint32_t crc = static_cast<uint32_t>(
-        crc32(0L, fixed.data() + kBodyOffset, static_cast<uInt>(body)));
+    const uint32_t crc =
+        static_cast<uint32_t>(crc32(0L, fixed.data() + kBodyOffset, static_cast<uInt>(body)));
     std::memcpy(fixed.data() + kCrcOffset, &crc, sizeof crc);
     exercise(fixed.data(), fixed.size());
   }

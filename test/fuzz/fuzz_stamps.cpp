@@ -28,7 +28,9 @@ ros::Time fromNanoseconds(int64_t ns) {
   return t;
 }
 
-int64_t toNanoseconds(const ros::Time& t) { return relocalizer_ros::stampNanoseconds(t.sec, t.nsec); }
+int64_t toNanoseconds(const ros::Time& t) {
+  return relocalizer_ros::stampNanoseconds(t.sec, t.nsec);
+}
 
 }  // namespace
 
@@ -54,9 +56,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   bool in_interval = true;
   int64_t last_set_ns = -1;
   InputSynchronizer::Events events;
-  events.on_set = [&](const sensor_msgs::ImageConstPtr& colour, const sensor_msgs::ImageConstPtr& depth,
+  events.on_set = [&](const sensor_msgs::ImageConstPtr& colour,
+                      const sensor_msgs::ImageConstPtr& depth,
                       const sensor_msgs::CameraInfoConstPtr& info) {
-    const int64_t stamps[3] = {toNanoseconds(colour->header.stamp), toNanoseconds(depth->header.stamp),
+    const int64_t stamps[3] = {toNanoseconds(colour->header.stamp),
+                               toNanoseconds(depth->header.stamp),
                                toNanoseconds(info->header.stamp)};
     int64_t low = stamps[0], high = stamps[0];
     for (int64_t s : stamps) {
@@ -64,8 +68,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       low = std::min(low, s);
       high = std::max(high, s);
     }
-    if (!options.approximate) in_interval &= low == high;
-    else if (options.max_interval > 0.0) in_interval &= high - low <= static_cast<int64_t>(options.max_interval * 1e9) + 1;
+    if (!options.approximate)
+      in_interval &= low == high;
+    else if (options.max_interval > 0.0)
+      in_interval &= high - low <= static_cast<int64_t>(options.max_interval * 1e9) + 1;
     last_set_ns = high;
   };
   events.on_jump = [](const StampGate::Jump& jump) {
@@ -78,7 +84,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
   // Wall time starts where any stamp might: the gate must not care.
   StampGate::Clock::time_point now{};
-  int64_t previous[3] = {1'700'000'000'000'000'000LL, 1'700'000'000'000'000'000LL, 1'700'000'000'000'000'000LL};
+  int64_t previous[3] = {1'700'000'000'000'000'000LL, 1'700'000'000'000'000'000LL,
+                         1'700'000'000'000'000'000LL};
   for (size_t at = 1; at + 10 <= size; at += 10) {
     const uint8_t kind = data[at];
     const int input = kind % 3;
@@ -94,10 +101,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         stamp_ns = previous[input] + static_cast<int64_t>(static_cast<int16_t>(raw)) * 1'000'000;
         break;
       case 2:  // another input's previous stamp, slightly moved
-        stamp_ns = previous[(input + 1 + (raw & 1)) % 3] + static_cast<int64_t>(static_cast<int8_t>(raw >> 8)) * 1'000'000;
+        stamp_ns = previous[(input + 1 + (raw & 1)) % 3] +
+                   static_cast<int64_t>(static_cast<int8_t>(raw >> 8)) * 1'000'000;
         break;
       default:  // anything a uint32 sec / nsec can hold
-        stamp_ns = relocalizer_ros::stampNanoseconds(static_cast<uint32_t>(raw), static_cast<uint32_t>(raw >> 32) % 1000000000u);
+        stamp_ns = relocalizer_ros::stampNanoseconds(
+            static_cast<uint32_t>(raw), static_cast<uint32_t>(raw >> 32) % 1000000000u);
         break;
     }
     const int64_t max_ns = relocalizer_ros::stampNanoseconds(4294967295u, 999999999u);

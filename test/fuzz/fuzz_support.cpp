@@ -46,11 +46,15 @@ struct Scratch {
   std::string path;
   Scratch() {
     std::string base;
-    if (const char* env = std::getenv("FUZZ_TMPDIR"); env && *env) base = env;
-    else if (fs::is_directory("/dev/shm")) base = "/dev/shm";
-    else base = fs::temp_directory_path().string();
+    if (const char* env = std::getenv("FUZZ_TMPDIR"); env && *env)
+      base = env;
+    else if (fs::is_directory("/dev/shm"))
+      base = "/dev/shm";
+    else
+      base = fs::temp_directory_path().string();
     std::string pattern = base + "/relocalizer-fuzz-XXXXXX";
-    if (!mkdtemp(pattern.data())) throw std::runtime_error("cannot make a scratch folder in " + base);
+    if (!mkdtemp(pattern.data()))
+      throw std::runtime_error("cannot make a scratch folder in " + base);
     path = pattern;
   }
   ~Scratch() {
@@ -93,8 +97,9 @@ std::string tinyColourPng() {
   cv::Mat colour(kFrameHeight, kFrameWidth, CV_8UC3);
   for (int v = 0; v < colour.rows; ++v)
     for (int u = 0; u < colour.cols; ++u)
-      colour.at<cv::Vec3b>(v, u) = cv::Vec3b(static_cast<uint8_t>(30 * u), static_cast<uint8_t>(40 * v),
-                                             static_cast<uint8_t>(7 * (u + v)));
+      colour.at<cv::Vec3b>(v, u) =
+          cv::Vec3b(static_cast<uint8_t>(30 * u), static_cast<uint8_t>(40 * v),
+                    static_cast<uint8_t>(7 * (u + v)));
   return encodePng(colour);
 }
 
@@ -102,7 +107,8 @@ std::string tinyDepthPng() {
   cv::Mat depth(kFrameHeight, kFrameWidth, CV_16UC1);
   for (int v = 0; v < depth.rows; ++v)
     for (int u = 0; u < depth.cols; ++u)
-      depth.at<uint16_t>(v, u) = static_cast<uint16_t>(u == 0 && v == 0 ? 0 : 1000 + 50 * u + 20 * v);
+      depth.at<uint16_t>(v, u) =
+          static_cast<uint16_t>(u == 0 && v == 0 ? 0 : 1000 + 50 * u + 20 * v);
   return encodePng(depth);
 }
 
@@ -110,9 +116,9 @@ bool escapesFolder(const std::string& text) {
   if (text.find("..") != std::string::npos) return true;
   // A name starting with '/' after whitespace or at a line start is absolute.
   for (size_t i = 0; i < text.size(); ++i)
-    if (text[i] == '/' && (i == 0 || text[i - 1] == ' ' || text[i - 1] == '\t' ||
-                           text[i - 1] == '\n' || text[i - 1] == '\r' || text[i - 1] == '\v' ||
-                           text[i - 1] == '\f'))
+    if (text[i] == '/' &&
+        (i == 0 || text[i - 1] == ' ' || text[i - 1] == '\t' || text[i - 1] == '\n' ||
+         text[i - 1] == '\r' || text[i - 1] == '\v' || text[i - 1] == '\f'))
       return true;
   return false;
 }

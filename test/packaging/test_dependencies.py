@@ -38,6 +38,7 @@ COMMANDS = {
     "/usr/lib/nodelet/nodelet": "nodelet",
     "/usr/bin/nosetests3": "python3-nose",
     "/usr/bin/time": "make:bench",
+    "/usr/bin/clang-format": "make:test",  # test/packaging/test_format.py
 }
 
 

@@ -21,7 +21,7 @@ TABLE_HEADER = ["module", "concern", "folders", "libraries", "may use"]
 ROS_MODULES = {"ros", "tools"}
 # What the node executable and the nodelet may carry: the method, online learning and the ROS layer.
 NODE_TARGETS = ("relocalizer_node", "relocalizer_nodelet")
-NODE_MODULES = {"core", "surface", "forest", "pose", "online", "ros"}
+NODE_MODULES = {"core", "surface", "forest", "pose", "relocalize", "online", "ros"}
 SOURCE_SUFFIXES = (".h", ".hpp", ".cpp")
 
 

@@ -5,8 +5,8 @@
 #include <cv_bridge/cv_bridge.h>
 #include <gtest/gtest.h>
 #include <relocalizer/Relocalize.h>
-#include <rosgraph_msgs/Log.h>
 #include <ros/ros.h>
+#include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/image_encodings.h>
@@ -18,8 +18,8 @@
 #include <thread>
 #include <vector>
 
-#include "../../src/ros/message_conversion.h"
 #include <relocalizer/RelocalizationResult.h>
+#include "../../src/ros/message_conversion.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/core/pose.h"
 #include "relocalizer/data/dataset.h"
@@ -37,7 +37,9 @@ struct FrameMessages {
   sensor_msgs::CameraInfo info;
   Pose truth = Pose::Identity();
 
-  void stamp(const ros::Time& time) { colour.header.stamp = depth.header.stamp = info.header.stamp = time; }
+  void stamp(const ros::Time& time) {
+    colour.header.stamp = depth.header.stamp = info.header.stamp = time;
+  }
 };
 
 inline sensor_msgs::Image imageMessage(const cv::Mat& mat, const std::string& encoding) {
@@ -63,7 +65,8 @@ inline std::vector<FrameMessages> loadFixtureFrames() {
     m.info.header.frame_id = kCameraFrame;
     m.info.width = frame->camera.width;
     m.info.height = frame->camera.height;
-    m.info.K = {frame->camera.fx, 0, frame->camera.cx, 0, frame->camera.fy, frame->camera.cy, 0, 0, 1};
+    m.info.K = {
+        frame->camera.fx, 0, frame->camera.cx, 0, frame->camera.fy, frame->camera.cy, 0, 0, 1};
     m.truth = *frame->ground_truth;
     frames.push_back(std::move(m));
   }
@@ -83,7 +86,8 @@ class CameraPublisher {
   bool waitForNode(double seconds = 30.0) {
     const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(seconds);
     while (ros::ok() && ros::WallTime::now() < end) {
-      if (colour_.getNumSubscribers() && depth_.getNumSubscribers() && info_.getNumSubscribers()) return true;
+      if (colour_.getNumSubscribers() && depth_.getNumSubscribers() && info_.getNumSubscribers())
+        return true;
       ros::WallDuration(0.05).sleep();
     }
     return false;
@@ -143,7 +147,8 @@ inline bool contains(const std::string& text, const std::string& part) {
 // A relocalize call made while `publish` runs every 0.1 s in another thread:
 // with wait_for_next the call only takes frames sent after it started.
 inline relocalizer::Relocalize::Response callWhilePublishing(const std::function<void()>& publish,
-                                                            double timeout, bool wait_for_next = true) {
+                                                             double timeout,
+                                                             bool wait_for_next = true) {
   relocalizer::Relocalize srv;
   srv.request.timeout = timeout;
   srv.request.wait_for_next = wait_for_next;

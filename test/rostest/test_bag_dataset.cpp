@@ -18,9 +18,9 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <nlohmann/json.hpp>
-#include <functional>
 #include <sstream>
 
 #include "../../src/ros/bag_dataset.h"
@@ -28,8 +28,8 @@
 #include "../../src/ros/message_conversion.h"
 #include "../unit/support.h"
 #include "relocalizer/core/frame.h"
-#include "relocalizer/data/dataset.h"
 #include "relocalizer/core/id_ranges.h"
+#include "relocalizer/data/dataset.h"
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/forest/model_io.h"
 
@@ -439,7 +439,8 @@ TEST(BagDataset, BadBagsSayWhichTopicOrFrame) {
     std::ofstream(bag_path("truncated"), std::ios::binary) << bytes.substr(0, bytes.size() / 2);
   }
   error = openError(bag_path("truncated"));
-  EXPECT_NE(error.find("truncated.bag: cannot be opened as a rosbag: "), std::string::npos) << error;
+  EXPECT_NE(error.find("truncated.bag: cannot be opened as a rosbag: "), std::string::npos)
+      << error;
   EXPECT_NE(error.find("`rosbag reindex`"), std::string::npos) << error;
 
   // Poses that never cover the images: the spans say why.
@@ -517,7 +518,8 @@ void writeSlamBag(const relocalizer::Dataset& data, const std::string& path,
         map_T_odom(t.toSec()).inverse() * *frame->ground_truth * base_T_camera.inverse();
     if (!lost(data.id(i))) writeTf(bag, {transformMsg("odom", "base_link", t, odom_T_base)});
     bag.write(kInfo, t, infoMsg(frame->camera, t));
-    bag.write(kDepth, t, imageMsg(relocalizer::depthToMillimetres(frame->depth), enc::TYPE_16UC1, t));
+    bag.write(kDepth, t,
+              imageMsg(relocalizer::depthToMillimetres(frame->depth), enc::TYPE_16UC1, t));
     bag.write(kRgb, t, imageMsg(frame->colour, enc::BGR8, t));
   }
 }
@@ -668,10 +670,11 @@ TEST(BagTools, BenchmarkAndThresholdCurvesReadMakeBagsBag) {
   TempDir dir("bag_tools");
   const std::string d = dir.str();
   std::string output;
-  ASSERT_EQ(runTool("synthesize --output " + d +
-                        "/scene --seed 3 --train-frames 32 --test-frames 8 --width 320 --height 240",
-                    &output),
-            0)
+  ASSERT_EQ(
+      runTool("synthesize --output " + d +
+                  "/scene --seed 3 --train-frames 32 --test-frames 8 --width 320 --height 240",
+              &output),
+      0)
       << output;
   const std::string config =
       std::string(RELOCALIZER_SOURCE_DIR) + "/test/rostest/fixture_forest.yaml";
@@ -680,7 +683,8 @@ TEST(BagTools, BenchmarkAndThresholdCurvesReadMakeBagsBag) {
                     &output),
             0)
       << output;
-  ASSERT_EQ(runTool("make_bag --dataset " + d + "/scene/test --output " + d + "/test.bag", &output), 0)
+  ASSERT_EQ(runTool("make_bag --dataset " + d + "/scene/test --output " + d + "/test.bag", &output),
+            0)
       << output;
   const std::string bag = "--bag " + d + "/test.bag --pose-topic /ground_truth/pose";
   const auto json = [](const std::string& file) {
@@ -701,16 +705,17 @@ TEST(BagTools, BenchmarkAndThresholdCurvesReadMakeBagsBag) {
   const auto bench_bag = json(d + "/bench_bag.json"), bench_folder = json(d + "/bench_folder.json");
   EXPECT_EQ(bench_bag["frames"], 8);
   EXPECT_EQ(bench_bag["frames"], bench_folder["frames"]);
-  EXPECT_EQ(bench_bag["threads"]["1"]["within_5cm_5deg"], bench_folder["threads"]["1"]["within_5cm_5deg"]);
+  EXPECT_EQ(bench_bag["threads"]["1"]["within_5cm_5deg"],
+            bench_folder["threads"]["1"]["within_5cm_5deg"]);
 
   const std::string outside = " --out-of-scene " + d + "/scene/train --threads 1";
-  ASSERT_EQ(runTool("threshold_curves --model " + d + "/room.model " + bag + outside + " --output " +
-                        d + "/curves_bag",
+  ASSERT_EQ(runTool("threshold_curves --model " + d + "/room.model " + bag + outside +
+                        " --output " + d + "/curves_bag",
                     &output),
             0)
       << output;
-  ASSERT_EQ(runTool("threshold_curves --model " + d + "/room.model --in-scene " + d + "/scene/test" +
-                        outside + " --output " + d + "/curves_folder",
+  ASSERT_EQ(runTool("threshold_curves --model " + d + "/room.model --in-scene " + d +
+                        "/scene/test" + outside + " --output " + d + "/curves_folder",
                     &output),
             0)
       << output;

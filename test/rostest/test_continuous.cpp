@@ -14,7 +14,8 @@ TEST(Continuous, RelocalizesAtTheCappedRateAndCountsDroppedFrames) {
   tf2_ros::TransformListener tf_listener(buffer);
   Listener<ResultMsg> results("/relocalizer/result");
   const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(30.0);
-  while (results.messages().size() < 6 && ros::WallTime::now() < give_up) ros::WallDuration(0.05).sleep();
+  while (results.messages().size() < 6 && ros::WallTime::now() < give_up)
+    ros::WallDuration(0.05).sleep();
   ASSERT_GE(results.messages().size(), 6u) << "fewer than 6 results in 30 s";
   const std::vector<ResultMsg> got = results.messages();
   for (const ResultMsg& r : got) {
@@ -32,7 +33,8 @@ TEST(Continuous, RelocalizesAtTheCappedRateAndCountsDroppedFrames) {
     EXPECT_GT((got[i].header.stamp - got[i - 1].header.stamp).toSec(), 0.3);
   // map -> camera follows every answer.
   geometry_msgs::TransformStamped tf;
-  EXPECT_NO_THROW(tf = buffer.lookupTransform("map", kCameraFrame, last.header.stamp, ros::Duration(3.0)));
+  EXPECT_NO_THROW(
+      tf = buffer.lookupTransform("map", kCameraFrame, last.header.stamp, ros::Duration(3.0)));
 }
 
 int main(int argc, char** argv) {

@@ -26,7 +26,9 @@ struct Gate {
   StampGate gate;
   StampGate::Clock::time_point now{};
   StampGate::Decision in(int input, double stamp) { return at(input, seconds(stamp)); }
-  StampGate::Decision at(int input, int64_t stamp_ns) { return gate.classify(input, stamp_ns, now); }
+  StampGate::Decision at(int input, int64_t stamp_ns) {
+    return gate.classify(input, stamp_ns, now);
+  }
   // One frame of all three inputs, each admitted; 0.1 s of wall time passes.
   void frame(double stamp) {
     for (int input : {kColour, kDepth, kInfo}) {
@@ -58,7 +60,8 @@ InputSynchronizer makeSynchronizer(Sets& sets) {
   InputSynchronizer::Options options;
   options.max_interval = 0.05;
   InputSynchronizer::Events events;
-  events.on_set = [&sets](const sensor_msgs::ImageConstPtr& colour, const sensor_msgs::ImageConstPtr&,
+  events.on_set = [&sets](const sensor_msgs::ImageConstPtr& colour,
+                          const sensor_msgs::ImageConstPtr&,
                           const sensor_msgs::CameraInfoConstPtr&) {
     sets.colour_stamps.push_back(colour->header.stamp.toSec());
   };
@@ -84,7 +87,8 @@ TEST(StampGate, AStampAtOrPast2038IsDroppedAndTheOthersGoOn) {
   g.frame(1000.0);
   EXPECT_EQ(g.at(kInfo, stampNanoseconds(4294967295u, 0)).drop, Drop::BeyondRange);
   EXPECT_EQ(g.at(kColour, StampGate::kMaxStampNs).drop, Drop::BeyondRange);
-  EXPECT_TRUE(g.at(kColour, StampGate::kMaxStampNs - 1).hold) << "just inside the range: off the timeline";
+  EXPECT_TRUE(g.at(kColour, StampGate::kMaxStampNs - 1).hold)
+      << "just inside the range: off the timeline";
   g.frame(1000.1);
 }
 
@@ -135,7 +139,7 @@ TEST(StampGate, AJumpForwardIsConfirmedTooAndNeedsNoOtherInput) {
 TEST(StampGate, AGlitchIsHeldThenDiscardedWithoutAJump) {
   Gate g;
   g.frame(500.0);
-  EXPECT_TRUE(g.in(kDepth, 0.0).hold);  // an unset stamp on one message
+  EXPECT_TRUE(g.in(kDepth, 0.0).hold);                     // an unset stamp on one message
   for (int i = 1; i <= 20; ++i) g.frame(500.0 + 0.1 * i);  // 2 s: still held
   EXPECT_TRUE(g.gate.holding());
   g.now += StampGate::kWindow;
@@ -160,8 +164,9 @@ TEST(StampGate, AnotherGlitchReplacesTheHeldOne) {
 // 32-bit range`): message_filters alone throws on these stamps (colour 2.2e9 s
 // ahead of depth and camera_info, as an uninitialised driver stamp can be)...
 TEST_F(InputStamps, MessageFiltersAloneThrowsOnStampsFarApart) {
-  using Policy = message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image,
-                                                                 sensor_msgs::CameraInfo>;
+  using Policy =
+      message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image,
+                                                      sensor_msgs::CameraInfo>;
   message_filters::Synchronizer<Policy> sync{Policy(5)};
   const double now = 1.76e9;
   EXPECT_THROW(
@@ -216,6 +221,7 @@ TEST_F(InputStamps, ALoopThroughTheSynchronizerIsOneResetAndSetsGoOn) {
   const size_t before = sets.colour_stamps.size();
   for (int i = 0; i < 20; ++i) frame(0.1 * i);  // the bag starts over
   EXPECT_EQ(sets.jumps, 1);
-  EXPECT_GE(sets.colour_stamps.size() - before, 17u) << "the new timeline's frames are synchronised";
+  EXPECT_GE(sets.colour_stamps.size() - before, 17u)
+      << "the new timeline's frames are synchronised";
   EXPECT_TRUE(sets.drops.empty());
 }

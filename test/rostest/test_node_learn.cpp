@@ -38,7 +38,8 @@ int playLearnBag(CameraPublisher& camera) {
   ros::Publisher info = nh.advertise<sensor_msgs::CameraInfo>("/camera/rgb/camera_info", 100);
   EXPECT_TRUE(camera.waitForNode());
   const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(10.0);
-  while (tf.getNumSubscribers() == 0 && ros::WallTime::now() < give_up) ros::WallDuration(0.05).sleep();
+  while (tf.getNumSubscribers() == 0 && ros::WallTime::now() < give_up)
+    ros::WallDuration(0.05).sleep();
   ros::WallDuration(0.5).sleep();
   rosbag::Bag bag(fixtureDir() + "/learn.bag");
   rosbag::View view(bag);
@@ -52,8 +53,10 @@ int playLearnBag(CameraPublisher& camera) {
       colour.publish(*m.instantiate<sensor_msgs::Image>());
       ++frames;
     }
-    if (m.getTopic() == "/camera/depth/image_raw") depth.publish(*m.instantiate<sensor_msgs::Image>());
-    if (m.getTopic() == "/camera/rgb/camera_info") info.publish(*m.instantiate<sensor_msgs::CameraInfo>());
+    if (m.getTopic() == "/camera/depth/image_raw")
+      depth.publish(*m.instantiate<sensor_msgs::Image>());
+    if (m.getTopic() == "/camera/rgb/camera_info")
+      info.publish(*m.instantiate<sensor_msgs::CameraInfo>());
   }
   // The publishers go with this scope; let the last frame's messages leave first.
   ros::WallDuration(0.5).sleep();
@@ -150,7 +153,8 @@ TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
   save.request.path = fifo;
   ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
   EXPECT_FALSE(save.response.success);
-  EXPECT_TRUE(contains(save.response.message, fifo + ": is not a regular file")) << save.response.message;
+  EXPECT_TRUE(contains(save.response.message, fifo + ": is not a regular file"))
+      << save.response.message;
   EXPECT_EQ(std::filesystem::status(fifo).type(), std::filesystem::file_type::fifo);
   std::filesystem::remove(fifo);
   std::filesystem::remove(relocalizer::keyFramesPath(fifo));

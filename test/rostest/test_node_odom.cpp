@@ -36,7 +36,8 @@ TEST(OdomMode, PublishesMapToOdomThatComposesWithOdometryToTheCameraPose) {
   ASSERT_TRUE(g_camera->waitForNode());
   // The node must hear our odometry and we its TF before the first frame.
   const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(10.0);
-  while (!tf_messages.connected() && ros::WallTime::now() < give_up) ros::WallDuration(0.05).sleep();
+  while (!tf_messages.connected() && ros::WallTime::now() < give_up)
+    ros::WallDuration(0.05).sleep();
   ros::WallDuration(0.5).sleep();
 
   FrameMessages frame = (*g_frames)[4];
@@ -62,7 +63,8 @@ TEST(OdomMode, PublishesMapToOdomThatComposesWithOdometryToTheCameraPose) {
   EXPECT_LT(relocalizer::rotationErrorDegrees(map_T_camera, frame.truth), 5.0);
 
   geometry_msgs::TransformStamped map_to_odom;
-  ASSERT_NO_THROW(map_to_odom = buffer.lookupTransform("map", "odom", ros::Time(0), ros::Duration(3.0)));
+  ASSERT_NO_THROW(map_to_odom =
+                      buffer.lookupTransform("map", "odom", ros::Time(0), ros::Duration(3.0)));
   const Pose map_T_odom = relocalizer_ros::fromTransformMsg(map_to_odom.transform);
   const Pose expected = map_T_camera * odom_T_camera.inverse();
   EXPECT_LT(relocalizer::translationError(map_T_odom, expected), 1e-5);
@@ -78,7 +80,8 @@ TEST(OdomMode, PublishesMapToOdomThatComposesWithOdometryToTheCameraPose) {
   std::vector<ros::Time> stamps;
   for (const auto& message : tf_messages.messages())
     for (const auto& t : message.transforms)
-      if (t.header.frame_id == "map" && t.child_frame_id == "odom") stamps.push_back(t.header.stamp);
+      if (t.header.frame_id == "map" && t.child_frame_id == "odom")
+        stamps.push_back(t.header.stamp);
   ASSERT_FALSE(stamps.empty());
   EXPECT_TRUE(std::find(stamps.begin(), stamps.end(), stamp + ros::Duration(0.1)) != stamps.end());
   EXPECT_GE(std::count_if(stamps.begin(), stamps.end(),

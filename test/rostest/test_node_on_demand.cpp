@@ -20,19 +20,24 @@ std::vector<FrameMessages>* g_frames = nullptr;
 CameraPublisher* g_camera = nullptr;
 Listener<ResultMsg>* g_results = nullptr;
 Listener<rosgraph_msgs::Log>* g_rosout = nullptr;
-tf2_ros::Buffer* g_tf = nullptr;  // listening from the start: a late /tf connection misses transforms
+tf2_ros::Buffer* g_tf =
+    nullptr;  // listening from the start: a late /tf connection misses transforms
 
 bool warned(const std::string& part, double seconds = 5.0) {
   return g_rosout
-      ->waitFor([&](const rosgraph_msgs::Log& log) {
-        return log.name == "/relocalizer" && log.level >= rosgraph_msgs::Log::WARN && contains(log.msg, part);
-      }, seconds)
+      ->waitFor(
+          [&](const rosgraph_msgs::Log& log) {
+            return log.name == "/relocalizer" && log.level >= rosgraph_msgs::Log::WARN &&
+                   contains(log.msg, part);
+          },
+          seconds)
       .has_value();
 }
 
 bool failureResult(const std::string& part, double seconds = 5.0) {
   return g_results
-      ->waitFor([&](const ResultMsg& r) { return !r.success && contains(r.message, part); }, seconds)
+      ->waitFor([&](const ResultMsg& r) { return !r.success && contains(r.message, part); },
+                seconds)
       .has_value();
 }
 
@@ -47,17 +52,18 @@ std::function<void()> sending(FrameMessages frame, bool with_info = true) {
 // `frame` with 32FC1 depth in metres where every pixel is `value`.
 FrameMessages withFloatDepth(FrameMessages frame, float value) {
   const cv::Mat metres(static_cast<int>(frame.depth.height), static_cast<int>(frame.depth.width),
-                      CV_32FC1, cv::Scalar(value));
-  frame.depth = *cv_bridge::CvImage(frame.depth.header, sensor_msgs::image_encodings::TYPE_32FC1,
-                                    metres)
-                     .toImageMsg();
+                       CV_32FC1, cv::Scalar(value));
+  frame.depth =
+      *cv_bridge::CvImage(frame.depth.header, sensor_msgs::image_encodings::TYPE_32FC1, metres)
+           .toImageMsg();
   return frame;
 }
 
 size_t countWarnings(const std::string& part) {
   size_t count = 0;
   for (const auto& log : g_rosout->messages())
-    count += log.name == "/relocalizer" && log.level >= rosgraph_msgs::Log::WARN && contains(log.msg, part);
+    count += log.name == "/relocalizer" && log.level >= rosgraph_msgs::Log::WARN &&
+             contains(log.msg, part);
   return count;
 }
 
@@ -86,7 +92,8 @@ TEST(OnDemand, AdvertisesTopicsAndService) {
   };
   EXPECT_TRUE(advertised("/relocalizer/pose", "geometry_msgs/PoseWithCovarianceStamped"));
   EXPECT_TRUE(advertised("/relocalizer/result", "relocalizer/RelocalizationResult"));
-  EXPECT_TRUE(g_camera->waitForNode()) << "the node does not subscribe to rgb/image, depth/image, rgb/camera_info";
+  EXPECT_TRUE(g_camera->waitForNode())
+      << "the node does not subscribe to rgb/image, depth/image, rgb/camera_info";
 }
 
 TEST(OnDemand, CallBeforeAnyFrameFailsWithinItsTimeout) {
@@ -96,7 +103,8 @@ TEST(OnDemand, CallBeforeAnyFrameFailsWithinItsTimeout) {
   ASSERT_TRUE(ros::service::call("/relocalizer/relocalize", srv));
   const double elapsed = (ros::WallTime::now() - start).toSec();
   EXPECT_FALSE(srv.response.success);
-  EXPECT_TRUE(contains(srv.response.message, "no synchronised frame within 0.50 s")) << srv.response.message;
+  EXPECT_TRUE(contains(srv.response.message, "no synchronised frame within 0.50 s"))
+      << srv.response.message;
   EXPECT_GE(elapsed, 0.45);
   EXPECT_LT(elapsed, 2.0);
   EXPECT_TRUE(failureResult("no synchronised frame"));
@@ -115,7 +123,8 @@ TEST(OnDemand, CallBeforeAnyFrameFailsWithinItsTimeout) {
   EXPECT_LT((ros::WallTime::now() - together).toSec(), 2.5);
   for (const auto& call : calls) {
     EXPECT_FALSE(call.response.success);
-    EXPECT_TRUE(contains(call.response.message, "no synchronised frame within 0.50 s")) << call.response.message;
+    EXPECT_TRUE(contains(call.response.message, "no synchronised frame within 0.50 s"))
+        << call.response.message;
   }
 }
 
@@ -139,9 +148,11 @@ TEST(OnDemand, BadInputsFailWithTheirReasonAndTheNodeAnswersTheNextGoodFrame) {
          f.depth.data.resize(f.depth.step * f.depth.height);
        },
        "differ in size"},
-      {"camera_info size", [](FrameMessages& f) { f.info.width = 640; }, "camera_info is for 640x240"},
+      {"camera_info size", [](FrameMessages& f) { f.info.width = 640; },
+       "camera_info is for 640x240"},
       {"truncated colour", [](FrameMessages& f) { f.colour.data.resize(100); }, "holds 100 bytes"},
-      {"unregistered depth", [](FrameMessages& f) { f.depth.header.frame_id = "camera_depth_optical_frame"; },
+      {"unregistered depth",
+       [](FrameMessages& f) { f.depth.header.frame_id = "camera_depth_optical_frame"; },
        "depth must be registered to colour"},
       {"zero focal length", [](FrameMessages& f) { f.info.K[0] = 0.0; },
        "camera_info K is unusable: focal length must be finite and positive (fx=0.000000,"},
@@ -149,10 +160,12 @@ TEST(OnDemand, BadInputsFailWithTheirReasonAndTheNodeAnswersTheNextGoodFrame) {
        "camera_info K is unusable: focal length must be finite and positive (fx=" +
            std::to_string(good.info.K[0]) + ", fy=nan)"},
       {"uncalibrated camera_info (K all zero)", [](FrameMessages& f) { f.info.K = {}; },
-       "camera_info K is unusable: focal length must be finite and positive (fx=0.000000, fy=0.000000)"},
+       "camera_info K is unusable: focal length must be finite and positive (fx=0.000000, "
+       "fy=0.000000)"},
       {"camera_info height", [](FrameMessages& f) { f.info.height = 480; },
        "camera_info is for 320x480 but the images are 320x240"},
-      {"depth all zero", [](FrameMessages& f) { std::fill(f.depth.data.begin(), f.depth.data.end(), 0); },
+      {"depth all zero",
+       [](FrameMessages& f) { std::fill(f.depth.data.begin(), f.depth.data.end(), 0); },
        "depth has no valid pixel: 76800 zero"},
       {"depth all NaN", [](FrameMessages& f) { f = withFloatDepth(f, std::nanf("")); },
        "depth has no valid pixel: 76800 NaN"},
@@ -166,7 +179,8 @@ TEST(OnDemand, BadInputsFailWithTheirReasonAndTheNodeAnswersTheNextGoodFrame) {
          f.depth.data = f.colour.data;
          f.depth.step = f.colour.step;
        },
-       "depth image is labelled '16UC1' (2 bytes a pixel) but its rows hold 3 bytes a pixel (step 960 for "
+       "depth image is labelled '16UC1' (2 bytes a pixel) but its rows hold 3 bytes a pixel (step "
+       "960 for "
        "width 320): a colour image on the depth topic?"},
       {"colour image on the depth topic",
        [](FrameMessages& f) {
@@ -174,9 +188,11 @@ TEST(OnDemand, BadInputsFailWithTheirReasonAndTheNodeAnswersTheNextGoodFrame) {
          f.depth = f.colour;
          f.depth.header.frame_id = frame_id;
        },
-       "unsupported depth encoding 'bgr8' (expected 16UC1 millimetres or 32FC1 metres, REP 118); a colour "
+       "unsupported depth encoding 'bgr8' (expected 16UC1 millimetres or 32FC1 metres, REP 118); a "
+       "colour "
        "image on the depth topic?"},
-      {"unsupported colour encoding (16-bit)", [](FrameMessages& f) { f.colour.encoding = "rgb16"; },
+      {"unsupported colour encoding (16-bit)",
+       [](FrameMessages& f) { f.colour.encoding = "rgb16"; },
        "unsupported colour encoding 'rgb16'"},
       // Finite but wrong (issue 23): before, only "no pose hypothesis passed the rigidity checks".
       {"32FC1 depth in millimetres", [](FrameMessages& f) { f = withFloatDepth(f, 1500.0f); },
@@ -204,7 +220,8 @@ TEST(OnDemand, BadInputsFailWithTheirReasonAndTheNodeAnswersTheNextGoodFrame) {
     g_results->clear();
     const auto response = callWhilePublishing(sending(good, false), 1.5);
     EXPECT_FALSE(response.success);
-    EXPECT_TRUE(contains(response.message, ", 0 on /camera/rgb/camera_info since the last")) << response.message;
+    EXPECT_TRUE(contains(response.message, ", 0 on /camera/rgb/camera_info since the last"))
+        << response.message;
     EXPECT_TRUE(failureResult("is every topic published?"));
     // The watchdog reports images that never synchronise even without a call.
     EXPECT_TRUE(warned("images arrive but no synchronised frame", 6.0));
@@ -261,7 +278,9 @@ TEST(OnDemand, PoseWithinFiveCentimetresAndDegreesWithPoseAndTfPublished) {
     geometry_msgs::TransformStamped tf;
     ASSERT_NO_THROW(tf = buffer.lookupTransform("map", kCameraFrame, stamp, ros::Duration(3.0)));
     const Pose from_tf = relocalizer_ros::fromTransformMsg(tf.transform);
-    EXPECT_LT(relocalizer::translationError(from_tf, relocalizer_ros::fromPoseMsg(response.pose.pose.pose)), 1e-6);
+    EXPECT_LT(relocalizer::translationError(from_tf,
+                                            relocalizer_ros::fromPoseMsg(response.pose.pose.pose)),
+              1e-6);
     EXPECT_LT(relocalizer::translationError(from_tf, frame.truth), 0.05);
     EXPECT_LT(relocalizer::rotationErrorDegrees(from_tf, frame.truth), 5.0);
   }
@@ -285,7 +304,8 @@ TEST(OnDemand, ConcurrentCallsOnOneFrameGetTheSameAnswer) {
     ASSERT_TRUE(call.response.success) << call.response.message;
     EXPECT_EQ(call.response.pose.header.stamp, frame.colour.header.stamp);
     EXPECT_EQ(call.response.pose.pose.pose.position.x, calls[0].response.pose.pose.pose.position.x);
-    EXPECT_EQ(call.response.pose.pose.pose.orientation.w, calls[0].response.pose.pose.pose.orientation.w);
+    EXPECT_EQ(call.response.pose.pose.pose.orientation.w,
+              calls[0].response.pose.pose.pose.orientation.w);
   }
 }
 
@@ -296,7 +316,8 @@ TEST(OnDemand, WaitForNextTimesOutWhenNoNewFrameComes) {
   const ros::WallTime start = ros::WallTime::now();
   ASSERT_TRUE(ros::service::call("/relocalizer/relocalize", srv));
   EXPECT_FALSE(srv.response.success);
-  EXPECT_TRUE(contains(srv.response.message, "no new synchronised frame within 0.30 s")) << srv.response.message;
+  EXPECT_TRUE(contains(srv.response.message, "no new synchronised frame within 0.30 s"))
+      << srv.response.message;
   EXPECT_LT((ros::WallTime::now() - start).toSec(), 1.5);
 }
 
@@ -322,13 +343,14 @@ TEST(OnDemand, ZeroOrNegativeTimeoutMeansTheServiceTimeoutAndNonFiniteIsRefused)
     ASSERT_TRUE(ros::service::call("/relocalizer/relocalize", srv));
     const double elapsed = (ros::WallTime::now() - start).toSec();
     EXPECT_FALSE(srv.response.success);
-    EXPECT_TRUE(contains(srv.response.message, "no new synchronised frame within 2.00 s")) << srv.response.message;
+    EXPECT_TRUE(contains(srv.response.message, "no new synchronised frame within 2.00 s"))
+        << srv.response.message;
     EXPECT_GE(elapsed, 1.9);
     EXPECT_LT(elapsed, 4.0);
   }
   // NaN and infinity are no durations: refused at once, with the reason.
-  for (const auto& [timeout, text] : {std::pair{std::nan(""), "NaN"},
-                                      {std::numeric_limits<double>::infinity(), "infinity"}}) {
+  for (const auto& [timeout, text] :
+       {std::pair{std::nan(""), "NaN"}, {std::numeric_limits<double>::infinity(), "infinity"}}) {
     SCOPED_TRACE(text);
     relocalizer::Relocalize srv;
     srv.request.timeout = timeout;
@@ -336,8 +358,9 @@ TEST(OnDemand, ZeroOrNegativeTimeoutMeansTheServiceTimeoutAndNonFiniteIsRefused)
     const ros::WallTime start = ros::WallTime::now();
     ASSERT_TRUE(ros::service::call("/relocalizer/relocalize", srv));
     EXPECT_FALSE(srv.response.success);
-    EXPECT_EQ(srv.response.message, std::string("timeout must be a finite number of seconds (got ") + text +
-                                        "); 0 or less means ~service_timeout (2.00 s)");
+    EXPECT_EQ(srv.response.message,
+              std::string("timeout must be a finite number of seconds (got ") + text +
+                  "); 0 or less means ~service_timeout (2.00 s)");
     EXPECT_LT((ros::WallTime::now() - start).toSec(), 1.0);
   }
 }
@@ -388,7 +411,8 @@ TEST(OnDemand, CallsWaitingForAFrameHoldUpNoOtherCall) {
     EXPECT_FALSE(call.srv.response.success);
     EXPECT_TRUE(contains(call.srv.response.message, "no new synchronised frame within 1.00 s"))
         << call.srv.response.message;
-    EXPECT_LT(call.seconds, 3.0) << "a 1 s call waited behind others: " << call.srv.response.message;
+    EXPECT_LT(call.seconds, 3.0) << "a 1 s call waited behind others: "
+                                 << call.srv.response.message;
   }
   for (Call& call : long_calls) {
     call.thread.join();

@@ -30,13 +30,15 @@ TEST(NodeParams, DefaultYamlEqualsTheCompiledDefaults) {
   ASSERT_TRUE(loaded.ok()) << loaded.error();
   NodeParams defaults;
   defaults.model = loaded->model;
-  EXPECT_EQ(nlohmann::json::parse(nodeParamsToJson(*loaded)), nlohmann::json::parse(nodeParamsToJson(defaults)));
+  EXPECT_EQ(nlohmann::json::parse(nodeParamsToJson(*loaded)),
+            nlohmann::json::parse(nodeParamsToJson(defaults)));
   // And every key of the file is one the node reads (no stale entries).
   XmlRpc::XmlRpcValue tree;
   ASSERT_TRUE(ros::NodeHandle().getParam("/configured", tree));
   const auto known = nlohmann::json::parse(nodeParamsToJson(defaults));
   for (auto& entry : tree) EXPECT_TRUE(known.contains(entry.first)) << entry.first;
-  for (const auto& [key, value] : known.items()) EXPECT_TRUE(tree.hasMember(key)) << key << " missing from default.yaml";
+  for (const auto& [key, value] : known.items())
+    EXPECT_TRUE(tree.hasMember(key)) << key << " missing from default.yaml";
 }
 
 TEST(NodeParams, OverridesReachTheCoreAndFramesLoseLeadingSlashes) {
@@ -73,7 +75,8 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
        "/wrong_type/max_rate' has the wrong type"},
       {"/core_type", [](ros::NodeHandle& nh) { nh.setParam("relocalizer/point_samples", "many"); },
        "point_samples' has the wrong type"},
-      {"/mode", [](ros::NodeHandle& nh) { nh.setParam("mode", "sometimes"); }, "expected on_demand or continuous"},
+      {"/mode", [](ros::NodeHandle& nh) { nh.setParam("mode", "sometimes"); },
+       "expected on_demand or continuous"},
       {"/rate", [](ros::NodeHandle& nh) { nh.setParam("tf_rate", -1.0); },
        "tf_rate' is -1 Hz; it must be 0 (only on updates) or from 0.01 to 1000 Hz"},
       {"/queue", [](ros::NodeHandle& nh) { nh.setParam("sync_queue_size", 0); },
@@ -83,7 +86,8 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
       {"/interval", [](ros::NodeHandle& nh) { nh.setParam("max_interval", 3e9); },
        "parameter '/interval/max_interval' is 3000000000 s; it must be from 0 to 10 s"},
       {"/tf_rate_tiny", [](ros::NodeHandle& nh) { nh.setParam("tf_rate", 1e-10); },
-       "parameter '/tf_rate_tiny/tf_rate' is 1e-10 Hz; it must be 0 (only on updates) or from 0.01 to 1000 Hz"},
+       "parameter '/tf_rate_tiny/tf_rate' is 1e-10 Hz; it must be 0 (only on updates) or from 0.01 "
+       "to 1000 Hz"},
       {"/tf_timeout", [](ros::NodeHandle& nh) { nh.setParam("tf_timeout", 3e9); },
        "tf_timeout' is 3000000000 s; it must be from 0 to 10 s"},
       {"/tolerance", [](ros::NodeHandle& nh) { nh.setParam("transform_tolerance", 1e300); },
@@ -97,32 +101,43 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
       // Integers beyond XML-RPC's 32 bits arrive as doubles (roscpp's
       // `_key:=99999999999`): out of range, not the wrong type.
       {"/big_queue", [](ros::NodeHandle& nh) { nh.setParam("sync_queue_size", 99999999999.0); },
-       "parameter '/big_queue/sync_queue_size' is 99999999999, out of range; it must be an integer from 1 to "
+       "parameter '/big_queue/sync_queue_size' is 99999999999, out of range; it must be an integer "
+       "from 1 to "
        "2147483647"},
       {"/half_queue", [](ros::NodeHandle& nh) { nh.setParam("sync_queue_size", 2.5); },
        "sync_queue_size' has the wrong type"},
-      {"/big_core", [](ros::NodeHandle& nh) { nh.setParam("relocalizer/point_samples", 99999999999.0); },
-       "/big_core/relocalizer: relocalizer parameters: 'point_samples' must be an integer from -2147483648 to "
+      {"/big_core",
+       [](ros::NodeHandle& nh) { nh.setParam("relocalizer/point_samples", 99999999999.0); },
+       "/big_core/relocalizer: relocalizer parameters: 'point_samples' must be an integer from "
+       "-2147483648 to "
        "2147483647, got 99999999999"},
-      {"/huge_core", [](ros::NodeHandle& nh) { nh.setParam("relocalizer/solver/hypotheses", 1e300); },
+      {"/huge_core",
+       [](ros::NodeHandle& nh) { nh.setParam("relocalizer/solver/hypotheses", 1e300); },
        "'solver.hypotheses' must be an integer from -2147483648 to 2147483647, got 1e+300"},
-      {"/text_core", [](ros::NodeHandle& nh) { nh.setParam("relocalizer/point_samples", "99999999999"); },
+      {"/text_core",
+       [](ros::NodeHandle& nh) { nh.setParam("relocalizer/point_samples", "99999999999"); },
        "'point_samples' must be an integer from -2147483648 to 2147483647, got 99999999999"},
-      {"/frames", [](ros::NodeHandle& nh) { nh.setParam("odom_frame", "map"); }, "odom_frame' equals map_frame"},
+      {"/frames", [](ros::NodeHandle& nh) { nh.setParam("odom_frame", "map"); },
+       "odom_frame' equals map_frame"},
       // Learning from TF the node publishes itself would feed its own answers back.
-      {"/learn_tf", [](ros::NodeHandle& nh) { nh.setParam("learn", true); }, "learn' is true but publish_tf is true"},
+      {"/learn_tf", [](ros::NodeHandle& nh) { nh.setParam("learn", true); },
+       "learn' is true but publish_tf is true"},
       {"/save_no_learn", [](ros::NodeHandle& nh) { nh.setParam("save_on_exit", "/tmp/m.bin"); },
        "save_on_exit' is set but learn is false"},
-      {"/motion", [](ros::NodeHandle& nh) {
+      {"/motion",
+       [](ros::NodeHandle& nh) {
          nh.setParam("learn", true);
          nh.setParam("publish_tf", false);
          nh.setParam("learn_min_motion", "far");
-       }, "learn_min_motion'"},
-      {"/cap", [](ros::NodeHandle& nh) {
+       },
+       "learn_min_motion'"},
+      {"/cap",
+       [](ros::NodeHandle& nh) {
          nh.setParam("learn", true);
          nh.setParam("publish_tf", false);
          nh.setParam("learn_max_keyframes", 1);
-       }, "learn_max_keyframes' is 1; it must be an integer from 2 to 2147483647"},
+       },
+       "learn_max_keyframes' is 1; it must be an integer from 2 to 2147483647"},
   };
   for (const Case& c : cases) {
     ros::NodeHandle nh(c.ns);
@@ -147,8 +162,9 @@ struct NodeRun {
 NodeRun runNodeWithModel(const std::string& model, const std::string& arguments = "",
                          const std::string& name = "broken") {
   NodeRun run;
-  const std::string command = "timeout 20 " + std::string(RELOCALIZER_NODE_PATH) + " __name:=" + name +
-                              " _model:='" + model + "' " + arguments + " 2>&1";
+  const std::string command = "timeout 20 " + std::string(RELOCALIZER_NODE_PATH) +
+                              " __name:=" + name + " _model:='" + model + "' " + arguments +
+                              " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return run;
   std::array<char, 256> buffer{};
@@ -164,7 +180,8 @@ std::vector<uint8_t> readBytes(const std::string& path) {
 
 void writeBytes(const std::string& path, const std::vector<uint8_t>& bytes) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  out.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
 }
 
 }  // namespace
@@ -173,7 +190,8 @@ TEST(NodeParams, NodeWithAnUnreadableModelExitsNonZeroWithOneLine) {
   const NodeRun run = runNodeWithModel("/nonexistent/model.bin");
   EXPECT_TRUE(WIFEXITED(run.status));
   EXPECT_EQ(WEXITSTATUS(run.status), 1);
-  EXPECT_NE(run.output.find("/nonexistent/model.bin: cannot open model file"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("/nonexistent/model.bin: cannot open model file"), std::string::npos)
+      << run.output;
   EXPECT_EQ(std::count(run.output.begin(), run.output.end(), '\n'), 1) << run.output;
 }
 
@@ -197,14 +215,19 @@ TEST(NodeParams, DurationsBeyondRosDurationStopTheNodeNamingTheParameter) {
       {"interval", "_max_interval:=3e9",
        "parameter '/interval/max_interval' is 3000000000 s; it must be from 0 to 10 s", good},
       {"tf_rate", "_tf_rate:=1e-10 _odom_frame:=odom",
-       "parameter '/tf_rate/tf_rate' is 1e-10 Hz; it must be 0 (only on updates) or from 0.01 to 1000 Hz", good},
+       "parameter '/tf_rate/tf_rate' is 1e-10 Hz; it must be 0 (only on updates) or from 0.01 to "
+       "1000 Hz",
+       good},
       {"max_rate", "_max_rate:=1e-11 _mode:=continuous",
-       "parameter '/max_rate/max_rate' is 1e-11 Hz; it must be 0 (no limit) or from 0.001 to 1000 Hz", good},
+       "parameter '/max_rate/max_rate' is 1e-11 Hz; it must be 0 (no limit) or from 0.001 to 1000 "
+       "Hz",
+       good},
       // Learning from nothing, without a model.
       {"learn_tf_timeout", "_learn:=true _publish_tf:=false _tf_timeout:=3e9",
        "parameter '/learn_tf_timeout/tf_timeout' is 3000000000 s; it must be from 0 to 10 s", ""},
       {"point_samples", "_relocalizer/point_samples:=99999999999",
-       "/point_samples/relocalizer: relocalizer parameters: 'point_samples' must be an integer from -2147483648 to "
+       "/point_samples/relocalizer: relocalizer parameters: 'point_samples' must be an integer "
+       "from -2147483648 to "
        "2147483647, got 99999999999",
        good},
   };
@@ -243,24 +266,32 @@ TEST(NodeParams, BadModelFilesStopTheNodeWithTheirReason) {
     change(bytes);
     return bytes;
   };
-  const uint64_t body = good.size() - 28;  // preamble: magic 8, version 4, reserved 4, length 8, CRC 4
+  const uint64_t body =
+      good.size() - 28;  // preamble: magic 8, version 4, reserved 4, length 8, CRC 4
   std::vector<Case> cases = {
       {"truncated.bin", with([](auto& b) { b.resize(b.size() / 2); }),
-       "truncated model file (" + std::to_string(good.size() / 2 - 28) + " of " + std::to_string(body) +
-           " body bytes present)"},
-      {"truncated_preamble.bin", with([](auto& b) { b.resize(20); }), "truncated model file (header incomplete)"},
+       "truncated model file (" + std::to_string(good.size() / 2 - 28) + " of " +
+           std::to_string(body) + " body bytes present)"},
+      {"truncated_preamble.bin", with([](auto& b) { b.resize(20); }),
+       "truncated model file (header incomplete)"},
       {"wrong_magic.bin", with([](auto& b) { std::memcpy(b.data(), "PLTREES!", 8); }),
        "not a relocalizer model (wrong magic number; expected a file written by `train`)"},
-      {"future_version.bin", with([](auto& b) { b[8] = static_cast<uint8_t>(relocalizer::kModelFormatVersion + 1); }),
+      {"future_version.bin",
+       with([](auto& b) { b[8] = static_cast<uint8_t>(relocalizer::kModelFormatVersion + 1); }),
        "model format version " + std::to_string(relocalizer::kModelFormatVersion + 1) +
-           " is not supported (this build reads versions 1 to " + std::to_string(relocalizer::kModelFormatVersion) +
-           "); retrain or use a matching build"},
-      {"checksum.bin", with([](auto& b) { b[b.size() - 7] ^= 0x40; }), "checksum mismatch: the model file is corrupt"},
+           " is not supported (this build reads versions 1 to " +
+           std::to_string(relocalizer::kModelFormatVersion) + "); retrain or use a matching build"},
+      {"checksum.bin", with([](auto& b) { b[b.size() - 7] ^= 0x40; }),
+       "checksum mismatch: the model file is corrupt"},
       {"empty.bin", {}, "model file is empty"},
       // Files a user might pass by mistake: the bag, the node's YAML.
-      {"bag", {}, "not a relocalizer model (wrong magic number; expected a file written by `train`)",
+      {"bag",
+       {},
+       "not a relocalizer model (wrong magic number; expected a file written by `train`)",
        fixture + "/test.bag"},
-      {"yaml", {}, "not a relocalizer model (wrong magic number; expected a file written by `train`)",
+      {"yaml",
+       {},
+       "not a relocalizer model (wrong magic number; expected a file written by `train`)",
        ros::param::param<std::string>("~config", "")},
   };
   // A folder (the loader would see a size near 2^63) and a FIFO (it would
@@ -268,7 +299,10 @@ TEST(NodeParams, BadModelFilesStopTheNodeWithTheirReason) {
   ASSERT_TRUE(std::filesystem::create_directory(dir + "/model_folder"));
   ASSERT_EQ(mkfifo((dir + "/model_fifo").c_str(), 0600), 0);
   cases.push_back({"folder", {}, "is a directory, not a model file", dir + "/model_folder"});
-  cases.push_back({"fifo", {}, "is not a regular file (a device or a pipe?), not a model file", dir + "/model_fifo"});
+  cases.push_back({"fifo",
+                   {},
+                   "is not a regular file (a device or a pipe?), not a model file",
+                   dir + "/model_fifo"});
   for (Case& c : cases) {
     SCOPED_TRACE(c.name);
     if (c.path.empty()) {
@@ -278,7 +312,8 @@ TEST(NodeParams, BadModelFilesStopTheNodeWithTheirReason) {
     const NodeRun run = runNodeWithModel(c.path);
     ASSERT_TRUE(WIFEXITED(run.status)) << "killed by a signal: " << run.output;
     EXPECT_EQ(WEXITSTATUS(run.status), 1);
-    EXPECT_NE(run.output.find("relocalizer: " + c.path + ": " + c.reason), std::string::npos) << run.output;
+    EXPECT_NE(run.output.find("relocalizer: " + c.path + ": " + c.reason), std::string::npos)
+        << run.output;
     EXPECT_EQ(std::count(run.output.begin(), run.output.end(), '\n'), 1) << run.output;
   }
   std::filesystem::remove_all(dir);

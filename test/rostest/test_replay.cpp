@@ -60,12 +60,14 @@ TEST(Replay, MatchesOfflineEvaluatePoseForPose) {
   ASSERT_EQ(replayed.size(), 20u);
   for (size_t i = 0; i < replayed.size(); ++i) {
     ASSERT_EQ(replayed[i].size(), 8u);
-    for (size_t k = 0; k < 8; ++k) EXPECT_NEAR(replayed[i][k], evaluated[i][k], 1e-6) << "row " << i;
+    for (size_t k = 0; k < 8; ++k)
+      EXPECT_NEAR(replayed[i][k], evaluated[i][k], 1e-6) << "row " << i;
   }
   const auto a = readJson(replay / "summary.json");
   const auto b = readJson(offline / "summary.json");
-  for (const char* key : {"frames", "frames_with_pose", "frames_without_pose", "within_5cm_5deg", "within_2cm_2deg",
-                          "median_translation_cm", "median_rotation_deg", "ate_rmse_cm"})
+  for (const char* key :
+       {"frames", "frames_with_pose", "frames_without_pose", "within_5cm_5deg", "within_2cm_2deg",
+        "median_translation_cm", "median_rotation_deg", "ate_rmse_cm"})
     // The replayed pose went through a quaternion message: equal to ~1e-12, not bitwise.
     EXPECT_NEAR(a.at(key).get<double>(), b.at(key).get<double>(), 1e-6) << key;
   EXPECT_EQ(a.at("node").at("frames_dropped"), 0);

@@ -18,7 +18,8 @@ namespace enc = sensor_msgs::image_encodings;
 
 namespace {
 
-sensor_msgs::Image image(uint32_t width, uint32_t height, const std::string& encoding, int bytes_per_pixel) {
+sensor_msgs::Image image(uint32_t width, uint32_t height, const std::string& encoding,
+                         int bytes_per_pixel) {
   sensor_msgs::Image msg;
   msg.width = width;
   msg.height = height;
@@ -50,9 +51,12 @@ sensor_msgs::Image depth32(const std::function<float(int)>& value) {
 }  // namespace
 
 TEST(MessageConversion, AcceptsTheRep118DepthEncodingsAndTheColourOnes) {
-  for (const auto& [colour, bpp] : {std::pair{enc::BGR8, 3}, {enc::RGB8, 3}, {enc::MONO8, 1}, {enc::BGRA8, 4}})
-    for (const auto& [depth, dbpp] : {std::pair{enc::TYPE_16UC1, 2}, {enc::TYPE_32FC1, 4}, {enc::MONO16, 2}})
-      EXPECT_EQ(checkFrameMessages(image(8, 6, colour, bpp), image(8, 6, depth, dbpp), info(8, 6)), "")
+  for (const auto& [colour, bpp] :
+       {std::pair{enc::BGR8, 3}, {enc::RGB8, 3}, {enc::MONO8, 1}, {enc::BGRA8, 4}})
+    for (const auto& [depth, dbpp] :
+         {std::pair{enc::TYPE_16UC1, 2}, {enc::TYPE_32FC1, 4}, {enc::MONO16, 2}})
+      EXPECT_EQ(checkFrameMessages(image(8, 6, colour, bpp), image(8, 6, depth, dbpp), info(8, 6)),
+                "")
           << colour << " " << depth;
 }
 
@@ -122,7 +126,9 @@ TEST(MessageConversion, IntrinsicsComeFromPWhenItIsSet) {
   // An unusable P is named as such, even when K is fine.
   auto bad_p = k_and_p;
   bad_p.P[5] = 0.0;
-  EXPECT_EQ(checkFrameMessages(colour, depth, bad_p).rfind("camera_info P is unusable: focal length", 0), 0u)
+  EXPECT_EQ(
+      checkFrameMessages(colour, depth, bad_p).rfind("camera_info P is unusable: focal length", 0),
+      0u)
       << checkFrameMessages(colour, depth, bad_p);
   // A camera_info that fills only K (P all zero) still works, from K.
   const auto only_k = info(8, 6);
@@ -135,7 +141,8 @@ TEST(MessageConversion, RowPaddingIsHonoured) {
   colour.step = 4;  // two bytes of padding per row
   colour.data = {1, 2, 99, 99, 3, 4, 99, 99};
   auto depth = image(2, 2, enc::TYPE_16UC1, 2);
-  depth.data = {0xe8, 0x03, 0xe8, 0x03, 0xe8, 0x03, 0xe8, 0x03};  // 1000 mm (all-zero depth is refused)
+  depth.data = {0xe8, 0x03, 0xe8, 0x03,
+                0xe8, 0x03, 0xe8, 0x03};  // 1000 mm (all-zero depth is refused)
   auto frame = frameFromMessages(colour, depth, info(2, 2));
   ASSERT_TRUE(frame.ok()) << frame.error();
   EXPECT_EQ(frame->colour.at<cv::Vec3b>(1, 0)[0], 3);
@@ -149,20 +156,25 @@ TEST(MessageConversion, RejectsWhatWouldReadOutOfBoundsOrMisregister) {
   EXPECT_NE(checkFrameMessages(short_step, depth, info(8, 6)).find("step 10"), std::string::npos);
   auto short_data = depth;
   short_data.data.resize(5);
-  EXPECT_NE(checkFrameMessages(colour, short_data, info(8, 6)).find("holds 5 bytes"), std::string::npos);
+  EXPECT_NE(checkFrameMessages(colour, short_data, info(8, 6)).find("holds 5 bytes"),
+            std::string::npos);
   auto big_endian = depth;
   big_endian.is_bigendian = 1;
-  EXPECT_NE(checkFrameMessages(colour, big_endian, info(8, 6)).find("byte order"), std::string::npos);
-  EXPECT_NE(checkFrameMessages(colour, depth, info(4, 3)).find("camera_info is for 4x3"), std::string::npos);
+  EXPECT_NE(checkFrameMessages(colour, big_endian, info(8, 6)).find("byte order"),
+            std::string::npos);
+  EXPECT_NE(checkFrameMessages(colour, depth, info(4, 3)).find("camera_info is for 4x3"),
+            std::string::npos);
   auto other_frame = depth;
   other_frame.header.frame_id = "/camera";  // a leading slash is the same frame
   EXPECT_EQ(checkFrameMessages(colour, other_frame, info(8, 6)), "");
   other_frame.header.frame_id = "depth";
-  EXPECT_NE(checkFrameMessages(colour, other_frame, info(8, 6)).find("registered"), std::string::npos);
+  EXPECT_NE(checkFrameMessages(colour, other_frame, info(8, 6)).find("registered"),
+            std::string::npos);
   auto nan_k = info(8, 6);
   nan_k.K[4] = std::nan("");
   EXPECT_NE(checkFrameMessages(colour, depth, nan_k).find("K is unusable"), std::string::npos);
-  EXPECT_NE(checkFrameMessages(image(0, 0, enc::BGR8, 3), depth, info(8, 6)).find("empty"), std::string::npos);
+  EXPECT_NE(checkFrameMessages(image(0, 0, enc::BGR8, 3), depth, info(8, 6)).find("empty"),
+            std::string::npos);
 }
 
 TEST(MessageConversion, ColourLabelledAsDepthIsRejected) {
@@ -178,9 +190,10 @@ TEST(MessageConversion, ColourLabelledAsDepthIsRejected) {
   EXPECT_EQ(checkFrameMessages(colour, relabelled, info(8, 6)),
             "depth image holds 144 bytes, more than step x height (96) for '16UC1' 8x6");
   // A colour image sent on the depth topic as it is.
-  EXPECT_EQ(checkFrameMessages(colour, image(8, 6, enc::BGR8, 3), info(8, 6)),
-            "unsupported depth encoding 'bgr8' (expected 16UC1 millimetres or 32FC1 metres, REP 118); "
-            "a colour image on the depth topic?");
+  EXPECT_EQ(
+      checkFrameMessages(colour, image(8, 6, enc::BGR8, 3), info(8, 6)),
+      "unsupported depth encoding 'bgr8' (expected 16UC1 millimetres or 32FC1 metres, REP 118); "
+      "a colour image on the depth topic?");
   // Row padding that is not a colour row is still fine.
   auto padded = image(8, 6, enc::TYPE_16UC1, 2);
   padded.step = 20;
@@ -202,8 +215,10 @@ TEST(MessageConversion, DepthWithoutAValidPixelSaysWhatItHolds) {
       {depth32([](int) { return 0.0f; }), "depth has no valid pixel: 48 zero"},
       {depth32([](int) { return std::nanf(""); }), "depth has no valid pixel: 48 NaN"},
       {depth32([inf](int) { return inf; }), "depth has no valid pixel: 48 infinite"},
-      {depth32([inf](int i) { return i % 2 ? -inf : -1.5f; }), "depth has no valid pixel: 24 infinite, 24 negative"},
-      {depth32([](int i) { return i < 8 ? std::nanf("") : -0.5f; }), "depth has no valid pixel: 8 NaN, 40 negative"},
+      {depth32([inf](int i) { return i % 2 ? -inf : -1.5f; }),
+       "depth has no valid pixel: 24 infinite, 24 negative"},
+      {depth32([](int i) { return i < 8 ? std::nanf("") : -0.5f; }),
+       "depth has no valid pixel: 8 NaN, 40 negative"},
   };
   for (const auto& [depth, reason] : cases) {
     EXPECT_EQ(checkFrameMessages(colour, depth, info(8, 6)), "");  // headers are fine
@@ -222,18 +237,25 @@ TEST(MessageConversion, CameraInfoFocalLengthMustBeFiniteAndPositive) {
   const auto colour = image(8, 6, enc::BGR8, 3);
   const auto depth = image(8, 6, enc::TYPE_16UC1, 2);
   const std::vector<std::pair<size_t, double>> spoilt = {
-      {0, 0.0}, {4, 0.0}, {0, -100.0}, {0, std::nan("")}, {4, std::numeric_limits<double>::infinity()}};
+      {0, 0.0},
+      {4, 0.0},
+      {0, -100.0},
+      {0, std::nan("")},
+      {4, std::numeric_limits<double>::infinity()}};
   for (const auto& [index, value] : spoilt) {
     auto k = info(8, 6);
     k.K[index] = value;
-    EXPECT_EQ(checkFrameMessages(colour, depth, k).rfind("camera_info K is unusable: focal length must be "
-                                                         "finite and positive (fx=", 0),
+    EXPECT_EQ(checkFrameMessages(colour, depth, k)
+                  .rfind("camera_info K is unusable: focal length must be "
+                         "finite and positive (fx=",
+                         0),
               0u)
         << index << " " << value << ": " << checkFrameMessages(colour, depth, k);
   }
   auto uncalibrated = info(8, 6);
   uncalibrated.K = {};  // what an uncalibrated driver sends
-  EXPECT_NE(checkFrameMessages(colour, depth, uncalibrated).find("focal length must be finite and positive"),
+  EXPECT_NE(checkFrameMessages(colour, depth, uncalibrated)
+                .find("focal length must be finite and positive"),
             std::string::npos);
 }
 
@@ -243,14 +265,18 @@ TEST(MessageConversion, FloatDepthInMillimetresIsRefusedAsNotMetres) {
   const auto colour = image(8, 6, enc::BGR8, 3);
   // Half the pixels without depth: the median is over the valid ones.
   auto millimetres = depth32([](int i) { return i % 2 ? std::nanf("") : 1523.0f; });
-  EXPECT_EQ(checkFrameMessages(colour, millimetres, info(8, 6)), "");  // headers say nothing of units
+  EXPECT_EQ(checkFrameMessages(colour, millimetres, info(8, 6)),
+            "");  // headers say nothing of units
   auto frame = frameFromMessages(colour, millimetres, info(8, 6));
   ASSERT_FALSE(frame.ok());
   EXPECT_EQ(frame.error(),
-            "32FC1 depth must be metres (REP 118): median valid depth 1523.0 m, beyond any RGB-D sensor's range "
+            "32FC1 depth must be metres (REP 118): median valid depth 1523.0 m, beyond any RGB-D "
+            "sensor's range "
             "(50 m); millimetres?");
   // Metres pass, a few far outliers among them too, and 16-bit millimetres are REP 118's own.
-  EXPECT_TRUE(frameFromMessages(colour, depth32([](int i) { return i < 10 ? 3000.0f : 1.523f; }), info(8, 6)).ok());
+  EXPECT_TRUE(frameFromMessages(colour, depth32([](int i) { return i < 10 ? 3000.0f : 1.523f; }),
+                                info(8, 6))
+                  .ok());
   auto depth16 = image(8, 6, enc::TYPE_16UC1, 2);
   for (size_t i = 0; i < depth16.data.size(); i += 2) {
     const uint16_t mm = 1523;
@@ -265,18 +291,23 @@ TEST(MessageConversion, FocalLengthsThatGiveNoCameraFieldOfViewAreRefused) {
   auto tiny_fx = info(640, 480);
   tiny_fx.K[0] = 1e-30;
   EXPECT_EQ(checkFrameMessages(colour, depth, tiny_fx),
-            "camera_info K gives a 180.0 deg horizontal field of view (fx=1e-30 for width 640): an RGB-D camera "
+            "camera_info K gives a 180.0 deg horizontal field of view (fx=1e-30 for width 640): an "
+            "RGB-D camera "
             "sees 0.5 to 160 deg; is K in pixels, for this image size?");
   auto huge_fy = info(640, 480);
   huge_fy.K[4] = 1e30;
-  EXPECT_EQ(checkFrameMessages(colour, depth, huge_fy).rfind(
-                "camera_info K gives a 0.0 deg vertical field of view (fy=1e+30 for height 480)", 0),
-            0u)
+  EXPECT_EQ(
+      checkFrameMessages(colour, depth, huge_fy)
+          .rfind("camera_info K gives a 0.0 deg vertical field of view (fy=1e+30 for height 480)",
+                 0),
+      0u)
       << checkFrameMessages(colour, depth, huge_fy);
   // P, when set, is what is read and named.
   auto p = info(640, 480);
   p.P = {0.3, 0, 320, 0, 0, 525, 240, 0, 0, 0, 1, 0};
-  EXPECT_EQ(checkFrameMessages(colour, depth, p).rfind("camera_info P gives a 179.9 deg horizontal", 0), 0u)
+  EXPECT_EQ(
+      checkFrameMessages(colour, depth, p).rfind("camera_info P gives a 179.9 deg horizontal", 0),
+      0u)
       << checkFrameMessages(colour, depth, p);
   // Real cameras pass: Kinect (57 deg), a wide ToF camera (120 deg).
   auto kinect = info(640, 480);
@@ -309,7 +340,8 @@ TEST(MessageConversion, StringsFromMessagesAreShortenedInReasons) {
   auto other_frame = depth;
   other_frame.header.frame_id = huge + "\n";
   const std::string why = checkFrameMessages(colour, other_frame, info(8, 6));
-  EXPECT_NE(why.find("depth frame '" + std::string(64, 'x') + "... (1048577 bytes)' differs"), std::string::npos)
+  EXPECT_NE(why.find("depth frame '" + std::string(64, 'x') + "... (1048577 bytes)' differs"),
+            std::string::npos)
       << why.substr(0, 300);
   EXPECT_LT(why.size(), 200u);
 }

@@ -71,12 +71,14 @@ class Source {
   // This test's own /tf listener counts as one subscriber; the node is another.
   bool waitForTfSubscribers(uint32_t count, double seconds) {
     const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(seconds);
-    while (tf_pub_.getNumSubscribers() < count && ros::WallTime::now() < end) ros::WallDuration(0.05).sleep();
+    while (tf_pub_.getNumSubscribers() < count && ros::WallTime::now() < end)
+      ros::WallDuration(0.05).sleep();
     return tf_pub_.getNumSubscribers() >= count;
   }
 
  private:
-  static geometry_msgs::TransformStamped odomTransform(const ros::Time& stamp, const Pose& odom_T_camera) {
+  static geometry_msgs::TransformStamped odomTransform(const ros::Time& stamp,
+                                                       const Pose& odom_T_camera) {
     geometry_msgs::TransformStamped t;
     t.header.stamp = stamp;
     t.header.frame_id = "odom";
@@ -125,14 +127,16 @@ relocalizer::Relocalize::Response callForNextFrame() {
   relocalizer::Relocalize srv;
   srv.request.timeout = 5.0;
   srv.request.wait_for_next = true;
-  EXPECT_TRUE(ros::service::call("/relocalizer/relocalize", srv)) << "the service call itself failed";
+  EXPECT_TRUE(ros::service::call("/relocalizer/relocalize", srv))
+      << "the service call itself failed";
   return srv.response;
 }
 
 size_t jumpWarnings() {
   size_t count = 0;
   for (const auto& log : g_rosout->messages())
-    count += log.name == "/relocalizer" && log.level == rosgraph_msgs::Log::WARN && contains(log.msg, kJumpText);
+    count += log.name == "/relocalizer" && log.level == rosgraph_msgs::Log::WARN &&
+             contains(log.msg, kJumpText);
   return count;
 }
 
@@ -147,7 +151,8 @@ size_t jumpResults() {
 void expectAnswerOnTimeline(const relocalizer::Relocalize::Response& response, double offset,
                             const Pose& truth) {
   ASSERT_TRUE(response.success) << response.message;
-  const double age = (ros::Time::now() + ros::Duration(offset) - response.pose.header.stamp).toSec();
+  const double age =
+      (ros::Time::now() + ros::Duration(offset) - response.pose.header.stamp).toSec();
   EXPECT_GE(age, 0.0);
   EXPECT_LT(age, 3.0) << "the answer is for a frame of another timeline";
   EXPECT_LT(translationError(response.pose.pose.pose, truth), 0.05);
@@ -156,10 +161,11 @@ void expectAnswerOnTimeline(const relocalizer::Relocalize::Response& response, d
 
 // In odom mode: the map -> odom that the node (re-)broadcasts after `since`
 // composes with the current odometry to the answered pose.
-void expectMapToOdomFollows(const relocalizer::Relocalize::Response& response, const Pose& odom_T_camera,
-                            const ros::Time& since) {
+void expectMapToOdomFollows(const relocalizer::Relocalize::Response& response,
+                            const Pose& odom_T_camera, const ros::Time& since) {
   if (!g_odom) return;
-  const Pose expected = relocalizer_ros::fromPoseMsg(response.pose.pose.pose) * odom_T_camera.inverse();
+  const Pose expected =
+      relocalizer_ros::fromPoseMsg(response.pose.pose.pose) * odom_T_camera.inverse();
   std::optional<Pose> latest;
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(3.0);
   while (ros::WallTime::now() < end) {
@@ -182,7 +188,8 @@ TEST(TimeJump, NodeResetsReportsEachJumpOnceAndGoesOn) {
   ASSERT_TRUE(ros::service::waitForService("/relocalizer/relocalize", ros::Duration(30)));
   ASSERT_TRUE(g_camera->waitForNode());
   Source source(frame);
-  if (g_odom) ASSERT_TRUE(source.waitForTfSubscribers(2, 10.0)) << "the node does not listen to /tf";
+  if (g_odom)
+    ASSERT_TRUE(source.waitForTfSubscribers(2, 10.0)) << "the node does not listen to /tf";
   ros::WallDuration(0.5).sleep();
 
   {
@@ -212,7 +219,8 @@ TEST(TimeJump, NodeResetsReportsEachJumpOnceAndGoesOn) {
     EXPECT_EQ(jumpWarnings(), 1u);
     if (g_continuous) {
       EXPECT_EQ(jumpResults(), 1u);
-      auto with_counter = g_results->waitFor([](const ResultMsg& r) { return r.time_jumps == 1; }, 3.0);
+      auto with_counter =
+          g_results->waitFor([](const ResultMsg& r) { return r.time_jumps == 1; }, 3.0);
       EXPECT_TRUE(with_counter.has_value()) << "~result does not count the jump";
     }
   }
@@ -245,15 +253,20 @@ TEST(TimeJump, NodeResetsReportsEachJumpOnceAndGoesOn) {
     for (int attempt = 0; attempt < 5 && !answered; ++attempt) {
       const auto response = callForNextFrame();
       answered = response.success;
-      if (!answered) failures.push_back(response.message);
-      else expectAnswerOnTimeline(response, -120.0, frame.truth);
+      if (!answered)
+        failures.push_back(response.message);
+      else
+        expectAnswerOnTimeline(response, -120.0, frame.truth);
     }
     EXPECT_TRUE(answered) << "the TF buffer stays wedged";
-    const bool healed = g_results
-                            ->waitFor([](const ResultMsg& r) {
-                              return !r.success && contains(r.message, "time went back; TF buffer cleared");
-                            }, 3.0)
-                            .has_value();
+    const bool healed =
+        g_results
+            ->waitFor(
+                [](const ResultMsg& r) {
+                  return !r.success && contains(r.message, "time went back; TF buffer cleared");
+                },
+                3.0)
+            .has_value();
     EXPECT_TRUE(healed) << "no failure reported the cleared TF buffer";
     EXPECT_LE(failures.size(), 2u);
     EXPECT_EQ(jumpWarnings(), 2u) << "odometry from the future is not an image time jump";
@@ -268,7 +281,8 @@ TEST(TimeJump, OneBadStampCostsAtMostItsOwnFrame) {
   ASSERT_TRUE(ros::service::waitForService("/relocalizer/relocalize", ros::Duration(30)));
   ASSERT_TRUE(g_camera->waitForNode());
   Source source(frame);
-  if (g_odom) ASSERT_TRUE(source.waitForTfSubscribers(2, 10.0)) << "the node does not listen to /tf";
+  if (g_odom)
+    ASSERT_TRUE(source.waitForTfSubscribers(2, 10.0)) << "the node does not listen to /tf";
   const Pose odom = odometry(0.3, 0.2);
   source.timeline(0.0, odom);
   ros::WallDuration(1.0).sleep();
@@ -282,16 +296,19 @@ TEST(TimeJump, OneBadStampCostsAtMostItsOwnFrame) {
   };
   const std::vector<Case> cases = {
       // An uninitialised driver stamp: ros::Time arithmetic on it aborted the node.
-      {"camera_info stamped 2^32 - 1 s", [](FrameMessages& f) { f.info.header.stamp = ros::Time(4294967295u, 0); },
+      {"camera_info stamped 2^32 - 1 s",
+       [](FrameMessages& f) { f.info.header.stamp = ros::Time(4294967295u, 0); },
        "at or past 2^31 s"},
       // Two queued stamps more than 2^31 s apart aborted message_filters.
-      {"colour 2.2e9 s ahead",
-       [](FrameMessages& f) { f.colour.header.stamp.sec += 2200000000u; }, "at or past 2^31 s"},
+      {"colour 2.2e9 s ahead", [](FrameMessages& f) { f.colour.header.stamp.sec += 2200000000u; },
+       "at or past 2^31 s"},
       // Jitter: depth 30 ms before the previous depth message. It reset the
       // synchronizer and dropped the other inputs' messages for 5 s.
-      {"depth 30 ms back", [](FrameMessages& f) { f.depth.header.stamp -= ros::Duration(0.13); }, "out of order"},
+      {"depth 30 ms back", [](FrameMessages& f) { f.depth.header.stamp -= ros::Duration(0.13); },
+       "out of order"},
       // A glitch far back (an unset stamp), on one message only.
-      {"depth stamped 0", [](FrameMessages& f) { f.depth.header.stamp = ros::Time(0, 1); }, "a glitch, not a jump"},
+      {"depth stamped 0", [](FrameMessages& f) { f.depth.header.stamp = ros::Time(0, 1); },
+       "a glitch, not a jump"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
@@ -310,13 +327,15 @@ TEST(TimeJump, OneBadStampCostsAtMostItsOwnFrame) {
   // Each drop is counted on ~result and said once in the log.
   ros::WallDuration(5.5).sleep();  // the glitch is only known as one when its window has passed
   if (g_continuous) {
-    auto counted = g_results->waitFor([&](const ResultMsg& r) { return r.messages_dropped >= cases.size(); }, 3.0);
+    auto counted = g_results->waitFor(
+        [&](const ResultMsg& r) { return r.messages_dropped >= cases.size(); }, 3.0);
     EXPECT_TRUE(counted.has_value()) << "~result does not count the dropped messages";
   }
   for (const Case& c : cases) {
     bool said = false;
     for (const auto& log : g_rosout->messages())
-      said |= log.name == "/relocalizer" && log.level == rosgraph_msgs::Log::WARN && contains(log.msg, c.warning);
+      said |= log.name == "/relocalizer" && log.level == rosgraph_msgs::Log::WARN &&
+              contains(log.msg, c.warning);
     EXPECT_TRUE(said) << c.name << ": no warning saying '" << c.warning << "'";
   }
 }

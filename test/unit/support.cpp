@@ -1,8 +1,8 @@
 #include "support.h"
 
+#include <unistd.h>
 #include <atomic>
 #include <chrono>
-#include <unistd.h>
 
 namespace relocalizer::testing {
 
@@ -21,9 +21,8 @@ TempDir::~TempDir() {
 }
 
 std::string redkitchenDir() {
-  const std::filesystem::path dir =
-      std::filesystem::path(RELOCALIZER_SOURCE_DIR) / ".." / "shared" / "data" /
-      "7scenes-redkitchen-dev";
+  const std::filesystem::path dir = std::filesystem::path(RELOCALIZER_SOURCE_DIR) / ".." /
+                                    "shared" / "data" / "7scenes-redkitchen-dev";
   if (std::filesystem::exists(dir / "frame-000000.pose.txt"))
     return std::filesystem::canonical(dir).string();
   return {};

@@ -29,8 +29,8 @@ std::string redkitchenDir();
 }  // namespace relocalizer::testing
 
 // Real-data tests say clearly why they did not run.
-#define RELOCALIZER_REQUIRE_REDKITCHEN(dir_variable)                                     \
-  const std::string dir_variable = ::relocalizer::testing::redkitchenDir();              \
-  if (dir_variable.empty())                                                              \
-  GTEST_SKIP() << "real-data check skipped: ../shared/data/7scenes-redkitchen-dev is "   \
+#define RELOCALIZER_REQUIRE_REDKITCHEN(dir_variable)                                   \
+  const std::string dir_variable = ::relocalizer::testing::redkitchenDir();            \
+  if (dir_variable.empty())                                                            \
+  GTEST_SKIP() << "real-data check skipped: ../shared/data/7scenes-redkitchen-dev is " \
                   "absent beside the checkout"

@@ -13,10 +13,10 @@
 #include <sstream>
 #include <thread>
 
-#include "relocalizer/data/dataset.h"
-#include "relocalizer/data/frame_source.h"
 #include "relocalizer/core/id_ranges.h"
+#include "relocalizer/data/dataset.h"
 #include "relocalizer/data/frame_selection.h"
+#include "relocalizer/data/frame_source.h"
 #include "support.h"
 
 using namespace relocalizer;
@@ -53,7 +53,8 @@ void writeText(const fs::path& file, const std::string& content) {
 std::string matrixText(const Eigen::Matrix4d& m) {
   std::ostringstream out;
   out << std::setprecision(17);
-  for (int r = 0; r < 4; ++r) out << m(r, 0) << " " << m(r, 1) << " " << m(r, 2) << " " << m(r, 3) << "\n";
+  for (int r = 0; r < 4; ++r)
+    out << m(r, 0) << " " << m(r, 1) << " " << m(r, 2) << " " << m(r, 3) << "\n";
   return out.str();
 }
 
@@ -79,7 +80,8 @@ void writeSevenScenesFrame(const fs::path& dir, int number, const std::optional<
                            cv::Size colour_size = {kWidth, kHeight}) {
   fs::create_directories(dir);
   const std::string base = (dir / stem(number)).string();
-  cv::imwrite(base + ".color" + colour_ext, cv::Mat(colour_size, CV_8UC3, cv::Scalar(10 * number, 100, 200)));
+  cv::imwrite(base + ".color" + colour_ext,
+              cv::Mat(colour_size, CV_8UC3, cv::Scalar(10 * number, 100, 200)));
   cv::imwrite(base + ".depth.png", depthImage(1500));
   if (pose) writeText(base + ".pose.txt", matrixText(pose->matrix()));
 }
@@ -95,7 +97,9 @@ void writeSevenScenesFolder(const fs::path& dir, int frames, bool intrinsics_fil
 
 void expectPoseNear(const Pose& actual, const Pose& expected, double tolerance = 1e-9) {
   EXPECT_TRUE(actual.matrix().isApprox(expected.matrix(), tolerance))
-      << "actual\n" << actual.matrix() << "\nexpected\n" << expected.matrix();
+      << "actual\n"
+      << actual.matrix() << "\nexpected\n"
+      << expected.matrix();
 }
 
 std::unique_ptr<Dataset> openOrFail(const std::string& path, const DatasetOptions& options = {}) {
@@ -243,7 +247,8 @@ TEST(FrameSource, AFolderAsASourceNamesItsFormatAndTheFramesUsed) {
   auto frame = s.load(2);
   ASSERT_TRUE(frame.ok()) << errorOf(frame);
   EXPECT_EQ(frame->id, 3);
-  EXPECT_TRUE(mentions(errorOf(openDatasetSource((dir.path() / "missing").string(), {})), "missing"));
+  EXPECT_TRUE(
+      mentions(errorOf(openDatasetSource((dir.path() / "missing").string(), {})), "missing"));
 }
 
 TEST(SevenScenesFolder, DefaultIntrinsicsJpegColourAndNoPoses) {
@@ -584,7 +589,8 @@ TEST(Tum, GreedyAssociationTakesTheSmallestGapFirst) {
   fs::create_directories(dir.path() / "rgb");
   fs::create_directories(dir.path() / "depth");
   for (const char* name : {"rgb/a.png", "rgb/b.png"})
-    cv::imwrite((dir.path() / name).string(), cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(1, 2, 3)));
+    cv::imwrite((dir.path() / name).string(),
+                cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(1, 2, 3)));
   cv::imwrite((dir.path() / "depth/c.png").string(), depthImage(5000));
   // 1.008 is 0.008 from a and 0.004 from b: b gets it, a stays unpaired.
   writeText(dir.path() / "rgb.txt", "1.000 rgb/a.png\n1.012 rgb/b.png\n");
@@ -706,9 +712,8 @@ TEST(DatasetErrors, PoseFileWithTooFewNumbers) {
   writeText(dir.path() / "frame-000001.pose.txt", "1 0 0 0\n0 1 0 0\n0 0 1\n0 0 0 1\n");
   auto dataset = openDataset(dir.str());
   ASSERT_FALSE(dataset.ok());
-  EXPECT_TRUE(mentions(dataset.error(),
-                       (dir.path() / "frame-000001.pose.txt").string() +
-                           ": line 3: expected 4 numbers, got 3"));
+  EXPECT_TRUE(mentions(dataset.error(), (dir.path() / "frame-000001.pose.txt").string() +
+                                            ": line 3: expected 4 numbers, got 3"));
 }
 
 TEST(DatasetErrors, PoseFileWithNaNOrTextOrBadRotation) {
@@ -771,8 +776,10 @@ TEST(DatasetErrors, ColourAndDepthOfDifferentSizesNameBothFiles) {
   ASSERT_TRUE(dataset);
   auto frame = dataset->load(1);
   ASSERT_FALSE(frame.ok());
-  EXPECT_TRUE(mentions(frame.error(), (dir.path() / "frame-000001.color.png").string() + " (40x30)"));
-  EXPECT_TRUE(mentions(frame.error(), (dir.path() / "frame-000001.depth.png").string() + " (32x24)"));
+  EXPECT_TRUE(
+      mentions(frame.error(), (dir.path() / "frame-000001.color.png").string() + " (40x30)"));
+  EXPECT_TRUE(
+      mentions(frame.error(), (dir.path() / "frame-000001.depth.png").string() + " (32x24)"));
 }
 
 TEST(DatasetErrors, FrameOfADifferentSizeThanTheFirst) {
@@ -895,7 +902,8 @@ TEST(RealData, RedkitchenTrainingFrames) {
   valid.reserve(frame->depth.total());
   for (int v = 0; v < frame->depth.rows; ++v)
     for (int u = 0; u < frame->depth.cols; ++u)
-      if (std::isfinite(frame->depth.at<float>(v, u))) valid.push_back(frame->depth.at<float>(v, u));
+      if (std::isfinite(frame->depth.at<float>(v, u)))
+        valid.push_back(frame->depth.at<float>(v, u));
   ASSERT_FALSE(valid.empty());
   std::nth_element(valid.begin(), valid.begin() + valid.size() / 2, valid.end());
   const float median = valid[valid.size() / 2];
@@ -915,7 +923,8 @@ TEST(RealData, RedkitchenSummaryPathLength) {
   ASSERT_EQ(dataset->size(), 500u);
   double length = 0.0;
   for (size_t i = 1; i < dataset->size(); ++i)
-    length += (dataset->groundTruth(i)->translation() - dataset->groundTruth(i - 1)->translation()).norm();
+    length += (dataset->groundTruth(i)->translation() - dataset->groundTruth(i - 1)->translation())
+                  .norm();
   // The data README says about 4.0 m.
   EXPECT_GT(length, 3.0);
   EXPECT_LT(length, 5.0);

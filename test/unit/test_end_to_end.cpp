@@ -6,7 +6,7 @@
 #include "relocalizer/core/statistics.h"
 #include "relocalizer/eval/metrics.h"
 #include "relocalizer/forest/model_builder.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 #include "relocalizer/sim/synthetic_scene.h"
 
 using namespace relocalizer;
@@ -159,9 +159,10 @@ TEST_F(SyntheticRoomRelocalization, TheSurfaceCheckAloneRefusesFramesOfAnotherRo
     without_hypothesis += r.message.find("no pose hypothesis") != std::string::npos ? 1 : 0;
     highest = std::max(highest, r.surface_agreement);
   }
-  std::printf("another room: %d of %zu frames answered, %d refused by the surface check (highest "
-              "agreement %.2f), %d without any rigid hypothesis\n",
-              answered, paths.test.size(), refused_by_surface, highest, without_hypothesis);
+  std::printf(
+      "another room: %d of %zu frames answered, %d refused by the surface check (highest "
+      "agreement %.2f), %d without any rigid hypothesis\n",
+      answered, paths.test.size(), refused_by_surface, highest, without_hypothesis);
   EXPECT_EQ(answered, 0);
   // A frame whose votes do not even form one rigid minimal set never reaches
   // the surface stage (that refusal cannot be turned off); every frame that

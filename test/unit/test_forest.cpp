@@ -1,16 +1,16 @@
 #include <gtest/gtest.h>
 
+#include <tbb/global_control.h>
+#include <zlib.h>
 #include <algorithm>
 #include <climits>
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <random>
-#include <tbb/global_control.h>
-#include <zlib.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
 
 #include "relocalizer/forest/forest.h"
 #include "relocalizer/forest/mean_shift.h"
@@ -18,7 +18,7 @@
 #include "relocalizer/forest/sampling.h"
 #include "relocalizer/forest/training.h"
 #include "relocalizer/forest/training_config.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 #include "support.h"
 
 using namespace relocalizer;
@@ -121,10 +121,12 @@ TEST(MeanShift, DropsWeakModesAndKeepsAtMostMaxModes) {
 TEST(LineRansac, RejectsInjectedOutliers) {
   std::mt19937 rng(5);
   std::normal_distribution<float> noise(0.0f, 0.002f);
-  const Eigen::Vector3f origin(0.2f, -0.1f, 2.0f), direction = Eigen::Vector3f(1, 0.5f, 0.2f).normalized();
+  const Eigen::Vector3f origin(0.2f, -0.1f, 2.0f),
+      direction = Eigen::Vector3f(1, 0.5f, 0.2f).normalized();
   std::vector<Eigen::Vector3f> points;
   for (int i = 0; i < 30; ++i)
-    points.push_back(origin + direction * (0.02f * i) + Eigen::Vector3f(noise(rng), noise(rng), noise(rng)));
+    points.push_back(origin + direction * (0.02f * i) +
+                     Eigen::Vector3f(noise(rng), noise(rng), noise(rng)));
   // Every fourth point jumps to the background, as at a depth edge.
   for (int i = 0; i < 30; i += 4) points[i].z() += 0.5f;
   Line3D line;
@@ -178,7 +180,8 @@ TEST(Descriptor, UnitLengthAndInvariantToContrastGain) {
   cv::Mat flat(40, 40, CV_8UC3, cv::Scalar(10, 20, 30));
   const DescriptorF f = computeDescriptor(FeatureImage::of(flat, depth), 20, 20);
   for (int c = 0; c < 3; ++c)
-    for (int k = 1; k < kDescriptorPerChannel; ++k) EXPECT_EQ(f[c * kDescriptorPerChannel + k], 0.0f);
+    for (int k = 1; k < kDescriptorPerChannel; ++k)
+      EXPECT_EQ(f[c * kDescriptorPerChannel + k], 0.0f);
   EXPECT_GT(f[2 * kDescriptorPerChannel], f[0]);  // red (30) over blue (10)
 }
 
@@ -329,14 +332,16 @@ TEST_F(TrainedTree, LockStepPredictionEqualsPerSamplePrediction) {
         for (size_t i = 0; i < samples.size(); ++i) {
           std::vector<ModeCandidate> expected;
           for (const Tree& tree : forest.trees) {
-            const ModeCandidate c = predictInTree(tree, image.view(), samples[i], descriptors[i], max_leaves);
+            const ModeCandidate c =
+                predictInTree(tree, image.view(), samples[i], descriptors[i], max_leaves);
             if (c.mode) expected.push_back(c);
           }
           ASSERT_EQ(predictions[i].count, static_cast<int>(expected.size()));
           for (size_t k = 0; k < expected.size(); ++k) {
             EXPECT_EQ(predictions[i].candidates[k].mode, expected[k].mode)
                 << "sample " << i << ", candidate " << k << ", max_leaves " << max_leaves;
-            EXPECT_EQ(predictions[i].candidates[k].descriptor_distance, expected[k].descriptor_distance);
+            EXPECT_EQ(predictions[i].candidates[k].descriptor_distance,
+                      expected[k].descriptor_distance);
           }
         }
       }
@@ -380,7 +385,8 @@ class ModelFile : public TrainedTree {
   }
   std::string writeVariant(const std::vector<uint8_t>& bytes) {
     const std::string p = dir_.str() + "/variant.bin";
-    std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    std::ofstream(p, std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()), bytes.size());
     return p;
   }
   relocalizer::testing::TempDir dir_;
@@ -419,8 +425,10 @@ void expectSameForest(const Forest& a, const Forest& b) {
     ASSERT_EQ(x.nodes.size(), y.nodes.size());
     ASSERT_EQ(x.modes.size(), y.modes.size());
     ASSERT_EQ(x.descriptors.size(), y.descriptors.size());
-    EXPECT_EQ(std::memcmp(x.nodes.data(), y.nodes.data(), x.nodes.size() * sizeof(SplitNode)), 0) << "tree " << t;
-    EXPECT_EQ(std::memcmp(x.modes.data(), y.modes.data(), x.modes.size() * sizeof(LeafMode)), 0) << "tree " << t;
+    EXPECT_EQ(std::memcmp(x.nodes.data(), y.nodes.data(), x.nodes.size() * sizeof(SplitNode)), 0)
+        << "tree " << t;
+    EXPECT_EQ(std::memcmp(x.modes.data(), y.modes.data(), x.modes.size() * sizeof(LeafMode)), 0)
+        << "tree " << t;
     EXPECT_EQ(x.descriptors, y.descriptors) << "tree " << t;
   }
 }
@@ -433,7 +441,8 @@ void expectSameForest(const Forest& a, const Forest& b) {
 std::vector<uint8_t> oldVersionBytes(const Model& model, uint32_t version, float support = 7.0f) {
   std::vector<uint8_t> body;
   auto put = [&body](const void* data, size_t n) {
-    body.insert(body.end(), static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + n);
+    body.insert(body.end(), static_cast<const uint8_t*>(data),
+                static_cast<const uint8_t*>(data) + n);
   };
   auto put32 = [&put](uint32_t v) { put(&v, 4); };
   nlohmann::json header_json = nlohmann::json::parse(modelHeaderJson(model, -1));
@@ -480,7 +489,8 @@ std::vector<uint8_t> oldVersionBytes(const Model& model, uint32_t version, float
   std::vector<uint8_t> out = {'P', 'L', 'F', 'O', 'R', 'E', 'S', 'T'};
   const uint32_t reserved = 0;
   const uint64_t size = body.size();
-  const uint32_t crc = static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size())));
+  const uint32_t crc =
+      static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size())));
   for (const auto& [data, n] : std::initializer_list<std::pair<const void*, size_t>>{
            {&version, 4}, {&reserved, 4}, {&size, 8}, {&crc, 4}})
     out.insert(out.end(), static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + n);
@@ -499,7 +509,8 @@ TEST_F(ModelFile, RoundTripKeepsEveryNodeModeAndDescriptor) {
   size_t raw = 0;
   for (const Forest* f : {&model_.points, &model_.lines})
     for (const Tree& t : f->trees)
-      raw += t.nodes.size() * sizeof(SplitNode) + t.modes.size() * (sizeof(LeafMode) + sizeof(Descriptor));
+      raw += t.nodes.size() * sizeof(SplitNode) +
+             t.modes.size() * (sizeof(LeafMode) + sizeof(Descriptor));
   EXPECT_LT(bytes_.size(), raw * 3 / 4);
 }
 
@@ -538,11 +549,13 @@ TEST_F(ModelFile, OldVersionsLeafIndicesAreChecked) {
       std::vector<uint8_t> bytes = oldVersionBytes(model_, version);
       uint32_t header_size = 0;
       std::memcpy(&header_size, bytes.data() + 28, 4);
-      const size_t first_node = 28 + 4 + header_size + 4 + 4;  // after the tree count and node count
+      const size_t first_node =
+          28 + 4 + header_size + 4 + 4;  // after the tree count and node count
       size_t leaf = 0;
       while (!tree.nodes[leaf].isLeaf()) ++leaf;
       std::memcpy(bytes.data() + first_node + leaf * sizeof(SplitNode) + 12, &code, 4);
-      const uint32_t crc = static_cast<uint32_t>(crc32(0L, bytes.data() + 28, static_cast<uInt>(bytes.size() - 28)));
+      const uint32_t crc =
+          static_cast<uint32_t>(crc32(0L, bytes.data() + 28, static_cast<uInt>(bytes.size() - 28)));
       std::memcpy(bytes.data() + 24, &crc, 4);
       auto r = deserializeModel(bytes.data(), bytes.size(), "old.model");
       ASSERT_FALSE(r.ok());
@@ -602,7 +615,8 @@ TEST_F(ModelFile, RejectsOtherFileTypesAndMissingFiles) {
   // A directory opens as a stream and claims an absurd size: an error, not std::bad_alloc.
   auto folder = loadModel(dir_.str());
   ASSERT_FALSE(folder.ok());
-  EXPECT_NE(folder.error().find("is a directory, not a model file"), std::string::npos) << folder.error();
+  EXPECT_NE(folder.error().find("is a directory, not a model file"), std::string::npos)
+      << folder.error();
 }
 
 TEST(Config, ForestYamlMatchesCompiledDefaults) {
@@ -612,7 +626,8 @@ TEST(Config, ForestYamlMatchesCompiledDefaults) {
 }
 
 TEST(Config, OverridesAndRejectsUnknownKeysAndWrongTypes) {
-  auto p = parseTrainingParams("points:\n  trees: 3\nline_sampling:\n  spacing_px: 4\n", "test.yaml");
+  auto p =
+      parseTrainingParams("points:\n  trees: 3\nline_sampling:\n  spacing_px: 4\n", "test.yaml");
   ASSERT_TRUE(p.ok()) << p.error();
   EXPECT_EQ(p->points.trees, 3);
   EXPECT_EQ(p->lines.trees, 5);
@@ -622,5 +637,6 @@ TEST(Config, OverridesAndRejectsUnknownKeysAndWrongTypes) {
   EXPECT_EQ(typo.error(), "test.yaml: unknown parameter 'points.treees'");
   auto wrong = parseTrainingParams("points:\n  trees: many\n", "test.yaml");
   ASSERT_FALSE(wrong.ok());
-  EXPECT_NE(wrong.error().find("'points.trees' has the wrong type"), std::string::npos) << wrong.error();
+  EXPECT_NE(wrong.error().find("'points.trees' has the wrong type"), std::string::npos)
+      << wrong.error();
 }

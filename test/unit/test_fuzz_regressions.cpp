@@ -17,7 +17,7 @@
 #include "relocalizer/core/config.h"
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/forest/training_config.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
 namespace {
@@ -68,7 +68,8 @@ std::vector<uint8_t> withHeader(const Model& model, const std::function<void(jso
   std::vector<uint8_t> out(bytes.begin(), bytes.begin() + kBodyOffset);
   const uint64_t body_size = body.size();
   std::memcpy(out.data() + kBodySizeOffset, &body_size, sizeof body_size);
-  const uint32_t crc = static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size())));
+  const uint32_t crc =
+      static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size())));
   std::memcpy(out.data() + kCrcOffset, &crc, sizeof crc);
   out.insert(out.end(), body.begin(), body.end());
   return out;
@@ -104,7 +105,8 @@ TEST(FuzzRegressionModel, LeafCodeInt32MinIsALeaf) {
 }
 
 TEST(FuzzRegressionModel, LeafModeRangeOutOfBoundsIsRejected) {
-  for (const LeafRange range : {LeafRange{1, 2}, LeafRange{UINT32_MAX, 2}, LeafRange{0, UINT32_MAX}}) {
+  for (const LeafRange range :
+       {LeafRange{1, 2}, LeafRange{UINT32_MAX, 2}, LeafRange{0, UINT32_MAX}}) {
     Model model = smallModel();
     model.points.trees[0].nodes[2] = SplitNode::leaf(range);
     auto loaded = roundTrip(model);
@@ -153,15 +155,17 @@ TEST(FuzzRegressionModel, HeaderNumbersMustFitTheirFields) {
   EXPECT_EQ(loadError(withHeader(model, [](json& h) { h["params"]["lines"]["max_depth"] = 1.5; })),
             "edited.model: model header is not valid: 'lines.max_depth' must be an integer from "
             "-2147483648 to 2147483647, got 1.5");
-  EXPECT_EQ(
-      loadError(withHeader(model, [](json& h) { h["params"]["seed"] = -1; })),
-      "edited.model: model header is not valid: 'seed' must be an integer from 0 to "
-      "18446744073709551615, got -1");
-  EXPECT_EQ(loadError(withHeader(model,
-                                 [](json& h) { h["params"]["points"]["mean_shift"]["bandwidth"] = 1e300; })),
+  EXPECT_EQ(loadError(withHeader(model, [](json& h) { h["params"]["seed"] = -1; })),
+            "edited.model: model header is not valid: 'seed' must be an integer from 0 to "
+            "18446744073709551615, got -1");
+  EXPECT_EQ(loadError(withHeader(
+                model, [](json& h) { h["params"]["points"]["mean_shift"]["bandwidth"] = 1e300; })),
             "edited.model: model header is not valid: 'points.mean_shift.bandwidth' must be a "
             "finite number, got 1e+300");
-  EXPECT_EQ(loadError(withHeader(model, [](json& h) { h["training_set"]["scene_min"] = {1, 2}; })),
+  EXPECT_EQ(loadError(withHeader(model,
+                                 [](json& h) {
+                                   h["training_set"]["scene_min"] = {1, 2};
+                                 })),
             "edited.model: model header is not valid: 'training_set.scene_min' must be 3 numbers, "
             "got [1,2]");
   EXPECT_EQ(loadError(withHeader(model, [](json& h) { h["params"]["train_lines"] = 1; })),
@@ -212,7 +216,8 @@ TEST(FuzzRegressionConfig, NonFiniteAndOutOfRangeNumbersAreErrors) {
   ASSERT_FALSE(merged);
   EXPECT_EQ(merged.error(), "node.yaml: 'solver.inlier_chi2' must be a finite number (got '.inf')");
   // Limits themselves are fine, and accepted values survive the model header.
-  auto edge = parseTrainingParams("points:\n  max_depth: 2147483647\n  max_offset: 3.0e38\n", "ok.yaml");
+  auto edge =
+      parseTrainingParams("points:\n  max_depth: 2147483647\n  max_offset: 3.0e38\n", "ok.yaml");
   ASSERT_TRUE(edge) << edge.error();
   EXPECT_EQ(edge->points.max_depth, 2147483647);
   auto again = trainingParamsFromJson(trainingParamsToJson(*edge));
@@ -228,10 +233,12 @@ TEST(FuzzRegressions, RelocalizerParametersOutOfRangeAreErrorsNotTruncations) {
   j["point_samples"] = 99999999999LL;
   auto huge = relocalizer::relocalizerParamsFromJson(j.dump());
   ASSERT_FALSE(huge.ok());
-  EXPECT_NE(huge.error().find("'point_samples' must be an integer"), std::string::npos) << huge.error();
+  EXPECT_NE(huge.error().find("'point_samples' must be an integer"), std::string::npos)
+      << huge.error();
   j = nlohmann::json::parse(relocalizer::relocalizerParamsToJson({}));
   j["solver"]["inlier_chi2"] = 1e300;
   auto far = relocalizer::relocalizerParamsFromJson(j.dump());
   ASSERT_FALSE(far.ok());
-  EXPECT_NE(far.error().find("'solver.inlier_chi2' must be a finite number"), std::string::npos) << far.error();
+  EXPECT_NE(far.error().find("'solver.inlier_chi2' must be a finite number"), std::string::npos)
+      << far.error();
 }

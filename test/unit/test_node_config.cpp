@@ -7,7 +7,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 using nlohmann::json;
 
@@ -40,13 +40,16 @@ void expectSame(const YAML::Node& yaml, const json& expected, const std::string&
 }  // namespace
 
 TEST(NodeConfig, RelocalizerSectionEqualsTheCompiledDefaults) {
-  const YAML::Node root = YAML::LoadFile(std::string(RELOCALIZER_SOURCE_DIR) + "/config/default.yaml");
+  const YAML::Node root =
+      YAML::LoadFile(std::string(RELOCALIZER_SOURCE_DIR) + "/config/default.yaml");
   ASSERT_TRUE(root["relocalizer"]) << "config/default.yaml has no relocalizer: section";
-  expectSame(root["relocalizer"], json::parse(relocalizer::relocalizerParamsToJson({})), "relocalizer.");
+  expectSame(root["relocalizer"], json::parse(relocalizer::relocalizerParamsToJson({})),
+             "relocalizer.");
 }
 
 TEST(NodeConfig, TheCoreReaderAcceptsTheFile) {
-  auto params = relocalizer::loadRelocalizerParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/default.yaml");
+  auto params = relocalizer::loadRelocalizerParams(std::string(RELOCALIZER_SOURCE_DIR) +
+                                                   "/config/default.yaml");
   ASSERT_TRUE(params.ok()) << params.error();
   EXPECT_EQ(json::parse(relocalizer::relocalizerParamsToJson(*params)),
             json::parse(relocalizer::relocalizerParamsToJson({})));
@@ -55,7 +58,8 @@ TEST(NodeConfig, TheCoreReaderAcceptsTheFile) {
 // The preset the README uses to compare with published numbers switches the
 // surface stage off and nothing else.
 TEST(NodeConfig, SurfaceOffPresetChangesOnlyTheSurfaceSwitch) {
-  auto params = relocalizer::loadRelocalizerParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/surface_off.yaml");
+  auto params = relocalizer::loadRelocalizerParams(std::string(RELOCALIZER_SOURCE_DIR) +
+                                                   "/config/surface_off.yaml");
   ASSERT_TRUE(params.ok()) << params.error();
   EXPECT_FALSE(params->surface.enabled);
   relocalizer::RelocalizerParams expected;

@@ -33,8 +33,9 @@ namespace {
 const CameraIntrinsics kCamera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
 
 void writeBytes(const std::string& path, const std::vector<uint8_t>& bytes) {
-  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
-                                              static_cast<std::streamsize>(bytes.size()));
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()),
+             static_cast<std::streamsize>(bytes.size()));
 }
 
 // Small forests: the room needs no more, and a retrain of 20 key frames stays
@@ -185,7 +186,8 @@ TEST_F(OnlineRoom, ParametersAreCheckedByName) {
   p = smallLearning();
   p.retrain_growth = -1;
   EXPECT_NE(learningParamsError(p).find("retrain_growth"), std::string::npos);
-  EXPECT_THROW(OnlineLearner(p, fastRelocalizer(), OnlineLearner::Mode::Inline), std::invalid_argument);
+  EXPECT_THROW(OnlineLearner(p, fastRelocalizer(), OnlineLearner::Mode::Inline),
+               std::invalid_argument);
   EXPECT_EQ(learningParamsError(smallLearning()), "");
 }
 
@@ -206,12 +208,13 @@ TEST(KeyFrameRule, MinMotionParsesAndFormatsBack) {
 TEST(KeyFrameRule, KeepsAFrameThatMovedOrTurnedFromTheLastKeptOne) {
   const auto at = [](double x, double yaw_degrees) {
     Pose pose = Pose::Identity();
-    pose.linear() = Eigen::AngleAxisd(yaw_degrees * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    pose.linear() =
+        Eigen::AngleAxisd(yaw_degrees * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     pose.translation() = Eigen::Vector3d(x, 0, 0);
     return pose;
   };
   KeyFrameSelector selector(KeyFrameMotion{0.05, 5.0});
-  EXPECT_TRUE(selector.keep(at(0, 0)));      // the first
+  EXPECT_TRUE(selector.keep(at(0, 0)));  // the first
   EXPECT_FALSE(selector.keep(at(0.03, 0)));
   EXPECT_TRUE(selector.keep(at(0.05, 0)));   // 5 cm from the first
   EXPECT_FALSE(selector.keep(at(0.09, 0)));  // 4 cm from the last kept one
@@ -228,9 +231,11 @@ TEST(LearningParams, ReadOnceAndCheckedByName) {
   ASSERT_TRUE(read.ok()) << read.error();
   EXPECT_EQ(read->min_motion.metres, 0.1);
   EXPECT_EQ(read->min_motion.degrees, 10.0);
-  EXPECT_NE(readLearningParams(LearningParams{}, "far", "").error().find("min_motion"), std::string::npos);
-  EXPECT_NE(readLearningParams(LearningParams{}, "0.05,5", "/nonexistent.yaml").error().find("config"),
+  EXPECT_NE(readLearningParams(LearningParams{}, "far", "").error().find("min_motion"),
             std::string::npos);
+  EXPECT_NE(
+      readLearningParams(LearningParams{}, "0.05,5", "/nonexistent.yaml").error().find("config"),
+      std::string::npos);
   LearningParams few;
   few.max_keyframes = 1;
   EXPECT_NE(readLearningParams(few, "0.05,5", "").error().find("max_keyframes"), std::string::npos);
@@ -309,8 +314,8 @@ TEST_F(OnlineRoom, KeyFrameFeedLoadsAndLearnsOnlyKeyFrames) {
   EXPECT_EQ(feed.offer(*first.ground_truth, load(first)).outcome, Outcome::Learned);
   EXPECT_EQ(feed.offer(*first.ground_truth, load(first)).outcome, Outcome::NotKeyFrame);
   EXPECT_EQ(loads, 1);
-  const KeyFrameFeed::Result failed =
-      feed.offer(*learn_[1].ground_truth, [] () -> Expected<RgbdFrame> { return makeError("unreadable"); });
+  const KeyFrameFeed::Result failed = feed.offer(
+      *learn_[1].ground_truth, []() -> Expected<RgbdFrame> { return makeError("unreadable"); });
   EXPECT_EQ(failed.outcome, Outcome::Failed);
   EXPECT_EQ(failed.why, "unreadable");
   EXPECT_EQ(feed.offer(*learn_[2].ground_truth, load(learn_[2])).outcome, Outcome::Learned);
@@ -330,7 +335,8 @@ TEST_F(OnlineRoom, LearnsThePlaceFromNothingSavesAndContinuesIt) {
     OnlineLearner learner(smallLearning(), fastRelocalizer(), OnlineLearner::Mode::Inline);
     EXPECT_EQ(learner.current(), nullptr);
     EXPECT_FALSE(learner.save(path).ok());
-    for (size_t i = 0; i < half; ++i) ASSERT_TRUE(learner.addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
+    for (size_t i = 0; i < half; ++i)
+      ASSERT_TRUE(learner.addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
     EXPECT_EQ(learner.current(), nullptr);  // Inline: nothing trains before drain()
     EXPECT_EQ(learner.status().backlog, static_cast<int>(half));
     ASSERT_TRUE(learner.drain().ok());
@@ -367,7 +373,8 @@ TEST_F(OnlineRoom, LearnsThePlaceFromNothingSavesAndContinuesIt) {
   ASSERT_TRUE(continued.drain().ok());
   EXPECT_EQ(continued.current()->model().summary.images, static_cast<int>(learn_.size()));
   const double share = accuracy(*continued.current());
-  std::printf("online room model from %zu key frames: %.0f%% within 5 cm / 5 deg\n", learn_.size(), 100 * share);
+  std::printf("online room model from %zu key frames: %.0f%% within 5 cm / 5 deg\n", learn_.size(),
+              100 * share);
   EXPECT_GE(share, 0.8);
 }
 
@@ -377,7 +384,8 @@ TEST_F(OnlineRoom, StoreStaysWithinItsCap) {
   LearningParams p = smallLearning();
   p.max_keyframes = 4;
   OnlineLearner learner(p, fastRelocalizer(), OnlineLearner::Mode::Inline);
-  for (const RgbdFrame& frame : learn_) ASSERT_TRUE(learner.addKeyFrame(frame, *frame.ground_truth).ok());
+  for (const RgbdFrame& frame : learn_)
+    ASSERT_TRUE(learner.addKeyFrame(frame, *frame.ground_truth).ok());
   const LearningStatus before = learner.status();
   EXPECT_EQ(before.keyframes_added, static_cast<int>(learn_.size()));
   EXPECT_EQ(before.keyframes_stored, 4);
@@ -394,14 +402,16 @@ TEST_F(OnlineRoom, SampleBudgetSetsSamplesPerImage) {
   p.training.lines.samples_per_image = 3000;
   p.samples_budget_per_tree = 8000;
   OnlineLearner learner(p, fastRelocalizer(), OnlineLearner::Mode::Inline);
-  for (size_t i = 0; i < 4; ++i) ASSERT_TRUE(learner.addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
+  for (size_t i = 0; i < 4; ++i)
+    ASSERT_TRUE(learner.addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
   ASSERT_TRUE(learner.drain().ok());
   EXPECT_EQ(learner.current()->model().params.points.samples_per_image, 2000);  // 8000 / 4
   EXPECT_EQ(learner.current()->model().params.lines.samples_per_image, 2000);
   for (size_t i = 4; i < learn_.size(); ++i)
     ASSERT_TRUE(learner.addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
   ASSERT_TRUE(learner.drain().ok());
-  EXPECT_EQ(learner.current()->model().params.points.samples_per_image, 1000);  // 400, raised to the floor
+  EXPECT_EQ(learner.current()->model().params.points.samples_per_image,
+            1000);  // 400, raised to the floor
 }
 
 // The worker thread: drain() waits for it, and the model it swaps in knows
@@ -431,7 +441,8 @@ TEST_F(OnlineRoom, BackgroundWorkerCatchesUpOnDrain) {
 TEST_F(OnlineRoom, DestroyingTheLearnerDuringARetrainIsSafe) {
   auto learner = std::make_unique<OnlineLearner>(smallLearning(), fastRelocalizer(),
                                                  OnlineLearner::Mode::Background);
-  for (const RgbdFrame& frame : learn_) ASSERT_TRUE(learner->addKeyFrame(frame, *frame.ground_truth).ok());
+  for (const RgbdFrame& frame : learn_)
+    ASSERT_TRUE(learner->addKeyFrame(frame, *frame.ground_truth).ok());
   const std::shared_ptr<const Relocalizer> held = learner->current();
   learner.reset();
   if (held) {
@@ -445,8 +456,10 @@ TEST_F(OnlineRoom, DestroyingTheLearnerDuringARetrainIsSafe) {
 namespace {
 
 // A learner whose model was trained on `learn_[first, first + count)`.
-std::unique_ptr<OnlineLearner> trainedLearner(const std::vector<RgbdFrame>& frames, size_t first, size_t count) {
-  auto learner = std::make_unique<OnlineLearner>(smallLearning(), fastRelocalizer(), OnlineLearner::Mode::Inline);
+std::unique_ptr<OnlineLearner> trainedLearner(const std::vector<RgbdFrame>& frames, size_t first,
+                                              size_t count) {
+  auto learner = std::make_unique<OnlineLearner>(smallLearning(), fastRelocalizer(),
+                                                 OnlineLearner::Mode::Inline);
   for (size_t i = first; i < first + count; ++i)
     EXPECT_TRUE(learner->addKeyFrame(frames[i], *frames[i].ground_truth).ok());
   EXPECT_TRUE(learner->drain().ok());
@@ -458,7 +471,9 @@ std::string readText(const std::string& path) {
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
 
 // A pid no process has: a child that has exited and been reaped.
 pid_t deadPid() {
@@ -494,7 +509,8 @@ TEST_F(OnlineRoom, SaveRefusesTargetsThatAreNotItsOwnFiles) {
 
   saved = learner->save(victim);
   ASSERT_FALSE(saved.ok());
-  EXPECT_TRUE(contains(saved.error(), victim + ": exists and is not a relocalizer model")) << saved.error();
+  EXPECT_TRUE(contains(saved.error(), victim + ": exists and is not a relocalizer model"))
+      << saved.error();
   EXPECT_EQ(readText(victim), "alias ls='ls --color'\n");
 
   // The key-frame companion is checked as strictly, before anything is written.
@@ -502,7 +518,8 @@ TEST_F(OnlineRoom, SaveRefusesTargetsThatAreNotItsOwnFiles) {
   std::filesystem::create_symlink(victim, keyFramesPath(model));
   saved = learner->save(model);
   ASSERT_FALSE(saved.ok());
-  EXPECT_TRUE(contains(saved.error(), keyFramesPath(model) + ": is a symbolic link")) << saved.error();
+  EXPECT_TRUE(contains(saved.error(), keyFramesPath(model) + ": is a symbolic link"))
+      << saved.error();
   EXPECT_FALSE(std::filesystem::exists(model));
   EXPECT_EQ(readText(victim), "alias ls='ls --color'\n");
 
@@ -647,9 +664,11 @@ TEST_F(OnlineRoom, LearnerRefusesImplausibleSlamPoses) {
   scaled.linear() *= 2.0;
   Pose mirrored = *frame.ground_truth;
   mirrored.linear().col(0) *= -1.0;
-  for (const auto& [pose, why] : std::vector<std::pair<Pose, std::string>>{
-           {far, "from the map origin"}, {nan, "not finite"}, {scaled, "not a rotation"},
-           {mirrored, "not a rotation"}}) {
+  for (const auto& [pose, why] :
+       std::vector<std::pair<Pose, std::string>>{{far, "from the map origin"},
+                                                 {nan, "not finite"},
+                                                 {scaled, "not a rotation"},
+                                                 {mirrored, "not a rotation"}}) {
     const Status added = learner.addKeyFrame(frame, pose);
     ASSERT_FALSE(added.ok()) << why;
     EXPECT_TRUE(contains(added.error(), why)) << added.error();

@@ -47,7 +47,10 @@ TEST(PoseErrors, NonOrthonormalGroundTruthIsProjectedFirst) {
   Eigen::Matrix4d shrunk = exact.matrix();
   shrunk.topLeftCorner<3, 3>() *= 0.9999;
   const double raw_trace_angle =
-      std::acos(std::clamp((shrunk.topLeftCorner<3, 3>().transpose() * exact.linear()).trace() / 2.0 - 0.5, -1.0, 1.0)) * 180 / M_PI;
+      std::acos(std::clamp(
+          (shrunk.topLeftCorner<3, 3>().transpose() * exact.linear()).trace() / 2.0 - 0.5, -1.0,
+          1.0)) *
+      180 / M_PI;
   EXPECT_GT(raw_trace_angle, 0.5);
   auto parsed = poseFromMatrix(shrunk);
   ASSERT_TRUE(parsed.ok()) << parsed.error();
@@ -137,7 +140,8 @@ TEST(Evaluation, RecordsOfAttemptsSummarizeAsTheirErrors) {
   const EvaluationSummary s = summarizeEvaluation(records);
   EXPECT_DOUBLE_EQ(s.accuracy.within_5cm_5deg, 0.5);
   EXPECT_DOUBLE_EQ(s.total.median_ms, 20.0);
-  EXPECT_DOUBLE_EQ(s.total.p95_ms, stageLatency({answered.timings, refused.timings}, &StageTimings::total).p95_ms);
+  EXPECT_DOUBLE_EQ(s.total.p95_ms,
+                   stageLatency({answered.timings, refused.timings}, &StageTimings::total).p95_ms);
   EXPECT_NEAR(s.total.p95_ms, 29.0, 1e-9);
 }
 
@@ -180,7 +184,8 @@ TEST(Depth, MillimetresToMetresWithInvalidMarkers) {
 }
 
 TEST(Depth, FloatMetresDropNonPositiveAndNonFinite) {
-  cv::Mat raw = (cv::Mat_<float>(1, 4) << 1.25f, -1.0f, std::numeric_limits<float>::infinity(), 0.0f);
+  cv::Mat raw =
+      (cv::Mat_<float>(1, 4) << 1.25f, -1.0f, std::numeric_limits<float>::infinity(), 0.0f);
   auto metres = depthToMetres(raw);
   ASSERT_TRUE(metres.ok());
   EXPECT_FLOAT_EQ(metres->at<float>(0, 0), 1.25f);

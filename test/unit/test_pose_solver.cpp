@@ -46,7 +46,8 @@ struct Scenario {
     predictions.resize(count);
     for (int i = 0; i < count; ++i) {
       const Eigen::Vector3f camera(u(rng), u(rng), z(rng));
-      const Eigen::Vector3f world = (truth.cast<float>() * camera) + Eigen::Vector3f(n(rng), n(rng), n(rng));
+      const Eigen::Vector3f world =
+          (truth.cast<float>() * camera) + Eigen::Vector3f(n(rng), n(rng), n(rng));
       const bool outlier = unit(rng) < outlier_share;
       Prediction& p = predictions[i];
       for (int c = 0; c < candidates; ++c) {
@@ -105,7 +106,9 @@ const double kZero[6] = {0, 0, 0, 0, 0, 0};
 template <typename Energy>
 struct Reference {
   Reference(const RefinementTerm& term, const Pose& base)
-      : term(term), r0(base.linear()), t0(base.translation()),
+      : term(term),
+        r0(base.linear()),
+        t0(base.translation()),
         s(term.information.llt().matrixL().transpose()) {}
   template <typename T>
   bool operator()(const T* delta, T* residual) const {
@@ -148,8 +151,8 @@ struct PointOnLineEnergy {
 TEST(Residuals, PointToPointMatchesHandComputedMahalanobis) {
   const Pose pose = makePose(90, {0, 0, 1}, {1, 0, 0});  // x -> y, then +1 in x
   RefinementTerm term;
-  term.camera_point = {1, 0, 0};      // world: (1, 1, 0)
-  term.mode_mean = {1, 1.2, 0.3};     // difference (0, -0.2, -0.3)
+  term.camera_point = {1, 0, 0};   // world: (1, 1, 0)
+  term.mode_mean = {1, 1.2, 0.3};  // difference (0, -0.2, -0.3)
   term.information = Eigen::Vector3d(1.0 / 0.01, 1.0 / 0.04, 1.0 / 0.09).asDiagonal();
   SharedPerturbation at(pose);
   const Eigen::Vector3d r = evaluateCost(PointToPointCost(term, at), kZero);
@@ -191,7 +194,8 @@ TEST(Residuals, HandDerivedJacobiansMatchAutodiff) {
   std::mt19937 rng(4);
   std::uniform_real_distribution<double> u(-1, 1);
   for (int trial = 0; trial < 50; ++trial) {
-    const Pose base = makePose(180 * u(rng), {u(rng), u(rng), u(rng) + 2}, {u(rng), u(rng), u(rng)});
+    const Pose base =
+        makePose(180 * u(rng), {u(rng), u(rng), u(rng) + 2}, {u(rng), u(rng), u(rng)});
     RefinementTerm term;
     term.camera_point = {u(rng), u(rng), 2 + u(rng)};
     term.mode_mean = base * term.camera_point + 0.1 * Eigen::Vector3d(u(rng), u(rng), u(rng));
@@ -219,9 +223,11 @@ TEST(Residuals, HandDerivedJacobiansMatchAutodiff) {
           ceres::AutoDiffCostFunction<PointReference, 3, 6>(new PointReference(term, base)), delta,
           &autodiff);
     EXPECT_LT((residual - reference).norm(), 1e-9);
-    EXPECT_LT((analytic - autodiff).cwiseAbs().maxCoeff(), 1e-8 * (1 + autodiff.cwiseAbs().maxCoeff()))
+    EXPECT_LT((analytic - autodiff).cwiseAbs().maxCoeff(),
+              1e-8 * (1 + autodiff.cwiseAbs().maxCoeff()))
         << (term.on_line ? "line" : "point") << " term, trial " << trial << "\n"
-        << analytic << "\nvs\n" << autodiff;
+        << analytic << "\nvs\n"
+        << autodiff;
   }
 }
 

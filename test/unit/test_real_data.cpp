@@ -11,7 +11,7 @@
 #include "relocalizer/data/dataset.h"
 #include "relocalizer/eval/metrics.h"
 #include "relocalizer/forest/model_builder.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 #include "support.h"
 
 using namespace relocalizer;
@@ -67,10 +67,11 @@ TEST(RealData, ReducedRedkitchenDevProtocolStaysAboveItsFloor) {
     truths.push_back(*frame->ground_truth);
   }
   const AccuracySummary s = summarizeAccuracy(errors, estimates, truths);
-  std::printf("reduced redkitchen-dev: %d frames, %.1f%% within 5 cm / 5 deg, %.1f%% within 2 cm / "
-              "2 deg, median %.2f cm / %.2f deg\n",
-              s.frames, 100 * s.within_5cm_5deg, 100 * s.within_2cm_2deg,
-              100 * s.median_translation_m, s.median_rotation_deg);
+  std::printf(
+      "reduced redkitchen-dev: %d frames, %.1f%% within 5 cm / 5 deg, %.1f%% within 2 cm / "
+      "2 deg, median %.2f cm / %.2f deg\n",
+      s.frames, 100 * s.within_5cm_5deg, 100 * s.within_2cm_2deg, 100 * s.median_translation_m,
+      s.median_rotation_deg);
   // Measured 80% and 1.7 cm / 0.66 deg when written; the baseline BTBRF reaches 41%.
   EXPECT_EQ(s.frames, 50);
   EXPECT_GE(s.within_5cm_5deg, 0.65);

@@ -4,14 +4,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "relocalizer/core/statistics.h"
+#include "relocalizer/sim/synthetic_scene.h"
 #include "relocalizer/surface/surface_fit.h"
 #include "relocalizer/surface/surface_model.h"
-#include "relocalizer/sim/synthetic_scene.h"
 
 namespace relocalizer {
 namespace {
@@ -44,7 +44,8 @@ Pose perturbed(const Pose& truth, double metres, double degrees, std::mt19937& r
   const Eigen::Vector3d axis = Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)).normalized();
   const Eigen::Vector3d shift = Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)).normalized();
   Pose pose = truth;
-  pose.linear() = Eigen::AngleAxisd(degrees * M_PI / 180.0, axis).toRotationMatrix() * truth.linear();
+  pose.linear() =
+      Eigen::AngleAxisd(degrees * M_PI / 180.0, axis).toRotationMatrix() * truth.linear();
   pose.translation() += metres * shift;
   return pose;
 }
@@ -59,7 +60,8 @@ TEST(SurfaceModel, ElementsLieOnTheRoomsSurfaces) {
   }
   // Kinect noise at 1-2.5 m is 2-10 mm per pixel; a voxel averages many.
   std::printf("%zu elements; distance to the true surface: median %.2f mm, 95th %.2f mm\n",
-              r.surface.elements().size(), 1000 * percentile(distances, 50), 1000 * percentile(distances, 95));
+              r.surface.elements().size(), 1000 * percentile(distances, 50),
+              1000 * percentile(distances, 95));
   EXPECT_LT(percentile(distances, 50), 0.004);
   EXPECT_LT(percentile(distances, 95), 0.015);
 }
@@ -130,15 +132,17 @@ TEST(SurfaceFit, IcpRecoversPosesCentimetresOff) {
     const Pose& truth = r.paths.test[i];
     const RgbdFrame frame = r.room.render(truth, kCamera, 1000 + static_cast<int>(i));
     const Pose start = perturbed(truth, 0.02, 1.5, rng);
-    const SurfaceFit fit = fitToSurface(r.surface, surfaceFitPoints(frame, params.points), start, params);
+    const SurfaceFit fit =
+        fitToSurface(r.surface, surfaceFitPoints(frame, params.points), start, params);
     before_t.push_back(translationError(start, truth));
     after_t.push_back(translationError(fit.pose, truth));
     after_r.push_back(rotationErrorDegrees(fit.pose, truth));
     agreement.push_back(fit.agreement);
   }
-  std::printf("ICP from 2 cm / 1.5 deg: median %.2f mm / %.3f deg, 90th %.2f mm, agreement 10th pct %.2f\n",
-              1000 * percentile(after_t, 50), percentile(after_r, 50), 1000 * percentile(after_t, 90),
-              percentile(agreement, 10));
+  std::printf(
+      "ICP from 2 cm / 1.5 deg: median %.2f mm / %.3f deg, 90th %.2f mm, agreement 10th pct %.2f\n",
+      1000 * percentile(after_t, 50), percentile(after_r, 50), 1000 * percentile(after_t, 90),
+      percentile(agreement, 10));
   EXPECT_LT(percentile(after_t, 50), 0.004);
   EXPECT_LT(percentile(after_r, 50), 0.2);
   EXPECT_LT(percentile(after_t, 90), 0.01);
@@ -158,17 +162,18 @@ TEST(SurfaceFit, AgreementSeparatesRightPosesFromWrongOnesAndOtherRooms) {
     const auto points = surfaceFitPoints(frame, params.points);
     lowest_right = std::min(lowest_right, fitToSurface(r.surface, points, truth, params).agreement);
     const Pose wrong = perturbed(truth, 0.5, 30.0, rng);
-    highest_wrong = std::max(highest_wrong, fitToSurface(r.surface, points, wrong, params).agreement);
+    highest_wrong =
+        std::max(highest_wrong, fitToSurface(r.surface, points, wrong, params).agreement);
   }
   for (size_t i = 0; i < other_paths.test.size(); i += 2) {
     // Another room's frame placed where it was taken, in this room's world.
     const RgbdFrame frame = other.render(other_paths.test[i], kCamera, static_cast<int>(i));
     const auto points = surfaceFitPoints(frame, params.points);
-    highest_wrong =
-        std::max(highest_wrong, fitToSurface(r.surface, points, other_paths.test[i], params).agreement);
+    highest_wrong = std::max(
+        highest_wrong, fitToSurface(r.surface, points, other_paths.test[i], params).agreement);
   }
-  std::printf("agreement: lowest right pose %.3f, highest wrong pose or other room %.3f\n", lowest_right,
-              highest_wrong);
+  std::printf("agreement: lowest right pose %.3f, highest wrong pose or other room %.3f\n",
+              lowest_right, highest_wrong);
   EXPECT_GT(lowest_right, params.min_agreement);
   EXPECT_LT(highest_wrong, params.min_agreement);
 }

@@ -190,8 +190,8 @@ TEST(SyntheticScene, ExactDepthMatchesKnownPlanes) {
   Pose up = lookingDownFrom(room, 1.2);
   up.linear() = up.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
   const cv::Mat ceiling = room.exactDepth(up, kSmall);
-  EXPECT_NEAR(ceiling.at<float>(kSmall.height / 2, kSmall.width / 2),
-              room.bounds().max().z() - 1.2, 1e-5);
+  EXPECT_NEAR(ceiling.at<float>(kSmall.height / 2, kSmall.width / 2), room.bounds().max().z() - 1.2,
+              1e-5);
 }
 
 TEST(SyntheticScene, ExactDepthIsConsistentAcrossViews) {

@@ -35,8 +35,7 @@ struct CameraIntrinsics {
     if (!(std::isfinite(fx) && std::isfinite(fy) && fx > 0 && fy > 0))
       return "focal length must be finite and positive (fx=" + std::to_string(fx) +
              ", fy=" + std::to_string(fy) + ")";
-    if (!(std::isfinite(cx) && std::isfinite(cy)))
-      return "principal point must be finite";
+    if (!(std::isfinite(cx) && std::isfinite(cy))) return "principal point must be finite";
     if (width <= 0 || height <= 0)
       return "image size must be positive (" + std::to_string(width) + "x" +
              std::to_string(height) + ")";

@@ -11,7 +11,8 @@ namespace relocalizer {
 
 // Merges a YAML document onto a JSON object of defaults, key by key, checking
 // that every key exists and its type matches. Shared by every config reader.
-Expected<std::string> mergeYamlOntoJson(const std::string& yaml_text, const std::string& defaults_json,
+Expected<std::string> mergeYamlOntoJson(const std::string& yaml_text,
+                                        const std::string& defaults_json,
                                         const std::string& source);
 
 }  // namespace relocalizer

@@ -34,7 +34,8 @@ struct FileReplacement {
 
 // Empty when `path` may be replaced by a file of `magic`, else why not
 // (naming the path).
-std::string replaceableError(const std::string& path, std::string_view magic, const std::string& what);
+std::string replaceableError(const std::string& path, std::string_view magic,
+                             const std::string& what);
 
 // Replaces every target as described above; nothing is written unless every
 // target may be replaced. Messages name the path and carry the system's reason.

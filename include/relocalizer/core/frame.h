@@ -3,8 +3,8 @@
 // the same size and share the depth camera's intrinsics (datasets whose colour
 // is a different resolution are resampled by their reader).
 
-#include <optional>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 
 #include "relocalizer/core/camera.h"
@@ -17,10 +17,10 @@ struct RgbdFrame {
   cv::Mat colour;  // CV_8UC3, BGR
   cv::Mat depth;   // CV_32FC1, metres along the optical axis, NaN where invalid
   CameraIntrinsics camera;
-  double stamp = 0.0;  // seconds; datasets without time use the frame number
-  int id = -1;         // frame number within its dataset
+  double stamp = 0.0;                // seconds; datasets without time use the frame number
+  int id = -1;                       // frame number within its dataset
   std::optional<Pose> ground_truth;  // camera-to-world, when known
-  std::string source;  // where it came from, for error messages (file or topic)
+  std::string source;                // where it came from, for error messages (file or topic)
 };
 
 // Depth in metres with NaN for invalid pixels, from:

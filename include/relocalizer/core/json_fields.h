@@ -18,7 +18,8 @@ using nlohmann::json;
 template <typename T>
 T checkedNumber(const json& v, const std::string& name) {
   if constexpr (std::is_same_v<T, bool>) {
-    if (!v.is_boolean()) throw std::out_of_range("'" + name + "' must be true or false, got " + v.dump());
+    if (!v.is_boolean())
+      throw std::out_of_range("'" + name + "' must be true or false, got " + v.dump());
     return v.get<bool>();
   } else if constexpr (std::is_integral_v<T>) {
     using Limits = std::numeric_limits<T>;
@@ -31,9 +32,10 @@ T checkedNumber(const json& v, const std::string& name) {
               static_cast<uint64_t>(v.get<int64_t>()) <= static_cast<uint64_t>(Limits::max()));
     if (!fits)
       throw std::out_of_range("'" + name + "' must be an integer from " +
-                              std::to_string(Limits::min()) + " to " + std::to_string(Limits::max()) +
-                              ", got " + v.dump());
-    return v.is_number_unsigned() ? static_cast<T>(v.get<uint64_t>()) : static_cast<T>(v.get<int64_t>());
+                              std::to_string(Limits::min()) + " to " +
+                              std::to_string(Limits::max()) + ", got " + v.dump());
+    return v.is_number_unsigned() ? static_cast<T>(v.get<uint64_t>())
+                                  : static_cast<T>(v.get<int64_t>());
   } else {
     static_assert(std::is_floating_point_v<T>);
     const double d = v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();

@@ -30,8 +30,8 @@
 namespace relocalizer {
 
 struct DepthAlignmentParams {
-  int stride = 3;              // pixels between the moving frame's samples
-  int normal_step = 4;         // pixels between the points spanning a normal
+  int stride = 3;       // pixels between the moving frame's samples
+  int normal_step = 4;  // pixels between the points spanning a normal
   int iterations = 30;
   double max_residual = 0.05;  // metres; farther correspondences are occlusions
   double huber = 0.01;         // metres; residuals beyond it are down-weighted
@@ -68,7 +68,7 @@ struct MotionCheck {
   PoseDifference disagreement;         // between the two motions
   double rms_at_ground_truth = 0.0;    // metres
   double rms_aligned = 0.0;
-  bool aligned = false;                // the depth alignment succeeded
+  bool aligned = false;  // the depth alignment succeeded
 };
 
 // Thresholds above which a pair's ground truth is called inconsistent. The

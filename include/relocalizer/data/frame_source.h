@@ -51,7 +51,9 @@ class ReaderFrameSource : public FrameSource {
   size_t size() const override { return reader_->size(); }
   int id(size_t i) const override { return reader_->id(i); }
   double stamp(size_t i) const override { return reader_->stamp(i); }
-  const std::optional<Pose>& groundTruth(size_t i) const override { return reader_->groundTruth(i); }
+  const std::optional<Pose>& groundTruth(size_t i) const override {
+    return reader_->groundTruth(i);
+  }
   Expected<RgbdFrame> load(size_t i) const override { return reader_->load(i); }
   const CameraIntrinsics& camera() const override { return reader_->camera(); }
   std::string summary() const override { return reader_->summary(); }

@@ -93,8 +93,7 @@ class PhotometricConsistency {
 ColourRegistration estimateColourRegistration(const std::vector<PosedRgbd>& frames,
                                               const CameraIntrinsics& depth_camera,
                                               const ColourRegistration& initial,
-                                              bool fit_offset = false,
-                                              double* cost = nullptr,
+                                              bool fit_offset = false, double* cost = nullptr,
                                               double* initial_cost = nullptr);
 
 }  // namespace relocalizer

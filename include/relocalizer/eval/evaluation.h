@@ -10,7 +10,7 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/eval/metrics.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
 
@@ -28,7 +28,8 @@ struct EvaluationRecord {
 };
 
 // The record of one attempt: what relocalize() answered for a frame with ground truth.
-EvaluationRecord recordAttempt(int id, double stamp, const Pose& truth, const Relocalization& result);
+EvaluationRecord recordAttempt(int id, double stamp, const Pose& truth,
+                               const Relocalization& result);
 
 struct LatencySummary {
   double median_ms = 0.0;
@@ -50,14 +51,15 @@ AccuracySummary summarizeAccuracy(const std::vector<EvaluationRecord>& records);
 std::string formatEvaluationTable(const EvaluationSummary& summary, const std::string& title);
 
 struct EvaluationOutputOptions {
-  bool integer_stamps = false;   // 7-Scenes: the stamp column is the frame number
-  std::string title;             // for plots and the JSON
-  std::string extra_json;        // an object merged into summary.json (model, params, ...)
+  bool integer_stamps = false;  // 7-Scenes: the stamp column is the frame number
+  std::string title;            // for plots and the JSON
+  std::string extra_json;       // an object merged into summary.json (model, params, ...)
 };
 
 // Writes poses.txt (TUM format, frames with a pose), errors.csv, summary.json,
 // trajectory.png and errors.png into `folder` (created if missing).
-Status writeEvaluationOutputs(const std::string& folder, const std::vector<EvaluationRecord>& records,
+Status writeEvaluationOutputs(const std::string& folder,
+                              const std::vector<EvaluationRecord>& records,
                               const EvaluationSummary& summary,
                               const EvaluationOutputOptions& options);
 

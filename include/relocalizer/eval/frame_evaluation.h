@@ -9,7 +9,7 @@
 #include "relocalizer/core/expected.h"
 #include "relocalizer/data/frame_source.h"
 #include "relocalizer/eval/evaluation.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
 
@@ -31,7 +31,8 @@ struct FrameEvaluation {
 // has; `progress_label` names the progress bar. Fails on the first frame that
 // does not load.
 Expected<FrameEvaluation> evaluateFrames(const Relocalizer& relocalizer, const FrameSource& source,
-                                         bool measure_predictions, const std::string& progress_label);
+                                         bool measure_predictions,
+                                         const std::string& progress_label);
 
 // One printed line per measured forest, and the same as a JSON object
 // ({"points": {...}, "lines": {...}}; "null" when nothing was measured).

@@ -10,7 +10,7 @@
 #include "relocalizer/core/expected.h"
 #include "relocalizer/data/frame_source.h"
 #include "relocalizer/eval/metrics.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
 

@@ -10,9 +10,9 @@ namespace relocalizer {
 
 struct FrameError {
   int id = -1;
-  bool has_pose = false;  // false: the relocalizer said "no pose"
-  double translation_m = 0.0;   // +inf without a pose
-  double rotation_deg = 0.0;    // +inf without a pose
+  bool has_pose = false;       // false: the relocalizer said "no pose"
+  double translation_m = 0.0;  // +inf without a pose
+  double rotation_deg = 0.0;   // +inf without a pose
 };
 
 FrameError frameError(int id, const std::optional<Pose>& estimate, const Pose& truth);

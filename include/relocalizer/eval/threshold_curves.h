@@ -10,7 +10,7 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/data/frame_source.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
 
@@ -42,7 +42,8 @@ Expected<std::vector<GateAnswer>> answerFrames(const Relocalizer& relocalizer,
 // (min_agreement, when the answers checked a surface) and curves.json, with
 // `extra_json` (an object) merged in, into `folder`. Returns the printed report.
 Expected<std::string> writeThresholdCurves(const std::vector<GateAnswer>& answers,
-                                           const GateSettings& configured, const std::string& folder,
+                                           const GateSettings& configured,
+                                           const std::string& folder,
                                            const std::string& extra_json);
 
 }  // namespace relocalizer

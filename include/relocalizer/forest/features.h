@@ -61,8 +61,10 @@ struct FeatureImage {
 inline void secondPixel(const PixelFeature& feature, const FeatureImage& image, int u, int v,
                         float depth_p, int& qu, int& qv) {
   const float inverse_depth = 1.0f / depth_p;
-  qu = u + static_cast<int>(feature.offset_u * inverse_depth + (feature.offset_u >= 0 ? 0.5f : -0.5f));
-  qv = v + static_cast<int>(feature.offset_v * inverse_depth + (feature.offset_v >= 0 ? 0.5f : -0.5f));
+  qu = u +
+       static_cast<int>(feature.offset_u * inverse_depth + (feature.offset_u >= 0 ? 0.5f : -0.5f));
+  qv = v +
+       static_cast<int>(feature.offset_v * inverse_depth + (feature.offset_v >= 0 ? 0.5f : -0.5f));
   qu = qu < 0 ? 0 : (qu >= image.width ? image.width - 1 : qu);
   qv = qv < 0 ? 0 : (qv >= image.height ? image.height - 1 : qv);
 }
@@ -86,15 +88,16 @@ inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& im
 // f for the sample at integer pixel (u, v) with valid depth `depth_p` > 0.
 inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image, int u, int v,
                              float depth_p) {
-  return evaluateFeature(feature, image, u, v, depth_p, image.colour + v * image.colour_stride + u * 3);
+  return evaluateFeature(feature, image, u, v, depth_p,
+                         image.colour + v * image.colour_stride + u * 3);
 }
 
 // Starts loading the second pixel q that evaluateFeature will read, for
 // callers that evaluate one feature on many samples scattered over many images
 // and keep each sample's own pixel I(p) at hand: issued some samples ahead, the
 // cache misses overlap instead of following one another.
-inline void prefetchSecondPixel(const PixelFeature& feature, const FeatureImage& image, int u, int v,
-                                float depth_p) {
+inline void prefetchSecondPixel(const PixelFeature& feature, const FeatureImage& image, int u,
+                                int v, float depth_p) {
   int qu, qv;
   secondPixel(feature, image, u, v, depth_p, qu, qv);
   if (feature.type == FeatureType::Colour)
@@ -103,8 +106,8 @@ inline void prefetchSecondPixel(const PixelFeature& feature, const FeatureImage&
     __builtin_prefetch(image.depth + qv * image.depth_stride + qu);
 }
 
-constexpr int kDescriptorPatch = 16;         // pixels per side
-constexpr int kDescriptorPerChannel = 16;    // 4x4 lowest-sequency WHT coefficients
+constexpr int kDescriptorPatch = 16;       // pixels per side
+constexpr int kDescriptorPerChannel = 16;  // 4x4 lowest-sequency WHT coefficients
 constexpr int kDescriptorSize = 3 * kDescriptorPerChannel;
 using Descriptor = std::array<int8_t, kDescriptorSize>;
 using DescriptorF = std::array<float, kDescriptorSize>;

@@ -51,7 +51,7 @@ struct LeafRange {
 struct SplitNode {
   PixelFeature feature;    // splits only; leaves: their LeafRange (leafModes())
   float threshold = 0.0f;  // f < threshold goes left
-  int32_t left = -1;       // >= 0: index of the left child (the right child follows it); < 0: a leaf
+  int32_t left = -1;  // >= 0: index of the left child (the right child follows it); < 0: a leaf
 
   bool isLeaf() const { return left < 0; }
   LeafRange leafModes() const {
@@ -69,8 +69,8 @@ static_assert(sizeof(SplitNode) == 16, "SplitNode layout is part of the model fo
 static_assert(sizeof(LeafRange) == sizeof(PixelFeature), "a leaf's range replaces the feature");
 
 struct Tree {
-  std::vector<SplitNode> nodes;        // nodes[0] is the root; children follow their parent
-  std::vector<LeafMode> modes;         // leaves' modes, leaf by leaf
+  std::vector<SplitNode> nodes;         // nodes[0] is the root; children follow their parent
+  std::vector<LeafMode> modes;          // leaves' modes, leaf by leaf
   std::vector<Descriptor> descriptors;  // descriptors[m]: the mean WHT descriptor of modes[m]
 
   int depth() const;

@@ -10,8 +10,8 @@
 namespace relocalizer {
 
 struct MeanShiftParams {
-  float bandwidth = 0.05f;      // Gaussian kernel sigma, metres
-  int max_seeds = 64;           // seeds are spread evenly over the points
+  float bandwidth = 0.05f;  // Gaussian kernel sigma, metres
+  int max_seeds = 64;       // seeds are spread evenly over the points
   int max_iterations = 20;
   int max_modes = 4;            // strongest modes kept
   float min_mode_share = 0.1f;  // of the points; weaker modes are dropped

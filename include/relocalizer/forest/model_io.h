@@ -47,11 +47,11 @@ uint32_t crc32Of(const uint8_t* data, size_t size);
 
 // What the forests were trained on.
 struct TrainingSummary {
-  std::string dataset;      // path as given
-  std::string format;       // dataset format name
-  std::string frames;       // selection expression, empty = all
+  std::string dataset;  // path as given
+  std::string format;   // dataset format name
+  std::string frames;   // selection expression, empty = all
   int images = 0;
-  double seconds = 0.0;     // wall time of training
+  double seconds = 0.0;  // wall time of training
   int threads = 0;
   Eigen::Vector3f scene_min = Eigen::Vector3f::Zero();  // bounds of the camera centres
   Eigen::Vector3f scene_max = Eigen::Vector3f::Zero();

@@ -17,17 +17,15 @@ namespace relocalizer {
 struct Sample {
   int16_t u = 0;
   int16_t v = 0;
-  float depth = 0.0f;               // metres, valid
-  Eigen::Vector3f camera_point;     // back-projection of (u, v, depth)
-  int32_t line = -1;                // index into the frame's lines, or -1
+  float depth = 0.0f;            // metres, valid
+  Eigen::Vector3f camera_point;  // back-projection of (u, v, depth)
+  int32_t line = -1;             // index into the frame's lines, or -1
 };
 
 struct Line3D {
   Eigen::Vector3f point;      // a point on the line, camera frame
   Eigen::Vector3f direction;  // unit
-  float distance(const Eigen::Vector3f& p) const {
-    return (p - point).cross(direction).norm();
-  }
+  float distance(const Eigen::Vector3f& p) const { return (p - point).cross(direction).norm(); }
 };
 
 struct LineSamplingParams {
@@ -39,10 +37,10 @@ struct LineSamplingParams {
   // Samples are taken this many pixels off the detected edge, on both sides:
   // an intensity edge is often a depth edge, where depth is mixed or missing.
   float edge_offset_px = 0.0f;
-  float ransac_inlier_m = 0.015f;       // point-to-line distance for inliers
+  float ransac_inlier_m = 0.015f;  // point-to-line distance for inliers
   int ransac_iterations = 32;
-  int min_inliers = 4;                  // per segment, after RANSAC
-  float min_inlier_ratio = 0.5f;        // of the segment's samples with depth
+  int min_inliers = 4;            // per segment, after RANSAC
+  float min_inlier_ratio = 0.5f;  // of the segment's samples with depth
 };
 
 // Up to `count` distinct pixels with valid depth, uniformly at random. Appends.
@@ -51,8 +49,8 @@ void samplePoints(const RgbdFrame& frame, int count, std::mt19937& rng, std::vec
 struct LineSamples {
   std::vector<Sample> samples;  // .line indexes `lines`
   std::vector<Line3D> lines;
-  int segments_detected = 0;    // LSD segments before the length filter
-  int segments_kept = 0;        // segments with a line fit
+  int segments_detected = 0;  // LSD segments before the length filter
+  int segments_kept = 0;      // segments with a line fit
 };
 
 // LSD segments of at least the minimum length, sampled evenly; samples without

@@ -32,13 +32,13 @@ const char* forestKindName(ForestKind kind);
 struct ForestParams {
   int trees = 5;
   int max_depth = 25;
-  int min_samples_leaf = 20;       // no split leaves a child with fewer samples
-  int images_per_tree = 500;       // capped by the number of training images
-  int samples_per_image = 5000;    // pixels (or line samples) drawn per image
-  int feature_candidates = 32;     // random features tried per node (64 until 0.2: docs/benchmarks.md)
-  int threshold_candidates = 16;   // random thresholds tried per feature
-  int split_sample_cap = 1000;     // samples used to score splits at a node
-  float max_offset = 130.0f;       // |delta| per axis, pixel-metres
+  int min_samples_leaf = 20;     // no split leaves a child with fewer samples
+  int images_per_tree = 500;     // capped by the number of training images
+  int samples_per_image = 5000;  // pixels (or line samples) drawn per image
+  int feature_candidates = 32;  // random features tried per node (64 until 0.2: docs/benchmarks.md)
+  int threshold_candidates = 16;     // random thresholds tried per feature
+  int split_sample_cap = 1000;       // samples used to score splits at a node
+  float max_offset = 130.0f;         // |delta| per axis, pixel-metres
   float depth_feature_share = 0.0f;  // share of depth-difference candidates
   MeanShiftParams mean_shift;
 };
@@ -84,7 +84,7 @@ struct TrainingImage {
   cv::Mat colour;  // CV_8UC3
   cv::Mat depth;   // CV_32FC1 metres (released after sampling by trainForestsReleasingDepth)
   CameraIntrinsics camera;
-  Pose pose;       // camera-to-world
+  Pose pose;  // camera-to-world
   FeatureImage view() const { return FeatureImage::of(colour, depth); }
 };
 
@@ -148,6 +148,7 @@ SurfaceModel buildSurface(const std::vector<TrainingImage>& images, const Surfac
 // so training holds colour only, 0.9 instead of 2.1 MB per VGA frame; the
 // model builder (model_builder.h) fuses the surface first.
 void trainForestsReleasingDepth(std::vector<TrainingImage>& images, const TrainingParams& params,
-                                Forest& points, Forest& lines, const TrainingProgress& progress = {});
+                                Forest& points, Forest& lines,
+                                const TrainingProgress& progress = {});
 
 }  // namespace relocalizer

@@ -15,7 +15,8 @@ Expected<TrainingParams> loadTrainingParams(const std::string& path,
                                             const TrainingParams& defaults = {});
 
 // The same, from YAML text (`source` names it in errors).
-Expected<TrainingParams> parseTrainingParams(const std::string& yaml_text, const std::string& source,
+Expected<TrainingParams> parseTrainingParams(const std::string& yaml_text,
+                                             const std::string& source,
                                              const TrainingParams& defaults = {});
 
 }  // namespace relocalizer

@@ -23,7 +23,8 @@ class KeyFrameFeed {
  public:
   // The learner's parameters and mode (online_learner.h); the rule is
   // params.min_motion.
-  KeyFrameFeed(LearningParams params, RelocalizerParams relocalizer_params, OnlineLearner::Mode mode);
+  KeyFrameFeed(LearningParams params, RelocalizerParams relocalizer_params,
+               OnlineLearner::Mode mode);
 
   struct Result {
     enum class Outcome {

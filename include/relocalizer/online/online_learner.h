@@ -32,18 +32,18 @@
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/key_frame_rule.h"
 #include "relocalizer/online/keyframe_store.h"
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
 
 struct LearningParams {
-  KeyFrameMotion min_motion;    // the key-frame rule (key_frame_rule.h) of the feed
-  int max_keyframes = 64;       // the store's cap; the oldest of the closest pair goes when full
-  int first_retrain = 2;        // key frames before the first model
-  double retrain_growth = 0.25; // retrain when the store has this many more key frames (share)
-  int jpeg_quality = 95;        // colour storage
-  int worker_threads = 1;       // Background: threads of a retrain (at nice +worker_nice)
-  int worker_nice = 10;         // Background: added niceness of the worker thread
+  KeyFrameMotion min_motion;     // the key-frame rule (key_frame_rule.h) of the feed
+  int max_keyframes = 64;        // the store's cap; the oldest of the closest pair goes when full
+  int first_retrain = 2;         // key frames before the first model
+  double retrain_growth = 0.25;  // retrain when the store has this many more key frames (share)
+  int jpeg_quality = 95;         // colour storage
+  int worker_threads = 1;        // Background: threads of a retrain (at nice +worker_nice)
+  int worker_nice = 10;          // Background: added niceness of the worker thread
   // Samples per tree of a retrain, at most: samples_per_image becomes
   // budget / key frames, between 1000 and the configured value (0: no budget).
   // A retrain then costs about the same at 64 key frames as at 11, so the
@@ -66,7 +66,7 @@ struct LearningParams {
   // frames (11 key frames) 44.0 % with 8 leaves, 40.0 % with the offline
   // default of 4, the same 83.0 % with either after 300 frames.
   int min_backtracking_leaves = 8;
-  TrainingParams training;      // both forests and the surface, as `train` uses them
+  TrainingParams training;  // both forests and the surface, as `train` uses them
 };
 
 // How a reader names a learning setting to its user, from its field name
@@ -83,7 +83,8 @@ std::string learningParamsError(const LearningParams& params, const SettingName&
 // config/forest.yaml defaults) loaded, and every field checked by
 // learningParamsError. Errors name the setting (fields min_motion, config).
 Expected<LearningParams> readLearningParams(LearningParams params, const std::string& min_motion,
-                                            const std::string& training_config, const SettingName& name = {});
+                                            const std::string& training_config,
+                                            const SettingName& name = {});
 
 // The relocalizer parameters a learned model answers with: `params` with two
 // overrides a model of a few key frames needs (surface_gate and
@@ -103,18 +104,18 @@ constexpr double kMaxSlamPoseDistance = 1e4;
 std::string slamPoseError(const Pose& camera_to_world);
 
 struct LearningStatus {
-  int keyframes_added = 0;     // accepted since start, resumed ones included
-  int keyframes_stored = 0;    // in the store now (<= max_keyframes)
+  int keyframes_added = 0;   // accepted since start, resumed ones included
+  int keyframes_stored = 0;  // in the store now (<= max_keyframes)
   int keyframes_evicted = 0;
-  int keyframes_learned = 0;   // key frames the current model was trained on
-  int backlog = 0;             // key frames added since the current model's snapshot was taken
-  size_t store_bytes = 0;      // compressed key frames
-  size_t model_bytes = 0;      // forests and surface of the current model
-  int retrains = 0;            // completed
+  int keyframes_learned = 0;  // key frames the current model was trained on
+  int backlog = 0;            // key frames added since the current model's snapshot was taken
+  size_t store_bytes = 0;     // compressed key frames
+  size_t model_bytes = 0;     // forests and surface of the current model
+  int retrains = 0;           // completed
   bool retraining = false;
   double last_retrain_seconds = 0.0;  // wall time of the last completed retrain
-  std::string last_error;      // of the last failed retrain or save, or of an interrupted save
-                               // found by resume(); empty if none
+  std::string last_error;  // of the last failed retrain or save, or of an interrupted save
+                           // found by resume(); empty if none
 };
 
 class OnlineLearner {
@@ -139,8 +140,8 @@ class OnlineLearner {
   Status resume(const std::string& model_path);
 
   // A key frame with its camera-to-world pose (from SLAM, never from this
-  // relocalizer); refused when slamPoseError(pose) says why. Compresses it on the caller's thread (about 20 ms for
-  // 640x480) and wakes the worker; never waits for a retrain.
+  // relocalizer); refused when slamPoseError(pose) says why. Compresses it on the caller's thread
+  // (about 20 ms for 640x480) and wakes the worker; never waits for a retrain.
   Status addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world);
 
   // Blocks until the current model has been trained on every stored key frame
@@ -162,8 +163,8 @@ class OnlineLearner {
  private:
   bool retrainDue() const;  // under mutex_
   // Fills the empty store; the current model (if any) counts as trained on them.
-  Status adoptKeyFrames(std::vector<StoredKeyFrame> key_frames, std::shared_ptr<const Relocalizer> model,
-                        std::string note);
+  Status adoptKeyFrames(std::vector<StoredKeyFrame> key_frames,
+                        std::shared_ptr<const Relocalizer> model, std::string note);
   Status retrain(std::unique_lock<std::mutex>& lock);
   void workerLoop();
 

@@ -27,21 +27,21 @@
 namespace relocalizer {
 
 struct PoseSolverParams {
-  int hypotheses = 256;           // initial hypotheses
-  int batch_size = 500;           // samples scored per preemptive round
-  int max_sampling_attempts = 20; // minimal sets tried per hypothesis before giving up
+  int hypotheses = 256;              // initial hypotheses
+  int batch_size = 500;              // samples scored per preemptive round
+  int max_sampling_attempts = 20;    // minimal sets tried per hypothesis before giving up
   float min_point_distance = 0.05f;  // metres between the three camera points
   float rigidity_tolerance = 0.05f;  // |camera distance - world distance|, metres, and
   float rigidity_ratio = 0.1f;       // as a share of the distance (the larger bound applies)
-  float inlier_chi2 = 9.0f;       // Mahalanobis^2 below which a sample is an inlier
+  float inlier_chi2 = 9.0f;          // Mahalanobis^2 below which a sample is an inlier
   // Refinement: half the cost of 0.1's 8 / 5 / 10 / 800, measured at the same
   // accuracy on redkitchen-dev (docs/benchmarks.md); the final LM had converged
   // within 5 iterations on every test frame.
-  int lm_hypotheses = 4;          // refine with Ceres LM once this few remain
-  int lm_loop_iterations = 3;     // LM iterations per hypothesis inside the loop
-  int lm_iterations = 5;          // LM iterations of the final refinement
-  int max_refinement_terms = 400; // terms per LM solve (an even subset of the inliers)
-  float robust_scale = 3.0f;      // Cauchy loss scale, in Mahalanobis units
+  int lm_hypotheses = 4;           // refine with Ceres LM once this few remain
+  int lm_loop_iterations = 3;      // LM iterations per hypothesis inside the loop
+  int lm_iterations = 5;           // LM iterations of the final refinement
+  int max_refinement_terms = 400;  // terms per LM solve (an even subset of the inliers)
+  float robust_scale = 3.0f;       // Cauchy loss scale, in Mahalanobis units
   bool use_lines_in_refinement = true;
   // Evidence needed to answer with a pose (on all samples, after refinement).
   int min_inliers = 30;
@@ -58,7 +58,7 @@ struct SolverSample {
 
 struct PoseSolution {
   bool success = false;
-  std::string message;  // why not, when !success
+  std::string message;           // why not, when !success
   Pose pose = Pose::Identity();  // camera-to-world
   // Covariance of (x, y, z, rotation about world x, y, z), the order of
   // geometry_msgs/PoseWithCovariance, for perturbations applied on the left:

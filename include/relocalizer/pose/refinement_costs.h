@@ -26,11 +26,11 @@ namespace relocalizer {
 // One matched sample for refinement: the chosen mode of a sample.
 struct RefinementTerm {
   Eigen::Vector3d camera_point;
-  Eigen::Vector3d mode_mean;          // world
-  Eigen::Matrix3d information;        // inverse mode covariance, world frame
+  Eigen::Vector3d mode_mean;    // world
+  Eigen::Matrix3d information;  // inverse mode covariance, world frame
   bool on_line = false;
-  Eigen::Vector3d line_point = Eigen::Vector3d::Zero();          // camera frame
-  Eigen::Vector3d line_direction = Eigen::Vector3d::UnitZ();     // camera frame, unit
+  Eigen::Vector3d line_point = Eigen::Vector3d::Zero();       // camera frame
+  Eigen::Vector3d line_direction = Eigen::Vector3d::UnitZ();  // camera frame, unit
 };
 
 // The perturbed pose (r, t) at `delta`; templated for autodiff references.

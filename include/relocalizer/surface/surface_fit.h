@@ -24,13 +24,13 @@
 namespace relocalizer {
 
 struct SurfaceFitParams {
-  bool enabled = true;          // ICP and the agreement gate (models without a surface skip both)
-  int points = 1200;            // frame depth points aligned and checked (an even grid)
-  int iterations = 6;           // Gauss-Newton steps
-  float max_distance = 0.05f;   // metres; farther correspondences are not the same surface
-  float huber = 0.01f;          // metres; larger residuals are down-weighted
-  float tolerance = 0.02f;      // metres: a point agrees when this close to the surface's plane
-  float min_agreement = 0.5f;   // evidence needed to answer with a pose (share of the points)
+  bool enabled = true;            // ICP and the agreement gate (models without a surface skip both)
+  int points = 1200;              // frame depth points aligned and checked (an even grid)
+  int iterations = 6;             // Gauss-Newton steps
+  float max_distance = 0.05f;     // metres; farther correspondences are not the same surface
+  float huber = 0.01f;            // metres; larger residuals are down-weighted
+  float tolerance = 0.02f;        // metres: a point agrees when this close to the surface's plane
+  float min_agreement = 0.5f;     // evidence needed to answer with a pose (share of the points)
   int min_correspondences = 100;  // fewer leave the pose as solved
 };
 
@@ -47,11 +47,13 @@ struct SurfaceFit {
 std::vector<Eigen::Vector3f> surfaceFitPoints(const RgbdFrame& frame, int count);
 
 // Share of `camera_points` within params.tolerance of the surface at `pose`.
-float surfaceAgreement(const SurfaceModel& surface, const std::vector<Eigen::Vector3f>& camera_points,
-                       const Pose& pose, const SurfaceFitParams& params);
+float surfaceAgreement(const SurfaceModel& surface,
+                       const std::vector<Eigen::Vector3f>& camera_points, const Pose& pose,
+                       const SurfaceFitParams& params);
 
 // ICP from `initial`; keeps the initial pose when ICP cannot improve the agreement.
-SurfaceFit fitToSurface(const SurfaceModel& surface, const std::vector<Eigen::Vector3f>& camera_points,
-                        const Pose& initial, const SurfaceFitParams& params);
+SurfaceFit fitToSurface(const SurfaceModel& surface,
+                        const std::vector<Eigen::Vector3f>& camera_points, const Pose& initial,
+                        const SurfaceFitParams& params);
 
 }  // namespace relocalizer

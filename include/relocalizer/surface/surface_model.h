@@ -30,7 +30,7 @@ struct SurfaceParams {
 };
 
 struct SurfaceElement {
-  Eigen::Vector3f point = Eigen::Vector3f::Zero();   // world, metres
+  Eigen::Vector3f point = Eigen::Vector3f::Zero();    // world, metres
   Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();  // world, unit
 };
 

@@ -15,13 +15,15 @@
 namespace relocalizer {
 
 struct RelocalizerParams {
-  int point_samples = 500;   // random pixels with depth per frame (speed-accuracy sweep, docs/benchmarks.md)
-  int line_samples = 250;    // line samples per frame (at most)
-  int max_leaves = 4;        // backtracking leaves per tree (8 until 0.2: twice the forest time, no better)
-  bool use_points = true;    // use the point forest
-  bool use_lines = true;     // use the line forest
+  int point_samples =
+      500;  // random pixels with depth per frame (speed-accuracy sweep, docs/benchmarks.md)
+  int line_samples = 250;  // line samples per frame (at most)
+  int max_leaves =
+      4;  // backtracking leaves per tree (8 until 0.2: twice the forest time, no better)
+  bool use_points = true;      // use the point forest
+  bool use_lines = true;       // use the line forest
   int min_valid_depth = 1000;  // frames with fewer valid depth pixels are refused
-  uint32_t seed = 1;         // each call restarts from it: same frame, same answer
+  uint32_t seed = 1;           // each call restarts from it: same frame, same answer
   PoseSolverParams solver;
   SurfaceFitParams surface;  // depth ICP and the surface check after the solver
 };
@@ -29,24 +31,24 @@ struct RelocalizerParams {
 // With two or more threads the line branch (LSD, line samples, line forest)
 // runs beside the point forest, so the stages can add up to more than `total`;
 // `sampling_and_forests` is their wall time.
-struct StageTimings {  // seconds
-  double sampling = 0.0;         // sampling_points + sampling_lines
-  double sampling_points = 0.0;  // random pixels
-  double sampling_lines = 0.0;   // LSD, segment sampling, 3D line fits
-  double forest = 0.0;           // forest_points + forest_lines
-  double forest_points = 0.0;    // descriptors and point-forest prediction
-  double forest_lines = 0.0;     // descriptors and line-forest prediction
+struct StageTimings {                 // seconds
+  double sampling = 0.0;              // sampling_points + sampling_lines
+  double sampling_points = 0.0;       // random pixels
+  double sampling_lines = 0.0;        // LSD, segment sampling, 3D line fits
+  double forest = 0.0;                // forest_points + forest_lines
+  double forest_points = 0.0;         // descriptors and point-forest prediction
+  double forest_lines = 0.0;          // descriptors and line-forest prediction
   double sampling_and_forests = 0.0;  // wall time of the sampling and forest stages
-  double ransac = 0.0;           // hypotheses and preemptive scoring
-  double refinement = 0.0;       // Ceres LM, inside the loop and final
-  double surface = 0.0;          // depth ICP against the scene surface and the agreement
-  double total = 0.0;            // the whole call
+  double ransac = 0.0;                // hypotheses and preemptive scoring
+  double refinement = 0.0;            // Ceres LM, inside the loop and final
+  double surface = 0.0;               // depth ICP against the scene surface and the agreement
+  double total = 0.0;                 // the whole call
 };
 
 struct Relocalization {
   bool success = false;
-  std::string message;           // the reason, when !success
-  Pose pose = Pose::Identity();  // camera-to-world (valid when success)
+  std::string message;                         // the reason, when !success
+  Pose pose = Pose::Identity();                // camera-to-world (valid when success)
   Matrix6d covariance = Matrix6d::Identity();  // x y z rx ry rz, world frame
   int point_inliers = 0;
   int line_inliers = 0;
@@ -65,8 +67,8 @@ struct Relocalization {
 // ground truth: the measure of forest quality independent of the pose solver.
 struct PredictionQuality {
   int samples = 0;
-  int chosen_within = 0;  // nearest-descriptor candidate within the radius of the truth
-  int any_within = 0;     // some candidate within the radius
+  int chosen_within = 0;             // nearest-descriptor candidate within the radius of the truth
+  int any_within = 0;                // some candidate within the radius
   std::vector<float> chosen_errors;  // metres, per sample
 };
 
@@ -74,7 +76,7 @@ class Relocalizer {
  public:
   Relocalizer(Model model, RelocalizerParams params = {});
   static Expected<std::unique_ptr<Relocalizer>> fromFile(const std::string& model_path,
-                                                        const RelocalizerParams& params = {});
+                                                         const RelocalizerParams& params = {});
 
   // Thread-safe; concurrent calls do not share scratch memory.
   Relocalization relocalize(const RgbdFrame& frame) const;

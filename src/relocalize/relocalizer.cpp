@@ -1,4 +1,4 @@
-#include "relocalizer/pose/relocalizer.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -105,7 +105,8 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
   branches.run([&] {
     auto line_stage = Clock::now();
     if (use_lines && params_.line_samples > 0)
-      line_samples = sampleLines(frame, model_.params.line_sampling, params_.line_samples, line_rng);
+      line_samples =
+          sampleLines(frame, model_.params.line_sampling, params_.line_samples, line_rng);
     result.timings.sampling_lines = secondsSince(line_stage);
     line_stage = Clock::now();
     if (use_lines) {
@@ -144,8 +145,9 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
     line_inputs.push_back({s.camera_point, &line_predictions[i], &line_samples.lines[s.line]});
   }
   // Without the point forest, line samples seed the hypotheses too.
-  const PoseSolution solution = use_points ? solvePose(point_inputs, line_inputs, params_.solver, rng)
-                                           : solvePose(line_inputs, {}, params_.solver, rng);
+  const PoseSolution solution = use_points
+                                    ? solvePose(point_inputs, line_inputs, params_.solver, rng)
+                                    : solvePose(line_inputs, {}, params_.solver, rng);
   result.timings.ransac = solution.ransac_seconds;
   result.timings.refinement = solution.refinement_seconds;
   result.point_inliers = solution.point_inliers;
@@ -158,18 +160,20 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
   // --- Surface: refine by depth ICP and check against the scene's geometry ---------------
   if (params_.surface.enabled && !model_.surface.empty()) {
     const auto surface_start = Clock::now();
-    const SurfaceFit fit = fitToSurface(model_.surface, surfaceFitPoints(frame, params_.surface.points),
-                                        solution.pose, params_.surface);
+    const SurfaceFit fit =
+        fitToSurface(model_.surface, surfaceFitPoints(frame, params_.surface.points), solution.pose,
+                     params_.surface);
     result.timings.surface = secondsSince(surface_start);
     result.surface_agreement = fit.agreement;
     result.surface_refined = fit.refined;
     result.pose = fit.pose;
     if (fit.agreement < params_.surface.min_agreement) {
       char buffer[200];
-      std::snprintf(buffer, sizeof buffer,
-                    "the pose does not fit the scene's surface: %.1f%% of the frame's depth lies on "
-                    "it (need %.1f%%)",
-                    100.0 * fit.agreement, 100.0 * params_.surface.min_agreement);
+      std::snprintf(
+          buffer, sizeof buffer,
+          "the pose does not fit the scene's surface: %.1f%% of the frame's depth lies on "
+          "it (need %.1f%%)",
+          100.0 * fit.agreement, 100.0 * params_.surface.min_agreement);
       return fail(buffer);
     }
   }
@@ -192,7 +196,9 @@ Expected<PredictionQuality> Relocalizer::measurePredictions(const RgbdFrame& fra
   const std::string invalid = frameValidationError(frame);
   if (!invalid.empty()) return makeError("invalid frame: " + invalid);
   const Forest& forest = line_forest ? model_.lines : model_.points;
-  if (forest.empty()) return makeError(std::string("the model has no ") + (line_forest ? "line" : "point") + " forest");
+  if (forest.empty())
+    return makeError(std::string("the model has no ") + (line_forest ? "line" : "point") +
+                     " forest");
   std::mt19937 rng(params_.seed);
   std::vector<Sample> samples;
   if (line_forest)
@@ -215,7 +221,8 @@ Expected<PredictionQuality> Relocalizer::measurePredictions(const RgbdFrame& fra
     int chosen = 0;
     bool any = false;
     for (int c = 0; c < p.count; ++c) {
-      if (p.candidates[c].descriptor_distance < p.candidates[chosen].descriptor_distance) chosen = c;
+      if (p.candidates[c].descriptor_distance < p.candidates[chosen].descriptor_distance)
+        chosen = c;
       any = any || (p.candidates[c].mode->mean - truth).norm() < radius;
     }
     const float error = (p.candidates[chosen].mode->mean - truth).norm();
@@ -269,7 +276,9 @@ json toJson(const RelocalizerParams& p) {
 }
 }  // namespace
 
-std::string relocalizerParamsToJson(const RelocalizerParams& params) { return toJson(params).dump(2); }
+std::string relocalizerParamsToJson(const RelocalizerParams& params) {
+  return toJson(params).dump(2);
+}
 
 Expected<RelocalizerParams> relocalizerParamsFromJson(const std::string& json_text) {
   using detail::readField;
@@ -334,7 +343,8 @@ Expected<RelocalizerParams> loadRelocalizerParams(const std::string& path,
   if (!section) return defaults;
   YAML::Emitter emitter;
   emitter << section;
-  auto merged = mergeYamlOntoJson(emitter.c_str(), relocalizerParamsToJson(defaults), path + " (relocalizer)");
+  auto merged = mergeYamlOntoJson(emitter.c_str(), relocalizerParamsToJson(defaults),
+                                  path + " (relocalizer)");
   if (!merged) return makeError(merged.error());
   return relocalizerParamsFromJson(*merged);
 }
