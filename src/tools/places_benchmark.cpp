@@ -59,6 +59,52 @@ Expected<std::vector<int>> parseCounts(const std::string& text, int places) {
   return counts;
 }
 
+// The latency table: each place count's median and p95 and its ratio to the first count's.
+void printLatency(const std::vector<PlaceCountRun>& runs, const TestSet& timed, int repeat,
+                  nlohmann::json& out) {
+  std::printf(
+      "\nlatency on %s's %zu frames x %d passes\n  places  median ms  p95 ms  x one  "
+      "within 5cm/5deg  wrong place\n",
+      timed.place.c_str(), timed.frames.size(), repeat);
+  const double one = stageLatency(runs.front().timings, &StageTimings::total).median_ms;
+  for (const PlaceCountRun& run : runs) {
+    const LatencySummary total = stageLatency(run.timings, &StageTimings::total);
+    std::printf("  %6d  %9.1f  %6.1f  %5.2f  %14.1f %%  %11d\n", run.places, total.median_ms,
+                total.p95_ms, total.median_ms / one, 100.0 * run.summary.accuracy.within_5cm_5deg,
+                run.summary.wrong_place);
+    out["latency"].push_back({{"places", run.places},
+                              {"median_ms", total.median_ms},
+                              {"p95_ms", total.p95_ms},
+                              {"within_5cm_5deg", run.summary.accuracy.within_5cm_5deg},
+                              {"wrong_place", run.summary.wrong_place}});
+  }
+}
+
+// Every test set against the whole set; returns the wrong-place answers in all.
+int printPlaceChoice(const PlaceSet& all, const std::vector<TestSet>& tests, nlohmann::json& out) {
+  std::printf(
+      "\nagainst all %zu places\n  frames of    frames  own place  wrong place  no pose  "
+      "within 5cm/5deg\n",
+      all.size());
+  int wrong_total = 0;
+  for (const TestSet& test : tests) {
+    const std::vector<EvaluationRecord> records = relocalizeAgainstPlaces(all, test.frames);
+    const EvaluationSummary summary = summarizeEvaluation(records, test.place);
+    const int answered = summary.accuracy.frames_with_pose;
+    wrong_total += summary.wrong_place;
+    std::printf("  %-10s %7d  %9d  %11d  %7d  %14.1f %%\n", test.place.c_str(),
+                summary.accuracy.frames, answered - summary.wrong_place, summary.wrong_place,
+                summary.accuracy.frames - answered, 100.0 * summary.accuracy.within_5cm_5deg);
+    out["choice"].push_back({{"place", test.place},
+                             {"frames", summary.accuracy.frames},
+                             {"own_place", answered - summary.wrong_place},
+                             {"wrong_place", summary.wrong_place},
+                             {"no_pose", summary.accuracy.frames - answered},
+                             {"within_5cm_5deg", summary.accuracy.within_5cm_5deg}});
+  }
+  return wrong_total;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -137,45 +183,9 @@ int main(int argc, char** argv) {
   }
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
 
-  std::printf(
-      "\nlatency on %s's %zu frames x %d passes\n  places  median ms  p95 ms  x one  "
-      "within 5cm/5deg  wrong place\n",
-      tests.front().place.c_str(), tests.front().frames.size(), repeat);
-  const std::vector<PlaceCountRun> runs =
-      timePlaceCounts(places, tests.front().frames, *counts, repeat);
-  const double one = stageLatency(runs.front().timings, &StageTimings::total).median_ms;
-  for (const PlaceCountRun& run : runs) {
-    const LatencySummary total = stageLatency(run.timings, &StageTimings::total);
-    std::printf("  %6d  %9.1f  %6.1f  %5.2f  %14.1f %%  %11d\n", run.places, total.median_ms,
-                total.p95_ms, total.median_ms / one, 100.0 * run.summary.accuracy.within_5cm_5deg,
-                run.summary.wrong_place);
-    out["latency"].push_back({{"places", run.places},
-                              {"median_ms", total.median_ms},
-                              {"p95_ms", total.p95_ms},
-                              {"within_5cm_5deg", run.summary.accuracy.within_5cm_5deg},
-                              {"wrong_place", run.summary.wrong_place}});
-  }
-
-  std::printf(
-      "\nagainst all %zu places\n  frames of    frames  own place  wrong place  no pose  "
-      "within 5cm/5deg\n",
-      places.size());
-  int wrong_total = 0;
-  for (const TestSet& test : tests) {
-    const std::vector<EvaluationRecord> records = relocalizeAgainstPlaces(all, test.frames);
-    const EvaluationSummary summary = summarizeEvaluation(records, test.place);
-    const int answered = summary.accuracy.frames_with_pose;
-    wrong_total += summary.wrong_place;
-    std::printf("  %-10s %7d  %9d  %11d  %7d  %14.1f %%\n", test.place.c_str(),
-                summary.accuracy.frames, answered - summary.wrong_place, summary.wrong_place,
-                summary.accuracy.frames - answered, 100.0 * summary.accuracy.within_5cm_5deg);
-    out["choice"].push_back({{"place", test.place},
-                             {"frames", summary.accuracy.frames},
-                             {"own_place", answered - summary.wrong_place},
-                             {"wrong_place", summary.wrong_place},
-                             {"no_pose", summary.accuracy.frames - answered},
-                             {"within_5cm_5deg", summary.accuracy.within_5cm_5deg}});
-  }
+  printLatency(timePlaceCounts(places, tests.front().frames, *counts, repeat), tests.front(),
+               repeat, out);
+  const int wrong_total = printPlaceChoice(all, tests, out);
   const ResidentMemory end = residentMemory();
   std::printf("wrong-place answers in all: %d; peak resident memory %.0f MiB\n", wrong_total,
               end.peak / 1048576.0);
