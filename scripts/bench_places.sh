@@ -71,30 +71,14 @@ echo "bench_places: places_benchmark (1 thread)"
   grep -v -E '^(places|evaluating) ' || true
 
 # --- The node with the 10 places -----------------------------------------------------------
-set +u
-# shellcheck disable=SC1091
-source "$devel/setup.bash"
-set -u
-port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
-export ROS_MASTER_URI=http://localhost:$port
-export ROS_LOG_DIR=$out/ros_log
-master_pid="" node_pid=""
-cleanup() {
-  for pid in "$node_pid" "$master_pid"; do [ -n "$pid" ] && kill -INT "$pid" 2>/dev/null || true; done
-  for pid in "$node_pid" "$master_pid"; do
-    [ -n "$pid" ] || continue
-    for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
-    kill -KILL "$pid" 2>/dev/null || true
-  done
-}
-trap cleanup EXIT
-roscore -p "$port" > "$out/master.log" 2>&1 &
-master_pid=$!
-for _ in $(seq 100); do rosparam list > /dev/null 2>&1 && break; sleep 0.2; done
+# shellcheck source=scripts/private_master.sh
+source "$root/scripts/private_master.sh"
+start_private_master "$devel" "$out"
 rosparam load "$root/config/default.yaml" /relocalizer
 rosparam set /relocalizer/places "$yaml"
 "$tools/relocalizer_node" __name:=relocalizer > "$out/node.log" 2>&1 < /dev/null &
 node_pid=$!
+own_process "$node_pid"
 listed=0
 for _ in $(seq 600); do
   kill -0 "$node_pid" 2>/dev/null || { echo "bench_places: the node died (see $out/node.log)" >&2; exit 1; }
