@@ -1,8 +1,13 @@
 #include "support.h"
 
+#include <sys/wait.h>
 #include <unistd.h>
+
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
 
 namespace relocalizer::testing {
 
@@ -26,6 +31,30 @@ std::string redkitchenDir() {
   if (std::filesystem::exists(dir / "frame-000000.pose.txt"))
     return std::filesystem::canonical(dir).string();
   return {};
+}
+
+std::string readBytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::map<std::string, std::string> readTree(const std::filesystem::path& root) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(root))
+    if (entry.is_regular_file())
+      files[std::filesystem::relative(entry.path(), root).string()] = readBytes(entry.path());
+  return files;
+}
+
+int runTool(const std::string& tool, const std::string& arguments,
+            const std::filesystem::path& stderr_file, const std::filesystem::path& stdout_file) {
+  const std::string output = stdout_file == stderr_file ? " > '" + stdout_file.string() + "' 2>&1"
+                                                        : " > '" + stdout_file.string() + "' 2> '" +
+                                                              stderr_file.string() + "'";
+  const std::string command =
+      std::string(RELOCALIZER_TOOL_DIR) + "/" + tool + " " + arguments + output;
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 }  // namespace relocalizer::testing

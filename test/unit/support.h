@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
 #include <string>
 
 namespace relocalizer::testing {
@@ -25,6 +26,19 @@ class TempDir {
 
 // ../shared/data/7scenes-redkitchen-dev beside the checkout, or empty when absent.
 std::string redkitchenDir();
+
+// A file's bytes ("" when it cannot be read).
+std::string readBytes(const std::filesystem::path& path);
+// Relative path -> bytes of every file below `root`.
+std::map<std::string, std::string> readTree(const std::filesystem::path& root);
+
+// Runs a tool of this build (`tool` in the devel space's lib/relocalizer) with
+// `arguments` (shell words); its standard error goes to `stderr_file` and its
+// standard output to `stdout_file` (the same file: both, in order). Returns the
+// exit status, -1 when it did not exit.
+int runTool(const std::string& tool, const std::string& arguments,
+            const std::filesystem::path& stderr_file,
+            const std::filesystem::path& stdout_file = "/dev/null");
 
 }  // namespace relocalizer::testing
 

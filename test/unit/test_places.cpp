@@ -239,19 +239,9 @@ TEST_F(Places, EvaluationCountsWrongPlacesAndWritesPlacesCsv) {
 
 namespace {
 
-// Runs a tool of this build; its output goes to `log`. The exit status.
-int runTool(const std::string& tool, const std::string& arguments, const std::string& log) {
-  const std::string command =
-      std::string(RELOCALIZER_TOOL_DIR) + "/" + tool + " " + arguments + " > '" + log + "' 2>&1";
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string fileText(const std::filesystem::path& path) {
-  std::ifstream file(path);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
+// A tool of this build with both its outputs in `log`.
+int runLogged(const std::string& tool, const std::string& arguments, const std::string& log) {
+  return relocalizer::testing::runTool(tool, arguments, log, log);
 }
 
 }  // namespace
@@ -262,21 +252,21 @@ TEST_F(Places, EvaluateRelocalizesAgainstEveryModelAndNamesEachFramesPlace) {
     ASSERT_TRUE(saveModel(room.relocalizer->model(), dir.str() + "/" + room.name + ".model").ok());
   // Frames of room 7 (the same seed gives the same room), written as a dataset.
   ASSERT_EQ(
-      runTool("synthesize",
-              "--seed 7 --train-frames 1 --test-frames 6 --width 320 --height 240 --output '" +
-                  dir.str() + "/scene'",
-              dir.str() + "/synthesize.log"),
+      runLogged("synthesize",
+                "--seed 7 --train-frames 1 --test-frames 6 --width 320 --height 240 --output '" +
+                    dir.str() + "/scene'",
+                dir.str() + "/synthesize.log"),
       0)
-      << fileText(dir.path() / "synthesize.log");
+      << relocalizer::testing::readBytes(dir.path() / "synthesize.log");
   const std::string models = " --model room7='" + dir.str() + "/room7.model' --model room8='" +
                              dir.str() + "/room8.model' --dataset '" + dir.str() + "/scene/test'";
-  ASSERT_EQ(runTool("evaluate", models + " --expect-place room7 --output '" + dir.str() + "/out'",
-                    dir.str() + "/evaluate.log"),
+  ASSERT_EQ(runLogged("evaluate", models + " --expect-place room7 --output '" + dir.str() + "/out'",
+                      dir.str() + "/evaluate.log"),
             0)
-      << fileText(dir.path() / "evaluate.log");
-  const std::string log = fileText(dir.path() / "evaluate.log");
+      << relocalizer::testing::readBytes(dir.path() / "evaluate.log");
+  const std::string log = relocalizer::testing::readBytes(dir.path() / "evaluate.log");
   EXPECT_NE(log.find("wrong place (not room7)"), std::string::npos) << log;
-  std::istringstream places(fileText(dir.path() / "out" / "places.csv"));
+  std::istringstream places(relocalizer::testing::readBytes(dir.path() / "out" / "places.csv"));
   std::string line;
   std::getline(places, line);
   int rows = 0, room7 = 0;
@@ -289,15 +279,18 @@ TEST_F(Places, EvaluateRelocalizesAgainstEveryModelAndNamesEachFramesPlace) {
   }
   EXPECT_EQ(rows, 6);
   EXPECT_GE(room7, 4);
-  EXPECT_NE(fileText(dir.path() / "out" / "summary.json").find("\"wrong_place\": 0"),
+  EXPECT_NE(relocalizer::testing::readBytes(dir.path() / "out" / "summary.json")
+                .find("\"wrong_place\": 0"),
             std::string::npos);
 
   // Mistakes name the option.
-  EXPECT_NE(runTool("evaluate", models + " --expect-place kitchen", dir.str() + "/bad.log"), 0);
-  EXPECT_NE(fileText(dir.path() / "bad.log").find("--expect-place kitchen"), std::string::npos);
-  EXPECT_NE(runTool("evaluate", models + " --model room7='" + dir.str() + "/room8.model'",
-                    dir.str() + "/twice.log"),
+  EXPECT_NE(runLogged("evaluate", models + " --expect-place kitchen", dir.str() + "/bad.log"), 0);
+  EXPECT_NE(relocalizer::testing::readBytes(dir.path() / "bad.log").find("--expect-place kitchen"),
+            std::string::npos);
+  EXPECT_NE(runLogged("evaluate", models + " --model room7='" + dir.str() + "/room8.model'",
+                      dir.str() + "/twice.log"),
             0);
-  EXPECT_NE(fileText(dir.path() / "twice.log").find("given twice"), std::string::npos)
-      << fileText(dir.path() / "twice.log");
+  EXPECT_NE(relocalizer::testing::readBytes(dir.path() / "twice.log").find("given twice"),
+            std::string::npos)
+      << relocalizer::testing::readBytes(dir.path() / "twice.log");
 }

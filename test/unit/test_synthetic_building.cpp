@@ -33,19 +33,6 @@ std::vector<BuildingRoom> rooms(uint64_t seed, int count) {
   return result.ok() ? std::move(result).value() : std::vector<BuildingRoom>{};
 }
 
-std::string fileBytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-std::map<std::string, std::string> filesBelow(const fs::path& root) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : fs::recursive_directory_iterator(root))
-    if (entry.is_regular_file())
-      files[fs::relative(entry.path(), root).string()] = fileBytes(entry.path());
-  return files;
-}
-
 // Share of pixels whose colour differs by more than 40 grey levels in some channel.
 double differingShare(const cv::Mat& a, const cv::Mat& b) {
   cv::Mat diff;
@@ -118,13 +105,6 @@ double sharedVolume(const SyntheticRoom& room) {
     for (size_t j = i + 1; j < bounds.size(); ++j)
       if (bounds[i].intersects(bounds[j])) volume += bounds[i].intersection(bounds[j]).volume();
   return volume;
-}
-
-int runTool(const std::string& arguments, const fs::path& stderr_file) {
-  const std::string command = std::string(RELOCALIZER_TOOL_DIR) + "/synthesize " + arguments +
-                              " > /dev/null 2> '" + stderr_file.string() + "'";
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 }  // namespace
@@ -260,14 +240,15 @@ TEST(SyntheticBuilding, WritesEveryRoomAsADatasetAndTheSameSeedGivesTheSameBytes
   ASSERT_TRUE(writeSyntheticBuilding(a.str(), options).ok());
   EXPECT_FALSE(fs::exists(a.path() / "room-3")) << "a room building.json no longer names";
   ASSERT_TRUE(writeSyntheticBuilding(b.str(), options).ok());
-  const auto first = filesBelow(a.path()), second = filesBelow(b.path());
+  const auto first = relocalizer::testing::readTree(a.path()),
+             second = relocalizer::testing::readTree(b.path());
   // building.json, and per room 3 frames x 3 files, 2 x 2 camera files, scene.json, contact sheet.
   EXPECT_EQ(first.size(), 1u + 3 * (3 * 3 + 2 * 2 + 2));
   EXPECT_TRUE(first == second);
 
   // Room 0 is the single room of the building's seed.
   ASSERT_TRUE(writeSyntheticScene(single.str(), options.scene).ok());
-  for (const auto& [name, bytes] : filesBelow(single.path()))
+  for (const auto& [name, bytes] : relocalizer::testing::readTree(single.path()))
     EXPECT_EQ(first.at("room-0/" + name), bytes) << name;
 
   const nlohmann::json json = nlohmann::json::parse(first.at("building.json"));
@@ -282,7 +263,8 @@ TEST(SyntheticBuilding, WritesEveryRoomAsADatasetAndTheSameSeedGivesTheSameBytes
     EXPECT_NEAR(room["room_to_building"][0][3].get<double>(),
                 expected[i].room_to_building.translation().x(), 1e-12);
     const fs::path folder = a.path() / room["folder"].get<std::string>();
-    const nlohmann::json scene = nlohmann::json::parse(fileBytes(folder / "scene.json"));
+    const nlohmann::json scene =
+        nlohmann::json::parse(relocalizer::testing::readBytes(folder / "scene.json"));
     EXPECT_EQ(scene["seed"].get<uint64_t>(), expected[i].recipe.layout_seed);
     EXPECT_EQ(scene.contains("appearance_seed"), i == 2);
     const Expected<std::unique_ptr<Dataset>> dataset = openDataset((folder / "test").string());
@@ -303,8 +285,9 @@ TEST(SyntheticBuildingTool, RefusesBadRoomCountsNamingTheOption) {
   const fs::path err = dir.path() / "stderr.txt";
   const std::string out = "--output '" + (dir.path() / "b").string() + "'";
   for (const std::string count : {"0", "1", "-2", "101", "99999999999999999999", "three"}) {
-    EXPECT_EQ(runTool(out + " --rooms " + count, err), 2) << count;
-    const std::string message = fileBytes(err);
+    EXPECT_EQ(relocalizer::testing::runTool("synthesize", out + " --rooms " + count, err), 2)
+        << count;
+    const std::string message = relocalizer::testing::readBytes(err);
     EXPECT_NE(message.find("--rooms"), std::string::npos) << message;
     EXPECT_EQ(std::count(message.begin(), message.end(), '\n'), 1) << message;
   }
@@ -314,16 +297,19 @@ TEST(SyntheticBuildingTool, RefusesBadRoomCountsNamingTheOption) {
 TEST(SyntheticBuildingTool, WritesABuilding) {
   relocalizer::testing::TempDir dir;
   const fs::path out = dir.path() / "b";
-  ASSERT_EQ(runTool("--output '" + out.string() +
-                        "' --rooms 3 --seed 4 --train-frames 2 --test-frames 1 --width 80 "
-                        "--height 60 --illumination-change",
-                    dir.path() / "stderr.txt"),
+  ASSERT_EQ(relocalizer::testing::runTool(
+                "synthesize",
+                "--output '" + out.string() +
+                    "' --rooms 3 --seed 4 --train-frames 2 --test-frames 1 --width 80 "
+                    "--height 60 --illumination-change",
+                dir.path() / "stderr.txt"),
             0)
-      << fileBytes(dir.path() / "stderr.txt");
+      << relocalizer::testing::readBytes(dir.path() / "stderr.txt");
   EXPECT_TRUE(fs::exists(out / "building.json"));
   for (const char* room : {"room-0", "room-1", "room-2"}) {
     EXPECT_TRUE(fs::exists(out / room / "test" / "frame-000000.color.png")) << room;
-    const nlohmann::json scene = nlohmann::json::parse(fileBytes(out / room / "scene.json"));
+    const nlohmann::json scene =
+        nlohmann::json::parse(relocalizer::testing::readBytes(out / room / "scene.json"));
     EXPECT_TRUE(scene["effects"]["illumination_change"].get<bool>()) << room;
     EXPECT_EQ(scene["camera"]["width"].get<int>(), 80) << room;
   }

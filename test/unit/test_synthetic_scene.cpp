@@ -27,20 +27,6 @@ namespace {
 const CameraIntrinsics kSmall = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
 const CameraIntrinsics kTiny = CameraIntrinsics::kinectDefault().scaledTo(160, 120);
 
-std::string readBytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-// Relative path -> bytes of every file below `root`.
-std::map<std::string, std::string> readTree(const fs::path& root) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : fs::recursive_directory_iterator(root))
-    if (entry.is_regular_file())
-      files[fs::relative(entry.path(), root).string()] = readBytes(entry.path());
-  return files;
-}
-
 bool sameImage(const cv::Mat& a, const cv::Mat& b) {
   return a.size() == b.size() && a.type() == b.type() &&
          std::equal(a.datastart, a.dataend, b.datastart, b.dataend);
@@ -81,13 +67,6 @@ double medianDepthGap(const cv::Mat& noisy) {
   return gaps[gaps.size() / 2];
 }
 
-int runTool(const std::string& arguments, const fs::path& stderr_file) {
-  const std::string command = std::string(RELOCALIZER_TOOL_DIR) + "/synthesize " + arguments +
-                              " > /dev/null 2> '" + stderr_file.string() + "'";
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 int lineCount(const std::string& text) {
   return static_cast<int>(std::count(text.begin(), text.end(), '\n'));
 }
@@ -107,14 +86,15 @@ TEST(SyntheticScene, SameSeedWritesIdenticalBytesAndOtherSeedsDiffer) {
   options.illumination_change = true;
   ASSERT_TRUE(writeSyntheticScene(a.str(), options).ok());
   ASSERT_TRUE(writeSyntheticScene(b.str(), options).ok());
-  const auto first = readTree(a.path()), second = readTree(b.path());
+  const auto first = relocalizer::testing::readTree(a.path()),
+             second = relocalizer::testing::readTree(b.path());
   // 8 frames x 3 files, intrinsics and registration per split, scene.json, contact sheet.
   ASSERT_EQ(first.size(), 8u * 3 + 2 * 2 + 2);
   EXPECT_TRUE(first == second);
 
   options.seed = 8;
   ASSERT_TRUE(writeSyntheticScene(c.str(), options).ok());
-  const auto other = readTree(c.path());
+  const auto other = relocalizer::testing::readTree(c.path());
   EXPECT_NE(first.at("train/frame-000000.color.png"), other.at("train/frame-000000.color.png"));
   const cv::Mat colour_a = cv::imread((a.path() / "train/frame-000000.color.png").string());
   const cv::Mat colour_c = cv::imread((c.path() / "train/frame-000000.color.png").string());
@@ -415,10 +395,11 @@ TEST(SyntheticScene, WrittenFilesReadBackAsTheInMemoryRender) {
   EXPECT_NEAR(k(0, 0), kSmall.fx, 1e-9);
   EXPECT_NEAR(k(1, 2), kSmall.cy, 1e-9);
   EXPECT_EQ(k(2, 2), 1.0);
-  EXPECT_EQ(readBytes(dir.path() / "test" / "colour-registration.txt"), "registered\n");
+  EXPECT_EQ(relocalizer::testing::readBytes(dir.path() / "test" / "colour-registration.txt"),
+            "registered\n");
   const cv::Mat sheet = cv::imread((dir.path() / "contact_sheet.png").string());
   EXPECT_FALSE(sheet.empty());
-  const std::string json = readBytes(dir.path() / "scene.json");
+  const std::string json = relocalizer::testing::readBytes(dir.path() / "scene.json");
   EXPECT_NE(json.find("\"seed\": 12"), std::string::npos) << json;
 }
 
@@ -630,23 +611,25 @@ TEST(SyntheticSceneTool, RejectsBadArgumentsWithOneLine) {
        {out + " --train-frames -3", out + " --no-such-option", std::string("--seed 4"),
         out + " --width 320", out + " --test-frames many", out + " --seed -1",
         out + " --seed 99999999999999999999"}) {
-    EXPECT_NE(runTool(arguments, err), 0) << arguments;
-    const std::string message = readBytes(err);
+    EXPECT_NE(relocalizer::testing::runTool("synthesize", arguments, err), 0) << arguments;
+    const std::string message = relocalizer::testing::readBytes(err);
     EXPECT_EQ(lineCount(message), 1) << arguments << ": " << message;
   }
   EXPECT_FALSE(fs::exists(dir.path() / "scene"));
-  EXPECT_EQ(runTool("--help", err), 0);
+  EXPECT_EQ(relocalizer::testing::runTool("synthesize", "--help", err), 0);
 }
 
 TEST(SyntheticSceneTool, WritesASmallScene) {
   relocalizer::testing::TempDir dir;
   const fs::path scene = dir.path() / "scene";
-  EXPECT_EQ(runTool("--output '" + scene.string() +
-                        "' --seed 5 --train-frames 3 --test-frames 2 --width 80 --height 60 "
-                        "--motion-blur --illumination-change --moving-objects",
-                    dir.path() / "stderr.txt"),
+  EXPECT_EQ(relocalizer::testing::runTool(
+                "synthesize",
+                "--output '" + scene.string() +
+                    "' --seed 5 --train-frames 3 --test-frames 2 --width 80 --height 60 "
+                    "--motion-blur --illumination-change --moving-objects",
+                dir.path() / "stderr.txt"),
             0)
-      << readBytes(dir.path() / "stderr.txt");
+      << relocalizer::testing::readBytes(dir.path() / "stderr.txt");
   EXPECT_TRUE(fs::exists(scene / "train" / "frame-000002.depth.png"));
   EXPECT_TRUE(fs::exists(scene / "test" / "frame-000001.pose.txt"));
   EXPECT_FALSE(fs::exists(scene / "test" / "frame-000002.pose.txt"));
