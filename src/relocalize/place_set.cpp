@@ -183,20 +183,20 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame) const {
   const double screen_seconds = secondsSince(screen_start);
   const std::vector<size_t> order = rankByScreen(answer.attempts);
 
-  // Full solves, best screened first: the runners-up that screened close to
-  // the best are solved too (a look-alike place must not win by being asked
-  // alone), and while nothing has answered, further places are tried.
+  // Full solves for the best screened place and the runners-up that screened
+  // close to it: a look-alike place must not win by being asked alone. A place
+  // that screened far below the best is not asked even when the best fails:
+  // its full solve would be the likeliest way to a wrong-place answer.
   const int best_screen = answer.attempts[order.front()].screen_inliers;
   std::vector<std::pair<size_t, Relocalization>> answered;
   Relocalization first_failure;
-  int solved = 0;
-  for (size_t rank = 0; rank < order.size() && solved < params_.max_solved; ++rank) {
+  for (size_t rank = 0; rank < order.size() && static_cast<int>(rank) < params_.max_solved;
+       ++rank) {
     PlaceAttempt& attempt = answer.attempts[order[rank]];
     const bool close = attempt.screen_inliers > 0 &&
                        attempt.screen_inliers >= params_.runner_up_ratio * best_screen;
-    if (rank > 0 && !close && !answered.empty()) break;
+    if (rank > 0 && !close) break;
     Relocalization full = places[order[rank]]->relocalizer->relocalize(frame, *shared);
-    ++solved;
     attempt.solved = true;
     attempt.success = full.success;
     attempt.message = full.message;

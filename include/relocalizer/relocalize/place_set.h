@@ -45,7 +45,7 @@ struct PlaceFigures {
 
 struct PlaceSearchParams {
   ScreenParams screen;  // the cheap pass every place gets
-  int max_solved = 3;   // full solves per frame at most
+  int max_solved = 3;   // full solves per frame at most (the best and close runners-up)
   // The runner-up is solved too when its screen inliers reach this share of the best's.
   float runner_up_ratio = 0.5f;
   // Two places that both answer: the weaker one is no rival below this share
