@@ -1,5 +1,6 @@
 #include "relocalizer/eval/evaluation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -105,10 +106,13 @@ std::string formatEvaluationTable(const EvaluationSummary& s, const std::string&
       << " / " << number(a.median_rotation_deg, "%.2f deg") << "\n";
   out << "  ATE RMSE (Horn-aligned)    " << number(100.0 * a.ate_rmse_m, "%.2f cm") << "\n";
   out << "  frames with no pose        " << (a.frames - a.frames_with_pose) << "\n";
-  if (s.wrong_place >= 0)
-    out << "  wrong place (not " << s.expected_place << ")"
-        << std::string(s.expected_place.size() < 12 ? 12 - s.expected_place.size() : 1, ' ')
+  if (s.wrong_place >= 0) {
+    // The label column of the rows above is 27 characters wide.
+    const std::string label = "wrong place (not " + s.expected_place + ")";
+    out << "  " << label
+        << std::string(std::max<size_t>(1, 27 - std::min<size_t>(27, label.size())), ' ')
         << s.wrong_place << "\n";
+  }
   out << "  latency, median / p95 (ms)\n";
   const auto row = [&](const char* name, const LatencySummary& l) {
     out << "    " << name << number(l.median_ms, "%8.1f") << " / " << number(l.p95_ms, "%.1f")
