@@ -1,0 +1,110 @@
+#pragma once
+// Many places, one answer: a set of named models (rooms, floors, submaps), each
+// with the frame its world coordinates are in, and relocalization against the
+// whole set that says which place the frame is in.
+//
+// Asking every place for a full relocalization would cost N times one answer.
+// Instead the frame is sampled once (samples and descriptors do not depend on
+// the model), every place is screened by a cheap pass (a few hundred of the
+// samples through its point forest and a short Kabsch-only RANSAC; its best
+// hypothesis' inlier count ranks the place), and only the best-ranked places
+// get the full solve. A runner-up whose screen comes close to the best is
+// solved too, and when two places both hold up the answer is "no pose":
+// naming the wrong room would be worse than naming none.
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "relocalizer/core/expected.h"
+#include "relocalizer/core/frame.h"
+#include "relocalizer/relocalize/relocalizer.h"
+
+namespace relocalizer {
+
+struct Place {
+  std::string name;       // unique within a set; what answers and logs say
+  std::string map_frame;  // the frame the model's world coordinates are in
+  std::string source;     // where the model came from (its path), for listings
+  std::shared_ptr<const Relocalizer> relocalizer;
+};
+
+// What a listing shows of a place.
+struct PlaceFigures {
+  std::string name;
+  std::string map_frame;
+  std::string source;
+  int point_trees = 0;
+  int line_trees = 0;
+  long modes = 0;             // leaf modes over both forests
+  long surface_voxels = 0;    // the scene surface's voxels (0: none)
+  long training_frames = 0;   // frames the model was trained on
+  uint64_t model_bytes = 0;   // forests and surface in memory
+};
+
+struct PlaceSearchParams {
+  int screen_samples = 200;     // point samples each place is screened with
+  int screen_hypotheses = 32;   // hypotheses of the short RANSAC
+  int screen_max_leaves = 1;    // backtracking leaves per tree in the screen
+  int max_solved = 3;           // full solves per frame at most
+  // The runner-up is solved too when its screen inliers reach this share of the best's.
+  float runner_up_ratio = 0.5f;
+  // Two places that both answer: the weaker one is no rival below this share
+  // of the stronger's inliers; at or above it the frame is ambiguous.
+  float ambiguity_ratio = 0.8f;
+
+  std::string validationError() const;  // empty when usable
+};
+
+// How one place fared with one frame.
+struct PlaceAttempt {
+  std::string place;
+  int screen_inliers = 0;  // the cheap pass's best hypothesis
+  bool solved = false;     // the full solve ran
+  bool success = false;    // and answered with a pose
+  std::string message;     // its reason when it ran and failed
+};
+
+struct PlaceAnswer {
+  std::string place;      // the answering place; empty for "no pose"
+  std::string map_frame;  // its frame; empty for "no pose"
+  Relocalization relocalization;  // pose in map_frame, or the failure and its reason
+  std::vector<PlaceAttempt> attempts;  // every place, best screened first
+  double screen_seconds = 0.0;         // the cheap pass over all places
+};
+
+class PlaceSet {
+ public:
+  explicit PlaceSet(PlaceSearchParams params = {});
+
+  // Loads a model file as a place. The error names the place and the file.
+  static Expected<Place> load(const std::string& name, const std::string& model_path,
+                              const std::string& map_frame, const RelocalizerParams& params);
+
+  // Adds a place, or replaces the one of the same name (a retrained model).
+  // Refuses an empty name or frame, or a model the parameters cannot use.
+  Status put(Place place);
+  // False when no place has that name.
+  bool remove(const std::string& name);
+  std::vector<PlaceFigures> list() const;
+  std::vector<std::string> names() const;
+  size_t size() const;
+
+  // Thread-safe, also against put/remove from other threads: a call works on
+  // the places as they were when it started.
+  PlaceAnswer relocalize(const RgbdFrame& frame) const;
+
+  const PlaceSearchParams& params() const { return params_; }
+
+ private:
+  std::vector<std::shared_ptr<const Place>> snapshot() const;
+
+  PlaceSearchParams params_;
+  mutable std::mutex mutex_;
+  std::vector<std::shared_ptr<const Place>> places_;  // in the order they were added
+};
+
+PlaceFigures placeFigures(const Place& place);
+
+}  // namespace relocalizer
