@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <chrono>
 
-
 namespace relocalizer {
 
 std::string PlaceSearchParams::validationError() const {

@@ -37,17 +37,17 @@ struct PlaceFigures {
   std::string source;
   int point_trees = 0;
   int line_trees = 0;
-  long modes = 0;             // leaf modes over both forests
-  long surface_voxels = 0;    // the scene surface's voxels (0: none)
-  long training_frames = 0;   // frames the model was trained on
-  uint64_t model_bytes = 0;   // forests and surface in memory
+  long modes = 0;            // leaf modes over both forests
+  long surface_voxels = 0;   // the scene surface's voxels (0: none)
+  long training_frames = 0;  // frames the model was trained on
+  uint64_t model_bytes = 0;  // forests and surface in memory
 };
 
 struct PlaceSearchParams {
-  int screen_samples = 200;     // point samples each place is screened with
-  int screen_hypotheses = 32;   // hypotheses of the short RANSAC
-  int screen_max_leaves = 1;    // backtracking leaves per tree in the screen
-  int max_solved = 3;           // full solves per frame at most
+  int screen_samples = 200;    // point samples each place is screened with
+  int screen_hypotheses = 32;  // hypotheses of the short RANSAC
+  int screen_max_leaves = 1;   // backtracking leaves per tree in the screen
+  int max_solved = 3;          // full solves per frame at most
   // The runner-up is solved too when its screen inliers reach this share of the best's.
   float runner_up_ratio = 0.5f;
   // Two places that both answer: the weaker one is no rival below this share
@@ -67,9 +67,9 @@ struct PlaceAttempt {
 };
 
 struct PlaceAnswer {
-  std::string place;      // the answering place; empty for "no pose"
-  std::string map_frame;  // its frame; empty for "no pose"
-  Relocalization relocalization;  // pose in map_frame, or the failure and its reason
+  std::string place;                   // the answering place; empty for "no pose"
+  std::string map_frame;               // its frame; empty for "no pose"
+  Relocalization relocalization;       // pose in map_frame, or the failure and its reason
   std::vector<PlaceAttempt> attempts;  // every place, best screened first
   double screen_seconds = 0.0;         // the cheap pass over all places
 };
