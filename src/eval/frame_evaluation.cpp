@@ -1,6 +1,7 @@
 #include "relocalizer/eval/frame_evaluation.h"
 
 #include <cstdio>
+#include <functional>
 #include <nlohmann/json.hpp>
 
 #include "relocalizer/core/progress.h"
@@ -27,12 +28,11 @@ Status addPredictionQuality(const Relocalizer& relocalizer, const RgbdFrame& fra
   return okStatus();
 }
 
-}  // namespace
-
-Expected<FrameEvaluation> evaluateFrames(const Relocalizer& relocalizer, const FrameSource& source,
-                                         bool measure_predictions,
-                                         const std::string& progress_label) {
-  FrameEvaluation evaluation;
+// Visits each selected frame that has ground truth, loaded, in order; the
+// others are counted as skipped. Fails on the first frame that does not load.
+Status forEachPosedFrame(const FrameSource& source, const std::string& progress_label,
+                         FrameEvaluation& evaluation,
+                         const std::function<Status(size_t, const RgbdFrame&)>& visit) {
   ProgressBar bar(progress_label, source.size());
   for (size_t i = 0; i < source.size(); ++i) {
     bar.advance();
@@ -42,13 +42,41 @@ Expected<FrameEvaluation> evaluateFrames(const Relocalizer& relocalizer, const F
     }
     auto frame = source.load(i);
     if (!frame) return makeError(frame.error());
-    const Relocalization result = relocalizer.relocalize(*frame);
-    if (measure_predictions)
-      if (Status measured = addPredictionQuality(relocalizer, *frame, evaluation); !measured)
-        return makeError(measured.error());
-    evaluation.records.push_back(
-        recordAttempt(source.id(i), source.stamp(i), *source.groundTruth(i), result));
+    if (Status visited = visit(i, *frame); !visited) return visited;
   }
+  return okStatus();
+}
+
+}  // namespace
+
+Expected<FrameEvaluation> evaluateFrames(const Relocalizer& relocalizer, const FrameSource& source,
+                                         bool measure_predictions,
+                                         const std::string& progress_label) {
+  FrameEvaluation evaluation;
+  const Status done = forEachPosedFrame(
+      source, progress_label, evaluation, [&](size_t i, const RgbdFrame& frame) -> Status {
+        const Relocalization result = relocalizer.relocalize(frame);
+        if (measure_predictions)
+          if (Status measured = addPredictionQuality(relocalizer, frame, evaluation); !measured)
+            return measured;
+        evaluation.records.push_back(
+            recordAttempt(source.id(i), source.stamp(i), *source.groundTruth(i), result));
+        return okStatus();
+      });
+  if (!done) return makeError(done.error());
+  return evaluation;
+}
+
+Expected<FrameEvaluation> evaluateFrames(const PlaceSet& places, const FrameSource& source,
+                                         const std::string& progress_label) {
+  FrameEvaluation evaluation;
+  const Status done = forEachPosedFrame(
+      source, progress_label, evaluation, [&](size_t i, const RgbdFrame& frame) -> Status {
+        evaluation.records.push_back(recordAttempt(
+            source.id(i), source.stamp(i), *source.groundTruth(i), places.relocalize(frame)));
+        return okStatus();
+      });
+  if (!done) return makeError(done.error());
   return evaluation;
 }
 

@@ -400,4 +400,13 @@ Expected<Model> loadModel(const std::string& path) {
   return deserializeModel(bytes->data(), bytes->size(), path);
 }
 
+size_t modelBytes(const Model& model) {
+  size_t bytes = model.surface.elements().size() * sizeof(SurfaceElement);
+  for (const Forest* forest : {&model.points, &model.lines})
+    for (const Tree& tree : forest->trees)
+      bytes += tree.nodes.size() * sizeof(SplitNode) + tree.modes.size() * sizeof(LeafMode) +
+               tree.descriptors.size() * sizeof(Descriptor);
+  return bytes;
+}
+
 }  // namespace relocalizer

@@ -85,15 +85,6 @@ std::string slamPoseError(const Pose& pose) {
   return {};
 }
 
-size_t modelBytes(const Model& model) {
-  size_t bytes = model.surface.elements().size() * sizeof(SurfaceElement);
-  for (const Forest* forest : {&model.points, &model.lines})
-    for (const Tree& tree : forest->trees)
-      bytes += tree.nodes.size() * sizeof(SplitNode) + tree.modes.size() * sizeof(LeafMode) +
-               tree.descriptors.size() * sizeof(Descriptor);
-  return bytes;
-}
-
 OnlineLearner::OnlineLearner(LearningParams params, RelocalizerParams relocalizer_params, Mode mode)
     : params_(std::move(params)),
       relocalizer_params_(learnedModelParams(params_, std::move(relocalizer_params))),

@@ -1,68 +1,121 @@
-// TEMPORARY (issue 25, node side): a minimal PlaceSet so that the node can be
-// built and tested before the lead's implementation lands. It relocalizes with
-// every place in turn and answers with the first success; no screening. The
-// lead replaces this whole file when merging.
-
 #include "relocalizer/relocalize/place_set.h"
+
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <numeric>
 
 namespace relocalizer {
 
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+int inliersOf(const Relocalization& answer) { return answer.point_inliers + answer.line_inliers; }
+
+// The places, best screened first (ties: the order they were added).
+std::vector<size_t> rankByScreen(const std::vector<PlaceAttempt>& attempts) {
+  std::vector<size_t> order(attempts.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return attempts[a].screen_inliers > attempts[b].screen_inliers;
+  });
+  return order;
+}
+
+std::string ambiguityMessage(const std::string& a, const Relocalization& answer_a,
+                             const std::string& b, const Relocalization& answer_b) {
+  char buffer[400];
+  std::snprintf(buffer, sizeof buffer,
+                "ambiguous place: the frame fits %s (%d inliers) and %s (%d inliers) alike",
+                a.c_str(), inliersOf(answer_a), b.c_str(), inliersOf(answer_b));
+  return buffer;
+}
+
+}  // namespace
+
 std::string PlaceSearchParams::validationError() const {
-  if (screen_samples < 1) return "screen_samples must be at least 1";
-  if (screen_hypotheses < 1) return "screen_hypotheses must be at least 1";
-  if (screen_max_leaves < 1) return "screen_max_leaves must be at least 1";
-  if (max_solved < 1) return "max_solved must be at least 1";
+  if (screen.samples < 3 || screen.hypotheses < 1 || screen.max_leaves < 1)
+    return "screen.samples must be >= 3, screen.hypotheses and screen.max_leaves >= 1";
+  if (max_solved < 1) return "max_solved must be >= 1";
+  if (!(runner_up_ratio >= 0 && runner_up_ratio <= 1))
+    return "runner_up_ratio must be a share between 0 and 1";
+  if (!(ambiguity_ratio > 0 && ambiguity_ratio <= 1))
+    return "ambiguity_ratio must be a share in (0, 1]";
   return {};
+}
+
+PlaceFigures placeFigures(const Place& place) {
+  PlaceFigures figures;
+  figures.name = place.name;
+  figures.map_frame = place.map_frame;
+  figures.source = place.source;
+  if (!place.relocalizer) return figures;
+  const Model& model = place.relocalizer->model();
+  figures.point_trees = static_cast<int>(model.points.trees.size());
+  figures.line_trees = static_cast<int>(model.lines.trees.size());
+  figures.modes = static_cast<long>(model.points.modeCount() + model.lines.modeCount());
+  figures.surface_voxels = static_cast<long>(model.surface.elements().size());
+  figures.training_frames = model.summary.images;
+  figures.model_bytes = modelBytes(model);
+  return figures;
 }
 
 PlaceSet::PlaceSet(PlaceSearchParams params) : params_(std::move(params)) {}
 
 Expected<Place> PlaceSet::load(const std::string& name, const std::string& model_path,
                                const std::string& map_frame, const RelocalizerParams& params) {
-  Expected<std::unique_ptr<Relocalizer>> loaded = makeError("not loaded");
+  Expected<std::unique_ptr<Relocalizer>> relocalizer = makeError("not loaded");
   try {
-    loaded = Relocalizer::fromFile(model_path, params);
+    relocalizer = Relocalizer::fromFile(model_path, params);
   } catch (const std::exception& e) {
-    return makeError("place '" + name + "': " + model_path + ": cannot be loaded: " + e.what());
+    // Whatever the loader throws (std::bad_alloc on a corrupt size) refuses
+    // this place only.
+    return makeError("place " + name + ": " + model_path + ": cannot be loaded: " + e.what());
   }
-  if (!loaded) return makeError("place '" + name + "': " + loaded.error());
-  if (std::string why = (*loaded)->validationError(); !why.empty())
-    return makeError("place '" + name + "': " + model_path + ": " + why);
+  if (!relocalizer) return makeError("place " + name + ": " + relocalizer.error());
   Place place;
   place.name = name;
   place.map_frame = map_frame;
   place.source = model_path;
-  place.relocalizer = std::move(*loaded);
+  place.relocalizer = std::move(*relocalizer);
   return place;
 }
 
 Status PlaceSet::put(Place place) {
   if (place.name.empty()) return makeError("a place needs a name");
-  if (place.map_frame.empty()) return makeError("place '" + place.name + "' has no map frame");
-  if (!place.relocalizer) return makeError("place '" + place.name + "' has no model");
+  if (place.map_frame.empty()) return makeError("place " + place.name + ": no map frame");
+  if (!place.relocalizer) return makeError("place " + place.name + ": no model");
   if (std::string why = place.relocalizer->validationError(); !why.empty())
-    return makeError("place '" + place.name + "': " + why);
+    return makeError("place " + place.name + ": " + why);
   auto shared = std::make_shared<const Place>(std::move(place));
   std::lock_guard<std::mutex> lock(mutex_);
   for (auto& existing : places_)
     if (existing->name == shared->name) {
-      existing = shared;
+      existing = std::move(shared);
       return okStatus();
     }
-  places_.push_back(shared);
+  places_.push_back(std::move(shared));
   return okStatus();
 }
 
 bool PlaceSet::remove(const std::string& name) {
   std::lock_guard<std::mutex> lock(mutex_);
-  auto it = std::find_if(places_.begin(), places_.end(),
-                         [&](const auto& place) { return place->name == name; });
-  if (it == places_.end()) return false;
-  places_.erase(it);
+  const auto found = std::find_if(places_.begin(), places_.end(),
+                                  [&](const auto& place) { return place->name == name; });
+  if (found == places_.end()) return false;
+  places_.erase(found);
   return true;
+}
+
+std::vector<std::shared_ptr<const Place>> PlaceSet::snapshot() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return places_;
 }
 
 std::vector<PlaceFigures> PlaceSet::list() const {
@@ -82,61 +135,105 @@ size_t PlaceSet::size() const {
   return places_.size();
 }
 
-std::vector<std::shared_ptr<const Place>> PlaceSet::snapshot() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return places_;
-}
-
 PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame) const {
+  const auto start = Clock::now();
+  const std::vector<std::shared_ptr<const Place>> places = snapshot();
   PlaceAnswer answer;
-  answer.relocalization.message = "no place loaded";
-  std::string reasons;
-  for (const auto& place : snapshot()) {
-    PlaceAttempt attempt;
-    attempt.place = place->name;
-    attempt.solved = true;
-    Relocalization solved = place->relocalizer->relocalize(frame);
-    attempt.success = solved.success;
-    attempt.message = solved.message;
-    answer.attempts.push_back(attempt);
-    if (solved.success && answer.place.empty()) {
-      answer.place = place->name;
-      answer.map_frame = place->map_frame;
-      answer.relocalization = std::move(solved);
-      break;
-    }
-    reasons += (reasons.empty() ? "" : "; ") + place->name + ": " + solved.message;
-    answer.relocalization = std::move(solved);
-    answer.relocalization.message = reasons;
+  if (places.empty()) {
+    answer.relocalization.message = "no place is loaded";
+    answer.relocalization.timings.total = secondsSince(start);
+    return answer;
   }
+  auto answerWith = [&](const Place& place, Relocalization relocalization) {
+    answer.place = place.name;
+    answer.map_frame = place.map_frame;
+    answer.relocalization = std::move(relocalization);
+  };
+  if (places.size() == 1) {
+    // Nothing to rank: the one-place path, with its line branch beside the point forest.
+    const Place& place = *places.front();
+    Relocalization alone = place.relocalizer->relocalize(frame);
+    answer.attempts.push_back({place.name, -1, true, alone.success, alone.message});
+    if (alone.success)
+      answerWith(place, std::move(alone));
+    else
+      answer.relocalization = std::move(alone);
+    return answer;
+  }
+
+  // Sample once; a place whose recipe differs samples for itself (relocalize()).
+  Expected<FrameSamples> shared = places.front()->relocalizer->sample(frame);
+  if (!shared) {
+    answer.relocalization.message = shared.error();
+    answer.relocalization.timings.total = secondsSince(start);
+    return answer;
+  }
+  const auto screen_start = Clock::now();
+  answer.attempts.resize(places.size());
+  tbb::parallel_for(size_t{0}, places.size(), [&](size_t i) {
+    const Relocalizer& relocalizer = *places[i]->relocalizer;
+    PlaceAttempt& attempt = answer.attempts[i];
+    attempt.place = places[i]->name;
+    if (shared->recipe.sameAs(relocalizer.samplingRecipe())) {
+      attempt.screen_inliers = relocalizer.screen(*shared, params_.screen);
+    } else if (Expected<FrameSamples> own = relocalizer.sample(frame)) {
+      attempt.screen_inliers = relocalizer.screen(*own, params_.screen);
+    }
+  });
+  const double screen_seconds = secondsSince(screen_start);
+  const std::vector<size_t> order = rankByScreen(answer.attempts);
+
+  // Full solves, best screened first: the runners-up that screened close to
+  // the best are solved too (a look-alike place must not win by being asked
+  // alone), and while nothing has answered, further places are tried.
+  const int best_screen = answer.attempts[order.front()].screen_inliers;
+  std::vector<std::pair<size_t, Relocalization>> answered;
+  Relocalization first_failure;
+  int solved = 0;
+  for (size_t rank = 0; rank < order.size() && solved < params_.max_solved; ++rank) {
+    PlaceAttempt& attempt = answer.attempts[order[rank]];
+    const bool close = attempt.screen_inliers > 0 &&
+                       attempt.screen_inliers >= params_.runner_up_ratio * best_screen;
+    if (rank > 0 && !close && !answered.empty()) break;
+    Relocalization full = places[order[rank]]->relocalizer->relocalize(frame, *shared);
+    ++solved;
+    attempt.solved = true;
+    attempt.success = full.success;
+    attempt.message = full.message;
+    if (full.success)
+      answered.emplace_back(order[rank], std::move(full));
+    else if (rank == 0)
+      first_failure = std::move(full);
+  }
+
+  if (answered.empty()) {
+    answer.relocalization = std::move(first_failure);
+    const PlaceAttempt& best = answer.attempts[order.front()];
+    answer.relocalization.message = "no place fits; best screened " + best.place + ": " +
+                                    (best.message.empty() ? "not solved" : best.message);
+  } else {
+    std::stable_sort(answered.begin(), answered.end(), [](const auto& a, const auto& b) {
+      return inliersOf(a.second) > inliersOf(b.second);
+    });
+    const auto& [winner, winning] = answered.front();
+    if (answered.size() > 1 &&
+        inliersOf(answered[1].second) >= params_.ambiguity_ratio * inliersOf(winning)) {
+      const std::string why = ambiguityMessage(places[winner]->name, winning,
+                                               places[answered[1].first]->name, answered[1].second);
+      answer.relocalization = winning;
+      answer.relocalization.success = false;
+      answer.relocalization.message = why;
+    } else {
+      answerWith(*places[winner], std::move(answered.front().second));
+    }
+  }
+  // Move the attempts into rank order for the reader.
+  std::vector<PlaceAttempt> ranked;
+  for (size_t i : order) ranked.push_back(std::move(answer.attempts[i]));
+  answer.attempts = std::move(ranked);
+  answer.relocalization.timings.screening = screen_seconds;
+  answer.relocalization.timings.total = secondsSince(start);
   return answer;
-}
-
-// TEMPORARY copy of online's modelBytes, which the lead moves to
-// forest/model_io.h (relocalize may not link online: the shared libraries
-// refuse the undefined symbol).
-static size_t temporaryModelBytes(const Model& model) {
-  size_t bytes = model.surface.elements().size() * sizeof(SurfaceElement);
-  for (const Forest* forest : {&model.points, &model.lines})
-    for (const Tree& tree : forest->trees)
-      bytes += tree.nodes.size() * sizeof(SplitNode) + tree.modes.size() * sizeof(LeafMode) +
-               tree.descriptors.size() * sizeof(Descriptor);
-  return bytes;
-}
-
-PlaceFigures placeFigures(const Place& place) {
-  PlaceFigures figures;
-  figures.name = place.name;
-  figures.map_frame = place.map_frame;
-  figures.source = place.source;
-  const Model& model = place.relocalizer->model();
-  figures.point_trees = static_cast<int>(model.points.trees.size());
-  figures.line_trees = static_cast<int>(model.lines.trees.size());
-  figures.modes = static_cast<long>(model.points.modeCount() + model.lines.modeCount());
-  figures.surface_voxels = static_cast<long>(model.surface.elements().size());
-  figures.training_frames = model.summary.images;
-  figures.model_bytes = temporaryModelBytes(model);
-  return figures;
 }
 
 }  // namespace relocalizer

@@ -57,93 +57,210 @@ std::string Relocalizer::validationError() const {
   return {};
 }
 
-Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
-  const auto start = Clock::now();
-  Relocalization result;
-  auto fail = [&](std::string message) {
-    result.success = false;
-    result.message = std::move(message);
-    result.timings.total = secondsSince(start);
-    return result;
-  };
-  const std::string invalid = frameValidationError(frame);
-  if (!invalid.empty()) return fail("invalid frame: " + invalid);
-  const std::string unusable = validationError();
-  if (!unusable.empty()) return fail(unusable);
-  const int valid_depth = countValidDepth(frame.depth);
-  if (valid_depth < params_.min_valid_depth)
-    return fail("too little valid depth: " + std::to_string(valid_depth) + " pixels (need " +
-                std::to_string(params_.min_valid_depth) + ")");
+namespace {
 
-  std::mt19937 rng(params_.seed);
-  const bool use_points = params_.use_points && !model_.points.empty();
-  const bool use_lines = params_.use_lines && !model_.lines.empty();
+struct ForestPredictions {
+  std::vector<Prediction> points, lines;
+};
 
-  // --- Sampling and forests ----------------------------------------------------------
-  // Two branches that share nothing but the frame: random pixels -> point
-  // forest, and LSD -> line samples -> line forest. LSD runs on one core
-  // whatever the thread count, so with two or more threads it overlaps the
-  // point forest instead of leaving a core idle; with one thread the branches
-  // run one after the other. The point samples are drawn first and the line
-  // branch has its own random stream forked from the seed, so the answer does
-  // not depend on which branch runs first.
+bool usesPoints(const Model& model, const RelocalizerParams& params) {
+  return params.use_points && !model.points.empty();
+}
+bool usesLines(const Model& model, const RelocalizerParams& params) {
+  return params.use_lines && !model.lines.empty();
+}
+
+// Draws the frame's samples and their descriptors in two branches that share
+// nothing but the frame: random pixels, and LSD -> line samples. LSD runs on
+// one core whatever the thread count, so with two or more threads it overlaps
+// the point branch instead of leaving a core idle; with one thread the
+// branches run one after the other. With `predictions` each branch also runs
+// its forest at once, so LSD overlaps the point forest too. The point samples
+// are drawn first and the line branch has its own random stream forked from
+// the seed, so the answer does not depend on which branch runs first.
+void sampleFrame(const Model& model, const RelocalizerParams& params, const RgbdFrame& frame,
+                 FrameSamples& samples, ForestPredictions* predictions, StageTimings& timings) {
+  const bool use_points = usesPoints(model, params), use_lines = usesLines(model, params);
+  samples.rng.seed(params.seed);
   auto stage = Clock::now();
-  std::vector<Sample> point_samples;
-  LineSamples line_samples;
-  if (use_points) samplePoints(frame, params_.point_samples, rng, point_samples);
-  result.timings.sampling_points = secondsSince(stage);
-  std::mt19937 line_rng(rng());
+  if (use_points) samplePoints(frame, params.point_samples, samples.rng, samples.points);
+  timings.sampling_points = secondsSince(stage);
+  std::mt19937 line_rng(samples.rng());
   const auto image_start = Clock::now();
-  const FeatureImage image = FeatureImage::of(frame.colour, frame.depth);
+  samples.image = FeatureImage::of(frame.colour, frame.depth);
   const double image_seconds = secondsSince(image_start);  // counted with the point forest
   PredictionParams prediction;
-  prediction.max_leaves = params_.max_leaves;
-  std::vector<Descriptor> point_descriptors, line_descriptors;
-  std::vector<Prediction> point_predictions, line_predictions;
+  prediction.max_leaves = params.max_leaves;
   const auto forest_start = Clock::now();
   tbb::task_group branches;
   branches.run([&] {
     auto line_stage = Clock::now();
-    if (use_lines && params_.line_samples > 0)
-      line_samples =
-          sampleLines(frame, model_.params.line_sampling, params_.line_samples, line_rng);
-    result.timings.sampling_lines = secondsSince(line_stage);
+    if (use_lines && params.line_samples > 0)
+      samples.lines = sampleLines(frame, model.params.line_sampling, params.line_samples, line_rng);
+    timings.sampling_lines = secondsSince(line_stage);
     line_stage = Clock::now();
     if (use_lines) {
-      computeDescriptors(image, line_samples.samples, line_descriptors);
-      predictForest(model_.lines, image, line_samples.samples, line_descriptors, prediction,
-                    line_predictions);
+      computeDescriptors(samples.image, samples.lines.samples, samples.line_descriptors);
+      if (predictions)
+        predictForest(model.lines, samples.image, samples.lines.samples, samples.line_descriptors,
+                      prediction, predictions->lines);
     }
-    result.timings.forest_lines = secondsSince(line_stage);
+    timings.forest_lines = secondsSince(line_stage);
   });
   branches.run_and_wait([&] {
     const auto point_stage = Clock::now();
     if (use_points) {
-      computeDescriptors(image, point_samples, point_descriptors);
-      predictForest(model_.points, image, point_samples, point_descriptors, prediction,
-                    point_predictions);
+      computeDescriptors(samples.image, samples.points, samples.point_descriptors);
+      if (predictions)
+        predictForest(model.points, samples.image, samples.points, samples.point_descriptors,
+                      prediction, predictions->points);
     }
-    result.timings.forest_points = image_seconds + secondsSince(point_stage);
+    timings.forest_points = image_seconds + secondsSince(point_stage);
   });
   branches.wait();
-  result.point_samples = static_cast<int>(point_samples.size());
-  result.line_samples = static_cast<int>(line_samples.samples.size());
-  result.timings.sampling = result.timings.sampling_points + result.timings.sampling_lines;
-  result.timings.forest = result.timings.forest_points + result.timings.forest_lines;
+  timings.sampling = timings.sampling_points + timings.sampling_lines;
+  timings.forest = timings.forest_points + timings.forest_lines;
   // With the branches overlapping, the stages add up to more than the wall time.
-  result.timings.sampling_and_forests =
-      result.timings.sampling_points + image_seconds + secondsSince(forest_start);
+  timings.sampling_and_forests =
+      timings.sampling_points + image_seconds + secondsSince(forest_start);
+  // Without predictions the "forest" stages held the descriptors only.
+  samples.point_seconds = timings.sampling_points + timings.forest_points;
+  samples.line_seconds = timings.sampling_lines + timings.forest_lines;
+}
 
-  // --- Pose --------------------------------------------------------------------------
+// Both forests on shared samples, side by side.
+void predictForests(const Model& model, const RelocalizerParams& params,
+                    const FrameSamples& samples, ForestPredictions& predictions,
+                    StageTimings& timings) {
+  PredictionParams prediction;
+  prediction.max_leaves = params.max_leaves;
+  const auto start = Clock::now();
+  tbb::task_group branches;
+  branches.run([&] {
+    const auto line_start = Clock::now();
+    if (usesLines(model, params))
+      predictForest(model.lines, samples.image, samples.lines.samples, samples.line_descriptors,
+                    prediction, predictions.lines);
+    timings.forest_lines = secondsSince(line_start);
+  });
+  branches.run_and_wait([&] {
+    const auto point_start = Clock::now();
+    if (usesPoints(model, params))
+      predictForest(model.points, samples.image, samples.points, samples.point_descriptors,
+                    prediction, predictions.points);
+    timings.forest_points = secondsSince(point_start);
+  });
+  branches.wait();
+  timings.sampling_points = samples.point_seconds;
+  timings.sampling_lines = samples.line_seconds;
+  timings.sampling = timings.sampling_points + timings.sampling_lines;
+  timings.forest = timings.forest_points + timings.forest_lines;
+  timings.sampling_and_forests = secondsSince(start);
+}
+
+}  // namespace
+
+SamplingRecipe Relocalizer::samplingRecipe() const {
+  SamplingRecipe recipe;
+  recipe.use_points = usesPoints(model_, params_);
+  recipe.use_lines = usesLines(model_, params_);
+  recipe.point_samples = params_.point_samples;
+  recipe.line_samples = params_.line_samples;
+  recipe.min_valid_depth = params_.min_valid_depth;
+  recipe.seed = params_.seed;
+  recipe.line_sampling = model_.params.line_sampling;
+  return recipe;
+}
+
+std::string Relocalizer::frameRefusal(const RgbdFrame& frame) const {
+  const std::string invalid = frameValidationError(frame);
+  if (!invalid.empty()) return "invalid frame: " + invalid;
+  const std::string unusable = validationError();
+  if (!unusable.empty()) return unusable;
+  const int valid_depth = countValidDepth(frame.depth);
+  if (valid_depth < params_.min_valid_depth)
+    return "too little valid depth: " + std::to_string(valid_depth) + " pixels (need " +
+           std::to_string(params_.min_valid_depth) + ")";
+  return {};
+}
+
+Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
+  const auto start = Clock::now();
+  Relocalization result;
+  if (std::string refusal = frameRefusal(frame); !refusal.empty())
+    return failed(std::move(result), std::move(refusal), start);
+  FrameSamples samples;
+  samples.recipe = samplingRecipe();
+  ForestPredictions predictions;
+  sampleFrame(model_, params_, frame, samples, &predictions, result.timings);
+  return solve(frame, samples, predictions.points, predictions.lines, std::move(result), start);
+}
+
+Expected<FrameSamples> Relocalizer::sample(const RgbdFrame& frame) const {
+  if (std::string refusal = frameRefusal(frame); !refusal.empty()) return makeError(refusal);
+  FrameSamples samples;
+  samples.recipe = samplingRecipe();
+  StageTimings timings;
+  sampleFrame(model_, params_, frame, samples, nullptr, timings);
+  return samples;
+}
+
+Relocalization Relocalizer::relocalize(const RgbdFrame& frame, const FrameSamples& samples) const {
+  if (!samples.recipe.sameAs(samplingRecipe())) return relocalize(frame);
+  const auto start = Clock::now();
+  Relocalization result;
+  ForestPredictions predictions;
+  predictForests(model_, params_, samples, predictions, result.timings);
+  return solve(frame, samples, predictions.points, predictions.lines, std::move(result), start);
+}
+
+int Relocalizer::screen(const FrameSamples& samples, const ScreenParams& screen) const {
+  if (model_.points.empty() || samples.points.empty()) return 0;
+  // The point samples are in random order: the first ones are a random subset.
+  const size_t count = std::min(samples.points.size(), static_cast<size_t>(screen.samples));
+  const std::vector<Sample> subset(samples.points.begin(), samples.points.begin() + count);
+  const std::vector<Descriptor> descriptors(samples.point_descriptors.begin(),
+                                            samples.point_descriptors.begin() + count);
+  PredictionParams prediction;
+  prediction.max_leaves = screen.max_leaves;
+  std::vector<Prediction> predictions;
+  predictForest(model_.points, samples.image, subset, descriptors, prediction, predictions);
+  std::vector<SolverSample> inputs;
+  inputs.reserve(count);
+  for (size_t i = 0; i < count; ++i)
+    inputs.push_back({subset[i].camera_point, &predictions[i], nullptr});
+  // A stream of its own: the screen must not change what the full solve draws.
+  std::mt19937 rng(params_.seed);
+  return screenPose(inputs, params_.solver, screen.hypotheses, rng);
+}
+
+Relocalization Relocalizer::failed(Relocalization result, std::string message,
+                                   std::chrono::steady_clock::time_point start) {
+  result.success = false;
+  result.message = std::move(message);
+  result.timings.total = secondsSince(start);
+  return result;
+}
+
+Relocalization Relocalizer::solve(const RgbdFrame& frame, const FrameSamples& samples,
+                                  const std::vector<Prediction>& point_predictions,
+                                  const std::vector<Prediction>& line_predictions,
+                                  Relocalization result,
+                                  std::chrono::steady_clock::time_point start) const {
+  const bool use_points = usesPoints(model_, params_);
+  result.point_samples = static_cast<int>(samples.points.size());
+  result.line_samples = static_cast<int>(samples.lines.samples.size());
   std::vector<SolverSample> point_inputs, line_inputs;
-  point_inputs.reserve(point_samples.size());
-  for (size_t i = 0; i < point_samples.size(); ++i)
-    point_inputs.push_back({point_samples[i].camera_point, &point_predictions[i], nullptr});
-  line_inputs.reserve(line_samples.samples.size());
-  for (size_t i = 0; i < line_samples.samples.size(); ++i) {
-    const Sample& s = line_samples.samples[i];
-    line_inputs.push_back({s.camera_point, &line_predictions[i], &line_samples.lines[s.line]});
+  point_inputs.reserve(samples.points.size());
+  for (size_t i = 0; i < samples.points.size(); ++i)
+    point_inputs.push_back({samples.points[i].camera_point, &point_predictions[i], nullptr});
+  line_inputs.reserve(samples.lines.samples.size());
+  for (size_t i = 0; i < samples.lines.samples.size(); ++i) {
+    const Sample& s = samples.lines.samples[i];
+    line_inputs.push_back({s.camera_point, &line_predictions[i], &samples.lines.lines[s.line]});
   }
+  // The solver continues the sampling's stream (a copy: the samples may be shared).
+  std::mt19937 rng = samples.rng;
   // Without the point forest, line samples seed the hypotheses too.
   const PoseSolution solution = use_points
                                     ? solvePose(point_inputs, line_inputs, params_.solver, rng)
@@ -153,11 +270,11 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
   result.point_inliers = solution.point_inliers;
   result.line_inliers = solution.line_inliers;
   result.score = solution.score;
-  if (!solution.success) return fail(solution.message);
+  if (!solution.success) return failed(std::move(result), solution.message, start);
   result.pose = solution.pose;
   result.covariance = solution.covariance;
 
-  // --- Surface: refine by depth ICP and check against the scene's geometry ---------------
+  // Surface: refine by depth ICP and check against the scene's geometry.
   if (params_.surface.enabled && !model_.surface.empty()) {
     const auto surface_start = Clock::now();
     const SurfaceFit fit =
@@ -169,17 +286,27 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
     result.pose = fit.pose;
     if (fit.agreement < params_.surface.min_agreement) {
       char buffer[200];
-      std::snprintf(
-          buffer, sizeof buffer,
-          "the pose does not fit the scene's surface: %.1f%% of the frame's depth lies on "
-          "it (need %.1f%%)",
-          100.0 * fit.agreement, 100.0 * params_.surface.min_agreement);
-      return fail(buffer);
+      std::snprintf(buffer, sizeof buffer,
+                    "the pose does not fit the scene's surface: %.1f%% of the frame's depth lies "
+                    "on it (need %.1f%%)",
+                    100.0 * fit.agreement, 100.0 * params_.surface.min_agreement);
+      return failed(std::move(result), buffer, start);
     }
   }
   result.success = true;
   result.timings.total = secondsSince(start);
   return result;
+}
+
+bool SamplingRecipe::sameAs(const SamplingRecipe& other) const {
+  const LineSamplingParams &a = line_sampling, &b = other.line_sampling;
+  return use_points == other.use_points && use_lines == other.use_lines &&
+         point_samples == other.point_samples && line_samples == other.line_samples &&
+         min_valid_depth == other.min_valid_depth && seed == other.seed &&
+         a.min_segment_length_px == b.min_segment_length_px && a.spacing_px == b.spacing_px &&
+         a.lsd_scale == b.lsd_scale && a.edge_offset_px == b.edge_offset_px &&
+         a.ransac_inlier_m == b.ransac_inlier_m && a.ransac_iterations == b.ransac_iterations &&
+         a.min_inliers == b.min_inliers && a.min_inlier_ratio == b.min_inlier_ratio;
 }
 
 std::string Relocalizer::limitations() const {

@@ -13,6 +13,7 @@
 #include "relocalizer/eval/plot.h"
 #include "relocalizer/forest/training_config.h"
 #include "relocalizer/online/key_frame_feed.h"
+#include "relocalizer/relocalize/place_set.h"
 #include "relocalizer/relocalize/relocalizer.h"
 #include "source_arguments.h"
 
@@ -21,7 +22,10 @@ using namespace relocalizer;
 namespace {
 
 struct Options {
-  std::string model_path, output, config, forests = "both";
+  std::vector<std::string> models;  // PATH, or NAME=PATH for each of many places
+  std::string model_path;           // the one model without place names
+  std::string expect_place;
+  std::string output, config, forests = "both";
   int threads = 0;
   bool prediction_quality = false;
   cli::SourceOptions source;
@@ -44,9 +48,14 @@ struct Learned {
 };
 
 void addOptions(CLI::App& app, Options& o, LearnOptions& l) {
-  app.add_option("-m,--model", o.model_path,
+  app.add_option("-m,--model", o.models,
                  "Model file written by train (required without --learn-frames); with "
-                 "--learn-frames a saved online model to continue (needs MODEL.keyframes)");
+                 "--learn-frames a saved online model to continue (needs MODEL.keyframes). "
+                 "Many places: repeat it as NAME=PATH; every frame is then relocalized against "
+                 "the whole set, and places.csv names each frame's answering place");
+  app.add_option("--expect-place", o.expect_place,
+                 "Many places: the place the frames were taken in; answers from any other "
+                 "place are counted as wrong-place answers");
   o.source.add(app, "Dataset folder with ground truth",
                "Frame ids to evaluate, e.g. 100-199,300-399 (default: all); for a bag, ids "
                "are indices in its synchronized frame order");
@@ -205,12 +214,72 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
   return -1;
 }
 
+// NAME=PATH (or PATH, named by its file's stem) for each --model.
+Expected<std::vector<std::pair<std::string, std::string>>> placeArguments(
+    const std::vector<std::string>& models) {
+  std::vector<std::pair<std::string, std::string>> places;
+  for (const std::string& argument : models) {
+    const size_t equals = argument.find('=');
+    std::string name = equals == std::string::npos ? std::filesystem::path(argument).stem().string()
+                                                   : argument.substr(0, equals);
+    std::string path = equals == std::string::npos ? argument : argument.substr(equals + 1);
+    if (name.empty() || path.empty())
+      return makeError("--model " + argument + ": expected NAME=PATH with a name and a path");
+    for (const auto& [other, other_path] : places)
+      if (other == name)
+        return makeError("--model " + argument + ": the place name " + name + " is given twice (" +
+                         other_path + " and " + path + ")");
+    places.emplace_back(std::move(name), std::move(path));
+  }
+  return places;
+}
+
+// Many places: loads each --model into one set and relocalizes every frame
+// against the whole set.
+Expected<FrameEvaluation> evaluatePlaces(const Options& o, const RelocalizerParams& params,
+                                         const FrameSource& data) {
+  auto arguments = placeArguments(o.models);
+  if (!arguments) return makeError(arguments.error());
+  PlaceSet places;
+  bool expected_found = o.expect_place.empty();
+  for (const auto& [name, path] : *arguments) {
+    auto place = PlaceSet::load(name, path, name, params);
+    if (!place) return makeError(place.error());
+    const PlaceFigures figures = placeFigures(*place);
+    std::printf("place %s: %s, %d point trees, %d line trees, %.1f MB in memory\n", name.c_str(),
+                path.c_str(), figures.point_trees, figures.line_trees, figures.model_bytes / 1e6);
+    if (Status added = places.put(std::move(*place)); !added) return makeError(added.error());
+    expected_found = expected_found || name == o.expect_place;
+  }
+  if (!expected_found)
+    return makeError("--expect-place " + o.expect_place + ": no --model names that place");
+  return evaluateFrames(places, data, "evaluating " + std::to_string(places.size()) + " places");
+}
+
+// Options that do not go together, or empty.
+std::string combinationError(const Options& o, const LearnOptions& learn, bool many_places) {
+  if (many_places && !learn.learn_frames.empty())
+    return "--learn-frames learns one place: give one --model PATH";
+  if (many_places && o.prediction_quality)
+    return "--prediction-quality measures one model's forests: give one --model";
+  if (!o.expect_place.empty() && !many_places)
+    return "--expect-place needs places: --model NAME=PATH (repeated)";
+  if (o.models.empty() && learn.learn_frames.empty())
+    return "--model is required (or --learn-frames to learn the model online)";
+  if (!learn.learn_frames.empty() && !o.source.bag.empty())
+    return "--learn-frames learns from a --dataset folder, not from --bag";
+  return {};
+}
+
 // What summary.json adds to the evaluation's own figures.
 std::string summaryFields(const Options& o, const FrameSource& data, const nlohmann::json& learning,
                           const std::string& prediction_json, int thread_count,
                           const RelocalizerParams& params) {
   nlohmann::json extra;
-  extra["model"] = o.model_path;
+  if (o.model_path.empty() && !o.models.empty())
+    extra["places"] = o.models;
+  else
+    extra["model"] = o.model_path;
   if (!learning.is_null()) extra["learning"] = learning;
   extra["dataset"] = data.path();
   extra["frame_selection"] = o.source.frames;
@@ -244,10 +313,11 @@ int main(int argc, char** argv) {
   LearnOptions learn;
   addOptions(app, o, learn);
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
-  if (o.model_path.empty() && learn.learn_frames.empty())
-    return cli::fail(app, "--model is required (or --learn-frames to learn the model online)");
-  if (!learn.learn_frames.empty() && !o.source.bag.empty())
-    return cli::fail(app, "--learn-frames learns from a --dataset folder, not from --bag");
+  const bool many_places =
+      o.models.size() > 1 || (o.models.size() == 1 && o.models[0].find('=') != std::string::npos);
+  if (!many_places && !o.models.empty()) o.model_path = o.models[0];
+  if (const std::string error = combinationError(o, learn, many_places); !error.empty())
+    return cli::fail(app, error);
 
   RelocalizerParams params;
   if (!o.config.empty()) {
@@ -266,7 +336,12 @@ int main(int argc, char** argv) {
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, thread_count);
 
   Learned learned;
-  if (learn.learn_frames.empty()) {
+  FrameEvaluation evaluation;
+  if (many_places) {
+    auto evaluated = evaluatePlaces(o, params, data);
+    if (!evaluated) return cli::fail(app, evaluated.error());
+    evaluation = std::move(*evaluated);
+  } else if (learn.learn_frames.empty()) {
     auto loaded = Relocalizer::fromFile(o.model_path, params);
     if (!loaded) return cli::fail(app, loaded.error());
     learned.relocalizer = std::move(*loaded);
@@ -274,26 +349,28 @@ int main(int argc, char** argv) {
              code >= 0) {
     return code;
   }
-  const Relocalizer& relocalizer = *learned.relocalizer;
-  const Model& model = relocalizer.model();
-  std::printf("model %s: %zu point trees, %zu line trees, trained on %d images of %s\n",
-              o.model_path.empty() ? "(learned online)" : o.model_path.c_str(),
-              model.points.trees.size(), model.lines.trees.size(), model.summary.images,
-              model.summary.dataset.c_str());
-  if (const std::string limits = relocalizer.limitations(); !limits.empty())
-    std::printf("warning: %s\n", limits.c_str());
-  FrameEvaluation evaluation = std::move(learned.evaluation);
-  if (learn.learn_frames.empty() || o.prediction_quality) {
-    auto evaluated = evaluateFrames(relocalizer, data, o.prediction_quality, "evaluating");
-    if (!evaluated) return cli::fail(app, evaluated.error());
-    evaluation = std::move(*evaluated);
+  if (!many_places) {
+    const Relocalizer& relocalizer = *learned.relocalizer;
+    const Model& model = relocalizer.model();
+    std::printf("model %s: %zu point trees, %zu line trees, trained on %d images of %s\n",
+                o.model_path.empty() ? "(learned online)" : o.model_path.c_str(),
+                model.points.trees.size(), model.lines.trees.size(), model.summary.images,
+                model.summary.dataset.c_str());
+    if (const std::string limits = relocalizer.limitations(); !limits.empty())
+      std::printf("warning: %s\n", limits.c_str());
+    evaluation = std::move(learned.evaluation);
+    if (learn.learn_frames.empty() || o.prediction_quality) {
+      auto evaluated = evaluateFrames(relocalizer, data, o.prediction_quality, "evaluating");
+      if (!evaluated) return cli::fail(app, evaluated.error());
+      evaluation = std::move(*evaluated);
+    }
   }
   const std::vector<EvaluationRecord>& records = evaluation.records;
   if (records.empty()) return cli::fail(app, data.path() + ": no selected frame has ground truth");
   if (evaluation.skipped)
     std::printf("skipped %d frames without ground truth\n", evaluation.skipped);
 
-  const EvaluationSummary summary = summarizeEvaluation(records);
+  const EvaluationSummary summary = summarizeEvaluation(records, o.expect_place);
   const std::string title = "evaluate: " + o.forests + " forests, " + std::to_string(thread_count) +
                             (thread_count == 1 ? " thread" : " threads");
   std::printf("\n%s", formatEvaluationTable(summary, title).c_str());
@@ -305,9 +382,11 @@ int main(int argc, char** argv) {
   out.integer_stamps = data.integerStamps();
   out.title = std::filesystem::path(data.path()).filename().string() + " (" + o.forests + ")";
   out.extra_json = summaryFields(o, data, learned.json, quality.json, thread_count, params);
+  out.places = many_places;
   if (const Status written = writeEvaluationOutputs(o.output, records, summary, out); !written)
     return cli::fail(app, written.error(), 1);
-  std::printf("wrote poses.txt, errors.csv, summary.json, trajectory.png, errors.png%s to %s\n",
+  std::printf("wrote poses.txt, %serrors.csv, summary.json, trajectory.png, errors.png%s to %s\n",
+              many_places ? "places.csv, " : "",
               learn.learn_frames.empty() ? "" : ", learning_curve.png", o.output.c_str());
   return 0;
 }

@@ -10,6 +10,7 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/eval/metrics.h"
+#include "relocalizer/relocalize/place_set.h"
 #include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
@@ -25,11 +26,16 @@ struct EvaluationRecord {
   float score = 0.0f;
   float surface_agreement = -1.0f;  // < 0: not checked
   StageTimings timings;
+  std::string place;  // the answering place, with many places; empty: no pose, or one place
 };
 
 // The record of one attempt: what relocalize() answered for a frame with ground truth.
 EvaluationRecord recordAttempt(int id, double stamp, const Pose& truth,
                                const Relocalization& result);
+EvaluationRecord recordAttempt(int id, double stamp, const Pose& truth, const PlaceAnswer& answer);
+
+// Answers from another place than `expected` (frames without a pose are no answer).
+int countWrongPlace(const std::vector<EvaluationRecord>& records, const std::string& expected);
 
 struct LatencySummary {
   double median_ms = 0.0;
@@ -41,10 +47,14 @@ LatencySummary stageLatency(const std::vector<StageTimings>& timings, double Sta
 
 struct EvaluationSummary {
   AccuracySummary accuracy;
-  LatencySummary total, sampling, forest, ransac, refinement, surface;
+  LatencySummary total, sampling, forest, ransac, refinement, surface, screening;
+  std::string expected_place;  // with many places: where the frames were taken
+  int wrong_place = -1;        // answers from another place; -1: not counted
 };
 
-EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& records);
+// `expected_place` (many places): count the answers from any other place.
+EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& records,
+                                      const std::string& expected_place = {});
 AccuracySummary summarizeAccuracy(const std::vector<EvaluationRecord>& records);
 
 // The printed table (several lines, ends with a newline). `title` heads it.
@@ -54,10 +64,13 @@ struct EvaluationOutputOptions {
   bool integer_stamps = false;  // 7-Scenes: the stamp column is the frame number
   std::string title;            // for plots and the JSON
   std::string extra_json;       // an object merged into summary.json (model, params, ...)
+  bool places = false;          // many places: places.csv and the screening latency
 };
 
 // Writes poses.txt (TUM format, frames with a pose), errors.csv, summary.json,
-// trajectory.png and errors.png into `folder` (created if missing).
+// trajectory.png and errors.png into `folder` (created if missing); with
+// `places`, also places.csv (each frame's stamp column as in poses.txt, then
+// the answering place, empty for no pose).
 Status writeEvaluationOutputs(const std::string& folder,
                               const std::vector<EvaluationRecord>& records,
                               const EvaluationSummary& summary,

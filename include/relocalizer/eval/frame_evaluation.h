@@ -34,6 +34,10 @@ Expected<FrameEvaluation> evaluateFrames(const Relocalizer& relocalizer, const F
                                          bool measure_predictions,
                                          const std::string& progress_label);
 
+// The same against many places: each record names its answering place.
+Expected<FrameEvaluation> evaluateFrames(const PlaceSet& places, const FrameSource& source,
+                                         const std::string& progress_label);
+
 // One printed line per measured forest, and the same as a JSON object
 // ({"points": {...}, "lines": {...}}; "null" when nothing was measured).
 struct PredictionReport {

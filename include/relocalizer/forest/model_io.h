@@ -75,6 +75,8 @@ std::vector<uint8_t> serializeModel(const Model& model);
 Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::string& source);
 
 Status saveModel(const Model& model, const std::string& path);
+// Bytes of a model's forests and surface in memory.
+size_t modelBytes(const Model& model);
 Expected<Model> loadModel(const std::string& path);
 
 // The header JSON of a model (parameters and summary), for tools and logs.

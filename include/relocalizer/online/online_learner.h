@@ -186,7 +186,4 @@ class OnlineLearner {
   std::thread worker_;
 };
 
-// Bytes of a model's forests and surface in memory.
-size_t modelBytes(const Model& model);
-
 }  // namespace relocalizer

@@ -82,4 +82,11 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
                        const std::vector<SolverSample>& lines, const PoseSolverParams& params,
                        std::mt19937& rng);
 
+// How well the point samples fit one rigid motion, for ranking places at a
+// small share of solvePose's cost: a short preemptive RANSAC of `hypotheses`
+// Kabsch hypotheses, refitted by Kabsch only (no LM, no lines), and the point
+// inliers of its winner.
+int screenPose(const std::vector<SolverSample>& points, const PoseSolverParams& params,
+               int hypotheses, std::mt19937& rng);
+
 }  // namespace relocalizer

@@ -44,10 +44,8 @@ struct PlaceFigures {
 };
 
 struct PlaceSearchParams {
-  int screen_samples = 200;    // point samples each place is screened with
-  int screen_hypotheses = 32;  // hypotheses of the short RANSAC
-  int screen_max_leaves = 1;   // backtracking leaves per tree in the screen
-  int max_solved = 3;          // full solves per frame at most
+  ScreenParams screen;  // the cheap pass every place gets
+  int max_solved = 3;   // full solves per frame at most
   // The runner-up is solved too when its screen inliers reach this share of the best's.
   float runner_up_ratio = 0.5f;
   // Two places that both answer: the weaker one is no rival below this share
@@ -71,7 +69,6 @@ struct PlaceAnswer {
   std::string map_frame;               // its frame; empty for "no pose"
   Relocalization relocalization;       // pose in map_frame, or the failure and its reason
   std::vector<PlaceAttempt> attempts;  // every place, best screened first
-  double screen_seconds = 0.0;         // the cheap pass over all places
 };
 
 class PlaceSet {

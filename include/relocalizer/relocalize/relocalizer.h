@@ -3,13 +3,16 @@
 // explicit "no pose" with its reason) out. The node and every tool go through
 // this class; nothing outside the core reaches into forests or RANSAC.
 
+#include <chrono>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/pose/pose_solver.h"
+#include "relocalizer/relocalize/frame_samples.h"
 #include "relocalizer/surface/surface_fit.h"
 
 namespace relocalizer {
@@ -42,6 +45,7 @@ struct StageTimings {                 // seconds
   double ransac = 0.0;                // hypotheses and preemptive scoring
   double refinement = 0.0;            // Ceres LM, inside the loop and final
   double surface = 0.0;               // depth ICP against the scene surface and the agreement
+  double screening = 0.0;             // ranking the places (place_set.h), before the full solve
   double total = 0.0;                 // the whole call
 };
 
@@ -65,6 +69,14 @@ struct Relocalization {
 
 // How good the forests' world-coordinate predictions are on a frame with
 // ground truth: the measure of forest quality independent of the pose solver.
+// The cheap pass that ranks places (place_set.h): a few of the frame's point
+// samples through the point forest and a short Kabsch-only RANSAC.
+struct ScreenParams {
+  int samples = 200;    // point samples
+  int hypotheses = 32;  // RANSAC hypotheses
+  int max_leaves = 1;   // backtracking leaves per tree
+};
+
 struct PredictionQuality {
   int samples = 0;
   int chosen_within = 0;             // nearest-descriptor candidate within the radius of the truth
@@ -81,6 +93,18 @@ class Relocalizer {
   // Thread-safe; concurrent calls do not share scratch memory.
   Relocalization relocalize(const RgbdFrame& frame) const;
 
+  // The same answer in two halves, so that many places can share the first.
+  // sample(): the frame's samples and descriptors (an error: why the frame is
+  // refused). relocalize(frame, samples): forests, pose and surface check on
+  // them; the answer equals relocalize(frame) when the samples' recipe is this
+  // relocalizer's, and otherwise it samples the frame itself.
+  Expected<FrameSamples> sample(const RgbdFrame& frame) const;
+  Relocalization relocalize(const RgbdFrame& frame, const FrameSamples& samples) const;
+  SamplingRecipe samplingRecipe() const;
+  // How well the frame fits this place, cheaply: the inliers of a short
+  // RANSAC on a few of the samples (0 when the model has no point forest).
+  int screen(const FrameSamples& samples, const ScreenParams& params) const;
+
   // Samples the frame as relocalize() does and compares each sample's
   // predictions with its true world coordinate. Needs frame.ground_truth.
   Expected<PredictionQuality> measurePredictions(const RgbdFrame& frame, bool line_forest,
@@ -96,6 +120,15 @@ class Relocalizer {
   std::string limitations() const;
 
  private:
+  // Empty when the frame can be relocalized, else why not.
+  std::string frameRefusal(const RgbdFrame& frame) const;
+  Relocalization solve(const RgbdFrame& frame, const FrameSamples& samples,
+                       const std::vector<Prediction>& point_predictions,
+                       const std::vector<Prediction>& line_predictions, Relocalization result,
+                       std::chrono::steady_clock::time_point start) const;
+  static Relocalization failed(Relocalization result, std::string message,
+                               std::chrono::steady_clock::time_point start);
+
   Model model_;
   RelocalizerParams params_;
 };

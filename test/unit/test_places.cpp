@@ -1,0 +1,235 @@
+// Many places in one set: each frame is answered by the room it was taken in,
+// never by another, and a frame that two places explain alike gets no pose.
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "relocalizer/eval/evaluation.h"
+#include "relocalizer/eval/metrics.h"
+#include "relocalizer/forest/model_builder.h"
+#include "relocalizer/relocalize/place_set.h"
+#include "relocalizer/sim/synthetic_scene.h"
+#include "support.h"
+
+using namespace relocalizer;
+
+namespace {
+
+constexpr int kTrainFrames = 60;
+constexpr int kTestFrames = 12;
+
+struct Room {
+  std::string name;
+  std::shared_ptr<const Relocalizer> relocalizer;
+  std::vector<RgbdFrame> test_frames;
+};
+
+// Two generated rooms, each with a small model trained on one camera path and
+// test frames from another.
+class Places : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    const CameraIntrinsics camera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
+    TrainingParams training;
+    for (ForestParams* f : {&training.points, &training.lines}) {
+      f->trees = 3;
+      f->max_depth = 16;
+      f->samples_per_image = 800;
+    }
+    RelocalizerParams params;
+    params.point_samples = 800;
+    params.line_samples = 400;
+    for (const uint64_t seed : {7, 8}) {
+      const SyntheticRoom room(seed);
+      const SyntheticTrajectories paths = room.trajectories(kTrainFrames, kTestFrames);
+      ModelBuilder builder(training);
+      for (size_t i = 0; i < paths.train.size(); ++i)
+        builder.add(room.render(paths.train[i], camera, static_cast<int>(i)));
+      auto built = builder.build({});
+      ASSERT_TRUE(built.ok()) << built.error();
+      Room r;
+      r.name = "room" + std::to_string(seed);
+      r.relocalizer = std::make_shared<const Relocalizer>(std::move(*built), params);
+      for (size_t i = 0; i < paths.test.size(); ++i)
+        r.test_frames.push_back(
+            room.render(paths.test[i], camera, static_cast<int>(kTrainFrames + i)));
+      rooms_.push_back(std::move(r));
+    }
+  }
+  static void TearDownTestSuite() { rooms_.clear(); }
+
+  static Place placeOf(const Room& room, const std::string& name = {}) {
+    return {name.empty() ? room.name : name, room.name + "_map", "memory", room.relocalizer};
+  }
+  static void putBothRooms(PlaceSet& set) {
+    for (const Room& room : rooms_) EXPECT_TRUE(set.put(placeOf(room)).ok());
+  }
+  static std::vector<Room> rooms_;
+};
+
+std::vector<Room> Places::rooms_;
+
+bool correct(const PlaceAnswer& answer, const RgbdFrame& frame) {
+  return answer.relocalization.success &&
+         within(frameError(0, answer.relocalization.pose, *frame.ground_truth), kCorrectPose);
+}
+
+}  // namespace
+
+TEST_F(Places, SharedSamplesGiveTheAnswerThePlaceGivesAlone) {
+  const Relocalizer& relocalizer = *rooms_[0].relocalizer;
+  for (int i : {0, 5}) {
+    const RgbdFrame& frame = rooms_[0].test_frames[i];
+    const Relocalization alone = relocalizer.relocalize(frame);
+    auto samples = relocalizer.sample(frame);
+    ASSERT_TRUE(samples.ok()) << samples.error();
+    const Relocalization shared = relocalizer.relocalize(frame, *samples);
+    ASSERT_EQ(alone.success, shared.success) << alone.message << " / " << shared.message;
+    EXPECT_TRUE(alone.pose.isApprox(shared.pose, 1e-12));
+    EXPECT_EQ(alone.point_inliers, shared.point_inliers);
+    EXPECT_EQ(alone.line_inliers, shared.line_inliers);
+  }
+}
+
+TEST_F(Places, EachFrameIsAnsweredByItsOwnRoomAndNeverByTheOther) {
+  PlaceSet set;
+  putBothRooms(set);
+  for (const Room& room : rooms_) {
+    int right_place = 0, correct_poses = 0, screened_first = 0;
+    for (const RgbdFrame& frame : room.test_frames) {
+      const PlaceAnswer answer = set.relocalize(frame);
+      EXPECT_TRUE(answer.place.empty() || answer.place == room.name)
+          << "a frame of " << room.name << " was answered by " << answer.place;
+      right_place += answer.place == room.name ? 1 : 0;
+      if (answer.place == room.name) {
+        EXPECT_EQ(answer.map_frame, room.name + "_map");
+      }
+      correct_poses += correct(answer, frame) ? 1 : 0;
+      ASSERT_EQ(answer.attempts.size(), 2u);
+      screened_first += answer.attempts.front().place == room.name ? 1 : 0;
+      EXPECT_GT(answer.relocalization.timings.screening, 0.0);
+    }
+    std::printf("%s: %d of %d frames answered by it, %d correct, screened first in %d\n",
+                room.name.c_str(), right_place, kTestFrames, correct_poses, screened_first);
+    EXPECT_GE(correct_poses, kTestFrames * 3 / 4) << room.name;
+    EXPECT_GE(screened_first, kTestFrames * 3 / 4) << room.name;
+  }
+}
+
+TEST_F(Places, AnUnloadedPlaceNeverAnswersAndItsFramesGetNoPose) {
+  PlaceSet set;
+  putBothRooms(set);
+  ASSERT_TRUE(set.remove(rooms_[0].name));
+  EXPECT_FALSE(set.remove(rooms_[0].name));
+  EXPECT_EQ(set.names(), std::vector<std::string>{rooms_[1].name});
+  // One place left: a frame of the removed room must not borrow the other's name.
+  for (const RgbdFrame& frame : rooms_[0].test_frames) {
+    const PlaceAnswer answer = set.relocalize(frame);
+    EXPECT_FALSE(answer.relocalization.success) << "answered by " << answer.place;
+    EXPECT_TRUE(answer.place.empty());
+    EXPECT_FALSE(answer.relocalization.message.empty());
+  }
+  int correct_poses = 0;
+  for (const RgbdFrame& frame : rooms_[1].test_frames) {
+    const PlaceAnswer answer = set.relocalize(frame);
+    correct_poses += correct(answer, frame) ? 1 : 0;
+    if (answer.relocalization.success) {
+      EXPECT_EQ(answer.place, rooms_[1].name);
+    }
+  }
+  EXPECT_GE(correct_poses, kTestFrames * 3 / 4);
+}
+
+TEST_F(Places, TwoPlacesThatExplainAFrameAlikeGiveNoPose) {
+  // The same model under two names: every frame fits both equally well, so
+  // naming either would be a guess.
+  PlaceSet set;
+  ASSERT_TRUE(set.put(placeOf(rooms_[0], "first")).ok());
+  ASSERT_TRUE(set.put(placeOf(rooms_[0], "twin")).ok());
+  int ambiguous = 0;
+  for (const RgbdFrame& frame : rooms_[0].test_frames) {
+    const PlaceAnswer answer = set.relocalize(frame);
+    EXPECT_FALSE(answer.relocalization.success) << "answered by " << answer.place;
+    ambiguous += answer.relocalization.message.find("ambiguous place") != std::string::npos;
+  }
+  EXPECT_GE(ambiguous, kTestFrames * 3 / 4);
+}
+
+TEST_F(Places, PutReplacesByNameAndRefusesWhatCannotBeUsed) {
+  PlaceSet set;
+  putBothRooms(set);
+  ASSERT_EQ(set.size(), 2u);
+  EXPECT_TRUE(set.put(placeOf(rooms_[1], rooms_[0].name)).ok());  // a retrained model
+  EXPECT_EQ(set.size(), 2u);
+  EXPECT_EQ(set.list().front().name, rooms_[0].name);
+
+  Place unnamed = placeOf(rooms_[0], "x");
+  unnamed.name.clear();
+  EXPECT_FALSE(set.put(unnamed).ok());
+  Place frameless = placeOf(rooms_[0], "x");
+  frameless.map_frame.clear();
+  const Status refused = set.put(frameless);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().find("place x"), std::string::npos) << refused.error();
+  Place empty = placeOf(rooms_[0], "y");
+  empty.relocalizer.reset();
+  EXPECT_FALSE(set.put(empty).ok());
+  EXPECT_EQ(set.size(), 2u);
+
+  const auto missing = PlaceSet::load("lab", "/nonexistent/lab.model", "lab_map", {});
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().find("place lab"), std::string::npos) << missing.error();
+  EXPECT_NE(missing.error().find("/nonexistent/lab.model"), std::string::npos) << missing.error();
+}
+
+TEST_F(Places, FiguresDescribeTheModel) {
+  const PlaceFigures figures = placeFigures(placeOf(rooms_[0]));
+  EXPECT_EQ(figures.point_trees, 3);
+  EXPECT_EQ(figures.line_trees, 3);
+  EXPECT_GT(figures.modes, 1000);
+  EXPECT_GT(figures.surface_voxels, 1000);
+  EXPECT_EQ(figures.training_frames, kTrainFrames);
+  EXPECT_EQ(figures.model_bytes, modelBytes(rooms_[0].relocalizer->model()));
+  EXPECT_EQ(figures.map_frame, rooms_[0].name + "_map");
+}
+
+TEST_F(Places, EvaluationCountsWrongPlacesAndWritesPlacesCsv) {
+  PlaceSet set;
+  putBothRooms(set);
+  std::vector<EvaluationRecord> records;
+  for (const Room& room : rooms_)
+    for (int i = 0; i < 3; ++i) {
+      const RgbdFrame& frame = room.test_frames[i];
+      records.push_back(recordAttempt(static_cast<int>(records.size()), 0.5 * records.size(),
+                                      *frame.ground_truth, set.relocalize(frame)));
+    }
+  // Expecting room 7 everywhere: room 8's answered frames are wrong-place answers.
+  int answered_by_other = 0;
+  for (size_t i = 3; i < records.size(); ++i) answered_by_other += records[i].place.empty() ? 0 : 1;
+  ASSERT_GT(answered_by_other, 0);
+  const EvaluationSummary summary = summarizeEvaluation(records, rooms_[0].name);
+  EXPECT_EQ(summary.wrong_place, answered_by_other);
+  EXPECT_NE(formatEvaluationTable(summary, "t").find("wrong place"), std::string::npos);
+  EXPECT_EQ(summarizeEvaluation(records).wrong_place, -1);
+
+  const relocalizer::testing::TempDir dir;
+  EvaluationOutputOptions options;
+  options.integer_stamps = true;
+  options.places = true;
+  ASSERT_TRUE(writeEvaluationOutputs(dir.str(), records, summary, options).ok());
+  std::ifstream csv(dir.path() / "places.csv");
+  std::string line;
+  std::getline(csv, line);  // the header comment
+  ASSERT_EQ(line[0], '#');
+  for (const EvaluationRecord& record : records) {
+    ASSERT_TRUE(std::getline(csv, line));
+    EXPECT_EQ(line, std::to_string(record.id) + " " + record.place);
+  }
+  std::ifstream json(dir.path() / "summary.json");
+  std::stringstream text;
+  text << json.rdbuf();
+  EXPECT_NE(text.str().find("\"wrong_place\": " + std::to_string(answered_by_other)),
+            std::string::npos);
+}
