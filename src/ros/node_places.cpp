@@ -10,16 +10,9 @@ namespace relocalizer_ros {
 
 namespace {
 
-// A model file that cannot be loaded is a refusal with its reason, whatever
-// the loader throws (e.g. std::bad_alloc on a corrupt size).
 relocalizer::Expected<relocalizer::Place> loadPlace(const PlaceSpec& spec,
                                                     const relocalizer::RelocalizerParams& params) {
-  try {
-    return relocalizer::PlaceSet::load(spec.name, spec.model, spec.map_frame, params);
-  } catch (const std::exception& e) {
-    return relocalizer::makeError("place '" + spec.name + "': " + spec.model +
-                                  ": cannot be loaded: " + e.what());
-  }
+  return relocalizer::PlaceSet::load(spec.name, spec.model, spec.map_frame, params);
 }
 
 template <typename Service, typename Handler>
