@@ -21,7 +21,7 @@ ASAN_BUILD_DIR := build/asan
 ASAN_CXX_FLAGS := -O1 -g1 -DNDEBUG
 FUZZ_SECONDS ?= 60
 
-.PHONY: all deps build test demo bench clean test-asan fuzz
+.PHONY: all deps build test demo bench bench-places clean test-asan fuzz
 
 all: build
 
@@ -60,6 +60,10 @@ fuzz: deps
 
 bench: build
 	@./scripts/bench.sh $(BUILD_DIR)
+
+# Many places in one node: latency, wrong places and memory with 10 places.
+bench-places: build
+	@./scripts/bench_places.sh $(BUILD_DIR)
 
 clean:
 	rm -rf $(BUILD_DIR) $(DEVEL_DIR)

@@ -29,32 +29,14 @@ tools="$devel/lib/relocalizer"
 [ -x "$tools/relocalizer_node" ] || { echo "bench_node: error: $tools/relocalizer_node missing; build first" >&2; exit 2; }
 work=$(dirname "$(realpath -m "$json_out")")/node_replay
 mkdir -p "$work"
-set +u
-# shellcheck disable=SC1091
-source "$devel/setup.bash"
-set -u
 
 frame_args=()
 [ -n "$frames" ] && frame_args=(--frames "$frames")
 "$tools/make_bag" --dataset "$dataset" "${frame_args[@]}" --rate "$rate" --output "$work/frames.bag" >"$work/make_bag.log"
 
-port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
-export ROS_MASTER_URI=http://localhost:$port
-export ROS_LOG_DIR=$work/ros_log
-master_pid="" node_pid=""
-cleanup() {
-  for pid in "$node_pid" "$master_pid"; do [ -n "$pid" ] && kill -INT "$pid" 2>/dev/null || true; done
-  for pid in "$node_pid" "$master_pid"; do
-    [ -n "$pid" ] || continue
-    for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
-    kill -KILL "$pid" 2>/dev/null || true
-  done
-}
-trap cleanup EXIT
-
-roscore -p "$port" >"$work/master.log" 2>&1 &
-master_pid=$!
-for _ in $(seq 100); do rosparam list >/dev/null 2>&1 && break; sleep 0.2; done
+# shellcheck source=scripts/private_master.sh
+source "$here/scripts/private_master.sh"
+start_private_master "$devel" "$work"
 rosparam load "$here/config/default.yaml" /relocalizer
 rosparam set /relocalizer/model "$model"
 rosparam set /relocalizer/mode continuous
@@ -68,6 +50,7 @@ threads=$(rosparam get /relocalizer/threads)
 "$tools/relocalizer_node" __name:=relocalizer rgb/image:=/camera/rgb/image_raw depth/image:=/camera/depth/image_raw \
   rgb/camera_info:=/camera/rgb/camera_info >"$work/node.log" 2>&1 </dev/null &
 node_pid=$!
+own_process "$node_pid"
 
 rosparam set /replay_evaluator/bag "$work/frames.bag"
 rosparam set /replay_evaluator/model "$model"

@@ -38,36 +38,12 @@ node_bin="$devel/lib/relocalizer/relocalizer_node"
 [[ "$minutes" =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "soak: error: MINUTES must be a number, got '$minutes'" >&2; exit 2; }
 mkdir -p "$out"
 out=$(realpath "$out")
-set +u
-# shellcheck disable=SC1091
-source "$devel/setup.bash"
-set -u
-
-port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
-export ROS_MASTER_URI=http://localhost:$port
-export ROS_LOG_DIR=$out/ros_log
 csv=$out/soak.csv
 summary=$out/summary.txt
-
-master_pid="" node_pid="" play_pid=""
-cleanup() {
-  # Only the processes started here, by their ids; the node first, gently.
-  for pid in "$play_pid" "$node_pid" "$master_pid"; do
-    [ -n "$pid" ] && kill -INT "$pid" 2>/dev/null || true
-  done
-  for pid in "$play_pid" "$node_pid" "$master_pid"; do
-    [ -n "$pid" ] || continue
-    for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
-    kill -KILL "$pid" 2>/dev/null || true
-  done
-}
-trap cleanup EXIT
-
-echo "soak: private master on port $port; output in $out"
-roscore -p "$port" >"$out/master.log" 2>&1 &
-master_pid=$!
-for _ in $(seq 100); do rosparam list >/dev/null 2>&1 && break; sleep 0.2; done
-rosparam list >/dev/null 2>&1 || { echo "soak: error: the ROS master did not start (see $out/master.log)" >&2; exit 1; }
+# shellcheck source=scripts/private_master.sh
+source "$here/scripts/private_master.sh"
+start_private_master "$devel" "$out" || exit 1
+echo "soak: private master at $ROS_MASTER_URI; output in $out"
 
 rosparam load "$here/config/default.yaml" /relocalizer
 rosparam set /relocalizer/model "$model"
@@ -79,6 +55,7 @@ rosparam set /relocalizer/process_all false
 "$node_bin" __name:=relocalizer rgb/image:=/camera/rgb/image_raw depth/image:=/camera/depth/image_raw \
   rgb/camera_info:=/camera/rgb/camera_info >"$out/node.log" 2>&1 </dev/null &
 node_pid=$!
+own_process "$node_pid"
 for _ in $(seq 300); do
   rosservice list 2>/dev/null | grep -q '^/relocalizer/relocalize$' && break
   kill -0 "$node_pid" 2>/dev/null || { echo "soak: error: the node exited at start:" >&2; cat "$out/node.log" >&2; exit 1; }
@@ -87,6 +64,7 @@ done
 
 rosbag play -l -q "$bag" >"$out/play.log" 2>&1 </dev/null &
 play_pid=$!
+own_process "$play_pid"
 
 rss_kb() { awk '/^VmRSS:/ { print $2 }' "/proc/$node_pid/status" 2>/dev/null || true; }
 # The counters of the next ~result, as "received,processed,dropped,failed,jumps",

@@ -22,7 +22,6 @@
 
 #include "bag_poses.h"
 #include "bag_text.h"
-#include "key_frames.h"
 #include "message_conversion.h"
 #include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/frame_selection.h"

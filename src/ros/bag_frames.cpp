@@ -7,10 +7,10 @@
 
 #include "bag_dataset_impl.h"
 #include "bag_text.h"
-#include "key_frames.h"
 #include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/data/stamp_association.h"
+#include "relocalizer/online/key_frame_rule.h"
 #include "stamp_search.h"
 
 namespace relocalizer_ros {
@@ -124,7 +124,7 @@ relocalizer::Status BagDataset::Impl::synchronize() {
 relocalizer::Status BagDataset::Impl::select() {
   auto selection = FrameSelection::parse(options.frames);
   if (!selection) return makeError(selection.error());
-  KeyFrameSelector key_frames(options.min_translation, options.min_rotation_degrees);
+  relocalizer::KeyFrameSelector key_frames(options.min_translation, options.min_rotation_degrees);
   for (size_t i = 0; i < synced.size(); ++i) {
     const Frame& f = synced[i];
     if (!selection->contains(f.id)) continue;

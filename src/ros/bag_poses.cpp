@@ -34,18 +34,20 @@ std::string medianSpacing(const std::vector<ros::Time>& stamps) {
   return ", one every " + number(relocalizer::median(gaps), "%.3g") + " s (median)";
 }
 
-}  // namespace
-
-relocalizer::Status posesFromTf(const std::vector<geometry_msgs::TransformStamped>& transforms,
-                                const std::vector<bool>& is_static, const BagOptions& options,
-                                const std::string& where, std::vector<PoseQuery>& queries,
-                                PoseReport& report, BagCounts& counts) {
-  // Edges and their sample stamps, cleaned of what tf2 would reject with a log
-  // line per message: empty or self frames, non-finite values, repeated stamps.
+// The TF tree of a bag: its edges by child frame, the transforms tf2 may take,
+// and the time span of the dynamic ones (zero: none).
+struct TfTree {
   std::map<std::string, TfEdge> edges;
   std::vector<size_t> usable;
-  std::set<std::pair<std::string, ros::Time>> seen;
   ros::Time first, last;
+};
+
+// Edges and their sample stamps, cleaned of what tf2 would reject with a log
+// line per message: empty or self frames, non-finite values, repeated stamps.
+TfTree readTfTree(const std::vector<geometry_msgs::TransformStamped>& transforms,
+                  const std::vector<bool>& is_static, BagCounts& counts) {
+  TfTree tree;
+  std::set<std::pair<std::string, ros::Time>> seen;
   for (size_t i = 0; i < transforms.size(); ++i) {
     ++counts.tf_transforms;
     const auto& t = transforms[i];
@@ -62,74 +64,78 @@ relocalizer::Status posesFromTf(const std::vector<geometry_msgs::TransformStampe
       ++counts.tf_ignored;
       continue;
     }
-    TfEdge& edge = edges[child];
+    TfEdge& edge = tree.edges[child];
     edge.parent = parent;
     if (!is_static[i]) {
       edge.is_static = false;
       edge.stamps.push_back(t.header.stamp);
-      if (first.isZero() || t.header.stamp < first) first = t.header.stamp;
-      if (last.isZero() || t.header.stamp > last) last = t.header.stamp;
+      if (tree.first.isZero() || t.header.stamp < tree.first) tree.first = t.header.stamp;
+      if (tree.last.isZero() || t.header.stamp > tree.last) tree.last = t.header.stamp;
     }
-    usable.push_back(i);
+    tree.usable.push_back(i);
   }
-  for (auto& [child, edge] : edges) std::sort(edge.stamps.begin(), edge.stamps.end());
+  for (auto& [child, edge] : tree.edges) std::sort(edge.stamps.begin(), edge.stamps.end());
+  return tree;
+}
 
-  // The cache must hold the whole recording, or lookups early in the bag
-  // would fail once later transforms are inserted.
-  const double span = last.isZero() ? 0.0 : (last - first).toSec();
-  tf2::BufferCore buffer(ros::Duration(span + 10.0));
-  for (size_t i : usable) {
-    geometry_msgs::TransformStamped t = transforms[i];
-    t.header.frame_id = stripLeadingSlashes(t.header.frame_id);
-    t.child_frame_id = stripLeadingSlashes(t.child_frame_id);
-    buffer.setTransform(t, "bag", is_static[i]);
-  }
-  report.begin = first;
-  report.end = last;
-
-  // The frames present, for messages that must say what the bag does have.
+// The frames present, for messages that must say what the bag does have.
+std::set<std::string> tfFrames(const TfTree& tree) {
   std::set<std::string> frames;
-  for (const auto& [child, edge] : edges) {
+  for (const auto& [child, edge] : tree.edges) {
     frames.insert(child);
     frames.insert(edge.parent);
   }
-  const auto frame_list = [&] {
-    std::string text;
-    for (const std::string& f : frames) {
-      const auto it = edges.find(f);
-      text += (text.empty() ? "" : ", ") + f +
-              (it == edges.end() ? " (root)"
-                                 : " (child of " + it->second.parent +
-                                       (it->second.is_static ? ", static)" : ")"));
-    }
-    return text.empty() ? std::string("none") : text;
-  };
-  // Path to the root, the frame itself first (cycles cut).
-  const auto ancestors = [&](const std::string& frame) {
-    std::vector<std::string> chain{frame};
-    std::set<std::string> visited{frame};
-    for (auto it = edges.find(frame); it != edges.end(); it = edges.find(chain.back())) {
-      if (!visited.insert(it->second.parent).second) break;
-      chain.push_back(it->second.parent);
-    }
-    return chain;
-  };
+  return frames;
+}
 
-  const std::string map_frame = stripLeadingSlashes(options.map_frame);
-  // Per camera frame: the dynamic edges between it and the map frame.
-  std::map<std::string, std::vector<const TfEdge*>> paths;
+// "a (root), b (child of a, static), ..." or "none".
+std::string frameList(const TfTree& tree) {
+  std::string text;
+  for (const std::string& f : tfFrames(tree)) {
+    const auto it = tree.edges.find(f);
+    text += (text.empty() ? "" : ", ") + f +
+            (it == tree.edges.end()
+                 ? " (root)"
+                 : " (child of " + it->second.parent + (it->second.is_static ? ", static)" : ")"));
+  }
+  return text.empty() ? std::string("none") : text;
+}
+
+// Path to the root, the frame itself first (cycles cut).
+std::vector<std::string> ancestors(const TfTree& tree, const std::string& frame) {
+  std::vector<std::string> chain{frame};
+  std::set<std::string> visited{frame};
+  for (auto it = tree.edges.find(frame); it != tree.edges.end();
+       it = tree.edges.find(chain.back())) {
+    if (!visited.insert(it->second.parent).second) break;
+    chain.push_back(it->second.parent);
+  }
+  return chain;
+}
+
+using DynamicPaths = std::map<std::string, std::vector<const TfEdge*>>;
+
+// Per camera frame: the dynamic edges between it and the map frame; an error
+// naming the frames the bag has when no path joins them.
+relocalizer::Expected<DynamicPaths> dynamicPaths(const TfTree& tree,
+                                                 const std::vector<PoseQuery>& queries,
+                                                 const BagOptions& options,
+                                                 const std::string& map_frame,
+                                                 const std::string& where) {
+  DynamicPaths paths;
   for (const PoseQuery& q : queries) {
     const std::string camera_frame = q.camera_frame;
     if (paths.count(camera_frame)) continue;
     if (camera_frame.empty())
       return makeError(where + "colour images on '" + normalTopic(options.rgb_topic) +
                        "' have an empty header frame_id; pass --camera-frame");
-    const auto up_camera = ancestors(camera_frame);
-    const auto up_map = ancestors(map_frame);
+    const auto up_camera = ancestors(tree, camera_frame);
+    const auto up_map = ancestors(tree, map_frame);
     auto common = up_camera.end();
     for (auto it = up_camera.begin(); it != up_camera.end() && common == up_camera.end(); ++it)
       if (std::find(up_map.begin(), up_map.end(), *it) != up_map.end()) common = it;
     if (common == up_camera.end()) {
+      const std::set<std::string> frames = tfFrames(tree);
       std::string missing;
       for (const std::string& name : {map_frame, camera_frame})
         if (!frames.count(name)) missing += "; '" + name + "' is not in /tf or /tf_static";
@@ -137,13 +143,13 @@ relocalizer::Status posesFromTf(const std::vector<geometry_msgs::TransformStampe
                        "' (--map-frame) to the camera frame '" + camera_frame + "' (" +
                        (options.camera_frame.empty() ? "the colour images' frame_id; --camera-frame"
                                                      : "--camera-frame") +
-                       ")" + missing + "; TF frames in the bag: " + frame_list());
+                       ")" + missing + "; TF frames in the bag: " + frameList(tree));
     }
     std::vector<const TfEdge*> dynamic;
     const auto collect = [&](const std::vector<std::string>& chain, const std::string& stop) {
       for (const std::string& frame : chain) {
         if (frame == stop) break;
-        const TfEdge& edge = edges.at(frame);
+        const TfEdge& edge = tree.edges.at(frame);
         if (!edge.is_static) dynamic.push_back(&edge);
       }
     };
@@ -151,7 +157,29 @@ relocalizer::Status posesFromTf(const std::vector<geometry_msgs::TransformStampe
     collect(up_map, *common);
     paths[camera_frame] = dynamic;
   }
+  return paths;
+}
 
+// Why frame q has no pose: `edge` has no samples around its stamp.
+std::string noSamplesHint(const TfTree& tree, const TfEdge& edge, const PoseQuery& q,
+                          const BagOptions& options) {
+  std::string child;
+  for (const auto& [name, e] : tree.edges)
+    if (&e == &edge) child = name;
+  return "e.g. frame " + std::to_string(q.id) + " at " + seconds(q.stamp) + ": TF " + edge.parent +
+         " -> " + child + " has no samples within " + number(options.pose_tolerance) +
+         " s on both sides (its samples span " +
+         (edge.stamps.empty()
+              ? std::string("nothing")
+              : seconds(edge.stamps.front()) + " - " + seconds(edge.stamps.back())) +
+         medianSpacing(edge.stamps) + ")";
+}
+
+// Each query's pose from tf2, when every dynamic edge on its path has samples
+// within the tolerance on both sides of its stamp.
+void lookUpPoses(const TfTree& tree, const tf2::BufferCore& buffer, const DynamicPaths& paths,
+                 const BagOptions& options, const std::string& map_frame,
+                 std::vector<PoseQuery>& queries, PoseReport& report) {
   for (PoseQuery& q : queries) {
     const std::string camera_frame = q.camera_frame;
     const ros::Time t = q.stamp;
@@ -159,19 +187,8 @@ relocalizer::Status posesFromTf(const std::vector<geometry_msgs::TransformStampe
     for (const TfEdge* edge : paths.at(camera_frame))
       if (!inTime(edge->stamps, t, options.pose_tolerance, [](const ros::Time& s) { return s; })) {
         in_time = false;
-        if (report.no_pose_hint.empty()) {
-          std::string child;
-          for (const auto& [name, e] : edges)
-            if (&e == edge) child = name;
-          report.no_pose_hint =
-              "e.g. frame " + std::to_string(q.id) + " at " + seconds(t) + ": TF " + edge->parent +
-              " -> " + child + " has no samples within " + number(options.pose_tolerance) +
-              " s on both sides (its samples span " +
-              (edge->stamps.empty()
-                   ? std::string("nothing")
-                   : seconds(edge->stamps.front()) + " - " + seconds(edge->stamps.back())) +
-              medianSpacing(edge->stamps) + ")";
-        }
+        if (report.no_pose_hint.empty())
+          report.no_pose_hint = noSamplesHint(tree, *edge, q, options);
         break;
       }
     if (!in_time) continue;
@@ -183,11 +200,39 @@ relocalizer::Status posesFromTf(const std::vector<geometry_msgs::TransformStampe
             "e.g. frame " + std::to_string(q.id) + " at " + seconds(t) + ": " + e.what();
     }
   }
+}
+
+}  // namespace
+
+relocalizer::Status posesFromTf(const std::vector<geometry_msgs::TransformStamped>& transforms,
+                                const std::vector<bool>& is_static, const BagOptions& options,
+                                const std::string& where, std::vector<PoseQuery>& queries,
+                                PoseReport& report, BagCounts& counts) {
+  const TfTree tree = readTfTree(transforms, is_static, counts);
+
+  // The cache must hold the whole recording, or lookups early in the bag
+  // would fail once later transforms are inserted.
+  const double span = tree.last.isZero() ? 0.0 : (tree.last - tree.first).toSec();
+  tf2::BufferCore buffer(ros::Duration(span + 10.0));
+  for (size_t i : tree.usable) {
+    geometry_msgs::TransformStamped t = transforms[i];
+    t.header.frame_id = stripLeadingSlashes(t.header.frame_id);
+    t.child_frame_id = stripLeadingSlashes(t.child_frame_id);
+    buffer.setTransform(t, "bag", is_static[i]);
+  }
+  report.begin = tree.first;
+  report.end = tree.last;
+
+  const std::string map_frame = stripLeadingSlashes(options.map_frame);
+  const auto paths = dynamicPaths(tree, queries, options, map_frame, where);
+  if (!paths) return makeError(paths.error());
+  lookUpPoses(tree, buffer, *paths, options, map_frame, queries, report);
+
   report.source =
       "TF " + map_frame + " -> " +
       (options.camera_frame.empty() ? "image frame_id" : stripLeadingSlashes(options.camera_frame));
-  if (options.camera_frame.empty() && paths.size() == 1)
-    report.source = "TF " + map_frame + " -> " + paths.begin()->first;
+  if (options.camera_frame.empty() && paths->size() == 1)
+    report.source = "TF " + map_frame + " -> " + paths->begin()->first;
   report.detail = std::to_string(counts.tf_transforms) + " transforms on /tf + /tf_static" +
                   (counts.tf_ignored ? " (" + std::to_string(counts.tf_ignored) +
                                            " ignored: repeated stamps, NaN, empty or self frames)"

@@ -1,6 +1,6 @@
 #include "frame_sources.h"
 
-#include "key_frames.h"
+#include "relocalizer/online/key_frame_rule.h"
 
 namespace relocalizer_ros {
 
@@ -19,10 +19,10 @@ Expected<std::unique_ptr<relocalizer::FrameSource>> openFrameSource(
   if (!request.bag.empty()) {
     BagOptions options = request.bag_options;
     if (!request.min_motion.empty()) {
-      auto motion = parseMinMotion(request.min_motion);
+      auto motion = relocalizer::parseMinMotion(request.min_motion);
       if (!motion) return makeError(motion.error());
-      options.min_translation = motion->first;
-      options.min_rotation_degrees = motion->second;
+      options.min_translation = motion->metres;
+      options.min_rotation_degrees = motion->degrees;
     }
     auto opened = BagDataset::open(request.bag, options);
     if (!opened) return makeError(opened.error());

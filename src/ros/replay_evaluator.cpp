@@ -19,17 +19,14 @@
 
 namespace relocalizer_ros {
 
-namespace {
-
-struct FrameGroup {
+// The messages of one bag time: a frame when colour, depth and camera_info share a stamp.
+struct ReplayEvaluator::FrameGroup {
   ros::Time time;
   sensor_msgs::Image::ConstPtr colour;
   sensor_msgs::Image::ConstPtr depth;
   sensor_msgs::CameraInfo::ConstPtr info;
   geometry_msgs::PoseStamped::ConstPtr truth;
 };
-
-}  // namespace
 
 ReplayEvaluator::ReplayEvaluator(ros::NodeHandle nh, Options options)
     : nh_(std::move(nh)), options_(std::move(options)) {
@@ -71,13 +68,45 @@ int ReplayEvaluator::play() {
     ROS_FATAL("replay: %s: %s", options_.bag.c_str(), e.what());
     return 2;
   }
-  ros::Publisher colour_pub = nh_.advertise<sensor_msgs::Image>(options_.colour_topic, 5);
-  ros::Publisher depth_pub = nh_.advertise<sensor_msgs::Image>(options_.depth_topic, 5);
-  ros::Publisher info_pub = nh_.advertise<sensor_msgs::CameraInfo>(options_.info_topic, 5);
-  ros::Publisher truth_pub = nh_.advertise<geometry_msgs::PoseStamped>(options_.truth_topic, 5);
+  const FramePublishers publishers{
+      nh_.advertise<sensor_msgs::Image>(options_.colour_topic, 5),
+      nh_.advertise<sensor_msgs::Image>(options_.depth_topic, 5),
+      nh_.advertise<sensor_msgs::CameraInfo>(options_.info_topic, 5),
+      nh_.advertise<geometry_msgs::PoseStamped>(options_.truth_topic, 5)};
+  if (!waitForNode(publishers)) return 1;
 
+  std::vector<Truth> truths;
+  PlayCounts counts;
+  try {
+    if (!playFrames(bag, publishers, truths, counts)) return 1;
+    if (options_.rate > 0.0) waitForLastAnswers(counts);
+  } catch (const rosbag::BagException& e) {
+    ROS_FATAL("replay: %s: %s", options_.bag.c_str(), e.what());
+    return 2;
+  }
+  if (counts.incomplete)
+    ROS_WARN(
+        "replay: skipped %d frames whose colour, depth and camera_info do not share one stamp "
+        "(a make_bag bag has none; play other bags with rosbag play and collect mode)",
+        counts.incomplete);
+  if (counts.published == 0) {
+    ROS_FATAL("replay: %s has no complete frame on %s, %s and %s", options_.bag.c_str(),
+              options_.colour_topic.c_str(), options_.depth_topic.c_str(),
+              options_.info_topic.c_str());
+    return 2;
+  }
+  std::printf("replayed %d frames of %s through %s (%d without an answer)\n", counts.published,
+              options_.bag.c_str(), result_sub_.getTopic().c_str(), counts.unanswered);
+  if (options_.rate > 0.0) reportLatency(counts.published);
+  return report(truths);
+}
+
+bool ReplayEvaluator::waitForNode(const FramePublishers& publishers) {
   // Publishing before the node listens would lose frames, and waiting for an
   // answer before ours is connected would lose answers.
+  const ros::Publisher& colour_pub = publishers.colour;
+  const ros::Publisher& depth_pub = publishers.depth;
+  const ros::Publisher& info_pub = publishers.info;
   const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(options_.node_timeout);
   while (ros::ok() && (colour_pub.getNumSubscribers() == 0 || depth_pub.getNumSubscribers() == 0 ||
                        info_pub.getNumSubscribers() == 0 || result_sub_.getNumPublishers() == 0)) {
@@ -85,122 +114,109 @@ int ReplayEvaluator::play() {
       ROS_FATAL("replay: no relocalizer listens on %s, %s and %s and publishes %s after %.0f s",
                 colour_pub.getTopic().c_str(), depth_pub.getTopic().c_str(),
                 info_pub.getTopic().c_str(), result_sub_.getTopic().c_str(), options_.node_timeout);
-      return 1;
+      return false;
     }
     ros::WallDuration(0.05).sleep();
   }
+  return true;
+}
 
+bool ReplayEvaluator::playFrames(rosbag::Bag& bag, const FramePublishers& publishers,
+                                 std::vector<Truth>& truths, PlayCounts& counts) {
   const std::vector<std::string> topics = {options_.colour_topic, options_.depth_topic,
                                            options_.info_topic, options_.truth_topic,
                                            options_.dataset_topic};
-  std::vector<Truth> truths;
-  int published = 0, incomplete = 0, unanswered = 0;
-  try {
-    rosbag::View frames_view(bag, rosbag::TopicQuery(options_.colour_topic));
-    relocalizer::ProgressBar bar("replaying", frames_view.size());
-    rosbag::View view(bag, rosbag::TopicQuery(topics));
-    FrameGroup group;
-    ros::WallTime next_slot = ros::WallTime::now();
-    // Publishes one frame and waits for its answer; false when shutting down.
-    auto flush = [&]() -> bool {
-      if (!group.colour && !group.depth && !group.info) return true;
-      if (!group.colour || !group.depth || !group.info ||
-          group.colour->header.stamp != group.depth->header.stamp ||
-          group.colour->header.stamp != group.info->header.stamp) {
-        ++incomplete;
-        group = {};
-        return true;
+  rosbag::View frames_view(bag, rosbag::TopicQuery(options_.colour_topic));
+  relocalizer::ProgressBar bar("replaying", frames_view.size());
+  rosbag::View view(bag, rosbag::TopicQuery(topics));
+  FrameGroup group;
+  ros::WallTime next_slot = ros::WallTime::now();
+  for (const rosbag::MessageInstance& message : view) {
+    if (message.getTopic() == options_.dataset_topic) {
+      if (auto info = message.instantiate<std_msgs::String>()) {
+        dataset_info_ = nlohmann::json::parse(info->data, nullptr, false);
+        if (dataset_info_.is_discarded()) dataset_info_ = nullptr;
       }
-      const ros::Time stamp = group.colour->header.stamp;
-      if (group.truth) {
-        truth_pub.publish(group.truth);
-        truths.push_back({static_cast<int>(group.truth->header.seq), group.truth->header.stamp,
-                          fromPoseMsg(group.truth->pose)});
-      }
-      info_pub.publish(group.info);
-      depth_pub.publish(group.depth);
-      colour_pub.publish(group.colour);
-      ++published;
-      bar.advance();
-      if (options_.rate > 0.0) {
-        // A camera does not wait for the node: the next frame goes out on
-        // schedule (late frames go at once, so the mean rate holds).
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          published_at_[stamp] = ros::WallTime::now();
-        }
-        next_slot += ros::WallDuration(1.0 / options_.rate);
-        const ros::WallDuration wait = next_slot - ros::WallTime::now();
-        if (wait > ros::WallDuration(0)) wait.sleep();
-        if (!ros::ok()) return false;
-        group = {};
-        return true;
-      }
-      std::unique_lock<std::mutex> lock(mutex_);
-      const bool answered =
-          result_arrived_.wait_for(lock, std::chrono::duration<double>(options_.result_timeout),
-                                   [&] { return results_.count(stamp) > 0 || !ros::ok(); });
-      if (!ros::ok()) return false;
-      if (!answered) {
-        ++unanswered;
-        ROS_WARN("replay: no result for the frame at %.3f within %.0f s; going on", stamp.toSec(),
-                 options_.result_timeout);
-      }
-      group = {};
-      return true;
-    };
-    for (const rosbag::MessageInstance& message : view) {
-      if (message.getTopic() == options_.dataset_topic) {
-        if (auto info = message.instantiate<std_msgs::String>()) {
-          dataset_info_ = nlohmann::json::parse(info->data, nullptr, false);
-          if (dataset_info_.is_discarded()) dataset_info_ = nullptr;
-        }
-        continue;
-      }
-      if (message.getTime() != group.time && !flush()) return 1;
-      group.time = message.getTime();
-      if (message.getTopic() == options_.colour_topic) {
-        group.colour = message.instantiate<sensor_msgs::Image>();
-      } else if (message.getTopic() == options_.depth_topic) {
-        group.depth = message.instantiate<sensor_msgs::Image>();
-      } else if (message.getTopic() == options_.info_topic) {
-        group.info = message.instantiate<sensor_msgs::CameraInfo>();
-      } else if (message.getTopic() == options_.truth_topic) {
-        group.truth = message.instantiate<geometry_msgs::PoseStamped>();
-      }
+      continue;
     }
-    if (!flush()) return 1;
-    if (options_.rate > 0.0) {
-      // The last frames' answers are still on their way; wait for the node
-      // to finish what it took (it drops what it did not).
-      const auto idle = std::chrono::duration<double>(std::min(options_.result_timeout, 5.0));
-      std::unique_lock<std::mutex> lock(mutex_);
-      while (ros::ok()) {
-        const size_t before = results_.size();
-        result_arrived_.wait_for(lock, idle);
-        if (results_.size() == before) break;
-      }
-      for (const auto& sent : published_at_) unanswered += results_.count(sent.first) == 0;
+    if (message.getTime() != group.time &&
+        !publishFrame(group, publishers, bar, next_slot, truths, counts))
+      return false;
+    group.time = message.getTime();
+    if (message.getTopic() == options_.colour_topic) {
+      group.colour = message.instantiate<sensor_msgs::Image>();
+    } else if (message.getTopic() == options_.depth_topic) {
+      group.depth = message.instantiate<sensor_msgs::Image>();
+    } else if (message.getTopic() == options_.info_topic) {
+      group.info = message.instantiate<sensor_msgs::CameraInfo>();
+    } else if (message.getTopic() == options_.truth_topic) {
+      group.truth = message.instantiate<geometry_msgs::PoseStamped>();
     }
-  } catch (const rosbag::BagException& e) {
-    ROS_FATAL("replay: %s: %s", options_.bag.c_str(), e.what());
-    return 2;
   }
-  if (incomplete)
-    ROS_WARN(
-        "replay: skipped %d frames whose colour, depth and camera_info do not share one stamp "
-        "(a make_bag bag has none; play other bags with rosbag play and collect mode)",
-        incomplete);
-  if (published == 0) {
-    ROS_FATAL("replay: %s has no complete frame on %s, %s and %s", options_.bag.c_str(),
-              options_.colour_topic.c_str(), options_.depth_topic.c_str(),
-              options_.info_topic.c_str());
-    return 2;
+  return publishFrame(group, publishers, bar, next_slot, truths, counts);
+}
+
+bool ReplayEvaluator::publishFrame(FrameGroup& group, const FramePublishers& publishers,
+                                   relocalizer::ProgressBar& bar, ros::WallTime& next_slot,
+                                   std::vector<Truth>& truths, PlayCounts& counts) {
+  if (!group.colour && !group.depth && !group.info) return true;
+  if (!group.colour || !group.depth || !group.info ||
+      group.colour->header.stamp != group.depth->header.stamp ||
+      group.colour->header.stamp != group.info->header.stamp) {
+    ++counts.incomplete;
+    group = {};
+    return true;
   }
-  std::printf("replayed %d frames of %s through %s (%d without an answer)\n", published,
-              options_.bag.c_str(), result_sub_.getTopic().c_str(), unanswered);
-  if (options_.rate > 0.0) reportLatency(published);
-  return report(truths);
+  const ros::Time stamp = group.colour->header.stamp;
+  if (group.truth) {
+    publishers.truth.publish(group.truth);
+    truths.push_back({static_cast<int>(group.truth->header.seq), group.truth->header.stamp,
+                      fromPoseMsg(group.truth->pose)});
+  }
+  publishers.info.publish(group.info);
+  publishers.depth.publish(group.depth);
+  publishers.colour.publish(group.colour);
+  ++counts.published;
+  bar.advance();
+  if (options_.rate > 0.0) {
+    // A camera does not wait for the node: the next frame goes out on
+    // schedule (late frames go at once, so the mean rate holds).
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      published_at_[stamp] = ros::WallTime::now();
+    }
+    next_slot += ros::WallDuration(1.0 / options_.rate);
+    const ros::WallDuration wait = next_slot - ros::WallTime::now();
+    if (wait > ros::WallDuration(0)) wait.sleep();
+    if (!ros::ok()) return false;
+    group = {};
+    return true;
+  }
+  std::unique_lock<std::mutex> lock(mutex_);
+  const bool answered =
+      result_arrived_.wait_for(lock, std::chrono::duration<double>(options_.result_timeout),
+                               [&] { return results_.count(stamp) > 0 || !ros::ok(); });
+  if (!ros::ok()) return false;
+  if (!answered) {
+    ++counts.unanswered;
+    ROS_WARN("replay: no result for the frame at %.3f within %.0f s; going on", stamp.toSec(),
+             options_.result_timeout);
+  }
+  group = {};
+  return true;
+}
+
+void ReplayEvaluator::waitForLastAnswers(PlayCounts& counts) {
+  // The last frames' answers are still on their way; wait for the node
+  // to finish what it took (it drops what it did not).
+  const auto idle = std::chrono::duration<double>(std::min(options_.result_timeout, 5.0));
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (ros::ok()) {
+    const size_t before = results_.size();
+    result_arrived_.wait_for(lock, idle);
+    if (results_.size() == before) break;
+  }
+  for (const auto& sent : published_at_) counts.unanswered += results_.count(sent.first) == 0;
 }
 
 void ReplayEvaluator::reportLatency(int published) {

@@ -29,6 +29,13 @@
 #include <relocalizer/RelocalizationResult.h>
 #include "relocalizer/eval/evaluation.h"
 
+namespace rosbag {
+class Bag;
+}
+namespace relocalizer {
+class ProgressBar;
+}
+
 namespace relocalizer_ros {
 
 class ReplayEvaluator {
@@ -64,7 +71,31 @@ class ReplayEvaluator {
     relocalizer::Pose pose;
   };
 
+  // Play mode, in its steps: the frames' publishers, one frame's messages as
+  // read from the bag, and what the replay counted.
+  struct FramePublishers {
+    ros::Publisher colour, depth, info, truth;
+  };
+  struct FrameGroup;
+  struct PlayCounts {
+    int published = 0;   // complete frames sent to the node
+    int incomplete = 0;  // skipped: colour, depth and camera_info without one stamp
+    int unanswered = 0;  // sent, and no ~result came back
+  };
+
   int play();
+  // False (after a fatal log) when no node listens and answers within node_timeout.
+  bool waitForNode(const FramePublishers& publishers);
+  // Plays every frame of the bag; false when ROS shuts down.
+  bool playFrames(rosbag::Bag& bag, const FramePublishers& publishers, std::vector<Truth>& truths,
+                  PlayCounts& counts);
+  // Publishes one frame and waits for its answer (or, paced, for its slot);
+  // false when ROS shuts down. Empties `group`.
+  bool publishFrame(FrameGroup& group, const FramePublishers& publishers,
+                    relocalizer::ProgressBar& bar, ros::WallTime& next_slot,
+                    std::vector<Truth>& truths, PlayCounts& counts);
+  // Paced mode: waits for the answers still on their way and counts the missing ones.
+  void waitForLastAnswers(PlayCounts& counts);
   int collect();
   int report(const std::vector<Truth>& truths);
   // Paced mode: answered share and latency percentiles, printed and (with

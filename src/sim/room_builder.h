@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <utility>
 #include <vector>
 
 #include "synthetic_internal.h"
@@ -18,6 +19,40 @@ namespace synthetic {
 
 // Hue, saturation and value in [0, 1] (hue wraps) to linear RGB.
 Vec3f hsv(float h, float s, float v);
+
+// Where a wall must stay clear: s ranges without furniture, and rectangles
+// (s, z) that decorations must not overlap.
+struct Interval {
+  float lo, hi;
+  bool overlaps(float a, float b) const { return a < hi && b > lo; }
+};
+struct Rect {
+  float s0, s1, z0, z1;
+};
+
+// What a piece of furniture from s0 to s1, `top` high, keeps decorations off.
+inline Rect furnitureClearance(float s0, float s1, float top) {
+  return {s0 - 0.05f, s1 + 0.05f, 0, top + 0.12f};
+}
+
+// What furnishWalls put where, so that a look-alike room can place the same
+// pieces elsewhere (RoomBuilder::rearrange). Recording draws nothing.
+struct FurnishingRecord {
+  struct Wall {
+    float length = 0, start = 0, end = 0;  // furniture stays within [start, end]
+    std::vector<Interval> no_furniture;    // the door and window stretches
+    std::vector<Rect> fixed;               // the door and window, kept clear of decorations
+  };
+  // One piece of furniture or one decoration: its boxes [box_begin, box_end)
+  // and the (s, z) extent it takes on its wall (z0 = 0 for furniture, z1 its top).
+  struct Piece {
+    int wall;
+    float s0, s1, z0, z1;
+    int box_begin, box_end;
+  };
+  std::array<Wall, 4> walls;
+  std::vector<Piece> furniture, decorations;
+};
 
 // Builds the room's contents in wall coordinates: s along the wall from its
 // left corner (seen from inside), w out from the wall into the room, z up.
@@ -37,6 +72,15 @@ class RoomBuilder {
   void hangLights();
   // Materials of the moving distractors and the phases of time-varying effects.
   void prepareEffects();
+  // What furnishWalls placed.
+  const FurnishingRecord& record() const { return record_; }
+
+  // ---- a look-alike room (room_rearrangement.cpp): the same furniture and
+  // decorations as `record`, moved to other places drawn from this builder's
+  // generator, and new camera path phases. The boxes keep their sizes,
+  // materials and texture coordinates (a piece moved to another wall turns
+  // with it), so each piece looks exactly as before.
+  void rearrange(const FurnishingRecord& record);
 
   // ---- materials (room_materials.cpp); each returns its index
   int material(Material m);
@@ -87,15 +131,6 @@ class RoomBuilder {
   void floorLamp(int k, float s, float w);
 
  private:
-  // Where a wall must stay clear: s ranges without furniture, and rectangles
-  // (s, z) that decorations must not overlap.
-  struct Interval {
-    float lo, hi;
-    bool overlaps(float a, float b) const { return a < hi && b > lo; }
-  };
-  struct Rect {
-    float s0, s1, z0, z1;
-  };
   struct WallPlan {
     int plain_wall, door_wall, window_wall;
     std::array<bool, 4> corner_used;
@@ -112,6 +147,32 @@ class RoomBuilder {
                       const std::vector<Interval>& no_furniture, std::vector<Rect>& blocked);
   void placeDecorations(int k, float length, float start, float end, int max_decor,
                         std::vector<Rect>& blocked);
+  // A centre (s, z) drawn for a decoration w x h on a wall `length` long, and
+  // whether one centred at (sc, zc) fits on a wall whose furniture spans
+  // [start, end] beside what `blocked` holds.
+  std::pair<float, float> drawDecorationSpot(float w, float h, float length);
+  bool decorationFits(float sc, float zc, float w, float h, float start, float end,
+                      const std::vector<Rect>& blocked) const;
+
+  // rearrange's steps and its one motion: boxes [begin, end) from s = from_s
+  // on wall `from` to s = to_s on wall `to`, raised by dz.
+  void rearrangeFurniture(const FurnishingRecord& record,
+                          std::array<std::vector<Rect>, 4>& blocked);
+  // Where each piece of furniture may go, drawn afresh; wall -1 for a piece
+  // that found no room. `depths`: how far each piece reaches into the room.
+  struct Spot {
+    int wall;
+    float s;
+  };
+  std::vector<Spot> tryPlacingFurniture(const FurnishingRecord& record,
+                                        const std::vector<float>& depths);
+  void rearrangeDecorations(const FurnishingRecord& record,
+                            std::array<std::vector<Rect>, 4>& blocked);
+  // Phases of the camera paths' loops and wobbles.
+  void drawPathPhases();
+  void moveBoxes(int begin, int end, int from, float from_s, int to, float to_s, float dz);
+  // How far a piece reaches out from its wall, where it stands now.
+  float reach(const FurnishingRecord::Piece& piece) const;
 
   // Pieces of the furniture above.
   void shelfOfBooks(int k, float s0, float s1, float depth, float z0, float pitch, int pages);
@@ -129,6 +190,7 @@ class RoomBuilder {
 
   SyntheticRoom::Impl& room_;
   Rng& rng_;
+  FurnishingRecord record_;
 };
 
 }  // namespace synthetic

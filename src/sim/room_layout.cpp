@@ -12,7 +12,7 @@ namespace relocalizer {
 namespace synthetic {
 
 void buildRoom(SyntheticRoom::Impl& room) {
-  Rng rng(mix64(room.seed ^ 0x5eed0f5ce9e5ULL));
+  Rng rng(mix64(room.appearance_seed ^ 0x5eed0f5ce9e5ULL));
   RoomBuilder b(room, rng);
   room.lo = Vec3f::Zero();
   room.hi = Vec3f(rng.uniform(5.6, 6.4), rng.uniform(4.6, 5.4), rng.uniform(2.6, 3.0));
@@ -21,6 +21,11 @@ void buildRoom(SyntheticRoom::Impl& room) {
   b.layRug();
   b.hangLights();
   b.prepareEffects();
+  if (room.seed != room.appearance_seed) {
+    // A generator of its own, so the appearance above is the appearance seed's room to the bit.
+    Rng layout_rng(mix64(room.seed ^ 0x1a70e7a5ea7ULL));
+    RoomBuilder(room, layout_rng).rearrange(b.record());
+  }
   room.buildBvh();
 }
 
@@ -105,6 +110,7 @@ void RoomBuilder::furnishWall(int k, const WallPlan& plan) {
   std::vector<Interval> no_furniture;
   if (k == plan.door_wall) placeDoor(k, start, end, blocked, no_furniture);
   if (k == plan.window_wall) placeWindow(k, length, blocked, no_furniture);
+  record_.walls[k] = {length, start, end, no_furniture, blocked};
   // Fewer things on the plain wall, leaving bare texture-poor stretches on purpose.
   placeFurniture(k, start, end, k == plan.plain_wall ? 2 : 4, no_furniture, blocked);
   placeDecorations(k, length, start, end,
@@ -156,6 +162,7 @@ void RoomBuilder::placeFurniture(int k, float start, float end, int max_items,
       }
     if (clash) continue;
     float top;
+    const int box_begin = static_cast<int>(room_.boxes.size());
     if (kind <= 2)
       top = bookshelf(k, s, width);
     else if (kind <= 5)
@@ -164,7 +171,9 @@ void RoomBuilder::placeFurniture(int k, float start, float end, int max_items,
       top = cabinet(k, s, width);
     else
       top = wardrobe(k, s, width);
-    blocked.push_back({s - 0.05f, s + width + 0.05f, 0, top + 0.12f});
+    record_.furniture.push_back(
+        {k, s, s + width, 0, top, box_begin, static_cast<int>(room_.boxes.size())});
+    blocked.push_back(furnitureClearance(s, s + width, top));
     ++items;
     s += width + (rng_.chance(0.3) ? rng_.uniform(0.6, 1.0) : rng_.uniform(0.05, 0.35));
   }
@@ -173,7 +182,6 @@ void RoomBuilder::placeFurniture(int k, float start, float end, int max_items,
 // Up to `max_decor` decorations where the wall is free, mostly at eye height.
 void RoomBuilder::placeDecorations(int k, float length, float start, float end, int max_decor,
                                    std::vector<Rect>& blocked) {
-  const float height = room_.hi.z();
   int decor = 0;
   for (int attempt = 0; attempt < 80 && decor < max_decor; ++attempt) {
     const int kind = rng_.integer(0, 9);  // 0-2 poster, 3-6 picture, 7 cork, 8-9 shelf
@@ -191,15 +199,9 @@ void RoomBuilder::placeDecorations(int k, float length, float start, float end, 
       w = rng_.uniform(0.5, 0.9);
       h = 0.45f;
     }
-    const float sc = rng_.uniform(0.15 + w / 2, length - 0.15 - w / 2);
-    const float zc =
-        rng_.uniform(std::max(1.0f + h / 2, 1.35f), std::min(height - 0.25f - h / 2, 1.85f));
-    if (!(zc - h / 2 >= 0.9f && zc + h / 2 <= height - 0.2f)) continue;
-    const Rect r{sc - w / 2 - 0.08f, sc + w / 2 + 0.08f, zc - h / 2 - 0.08f, zc + h / 2 + 0.08f};
-    bool free = r.s0 > start - 0.7f && r.s1 < end + 0.7f;
-    for (const Rect& o : blocked)
-      free = free && !(r.s0 < o.s1 && r.s1 > o.s0 && r.z0 < o.z1 && r.z1 > o.z0);
-    if (!free) continue;
+    const auto [sc, zc] = drawDecorationSpot(w, h, length);
+    if (!decorationFits(sc, zc, w, h, start, end, blocked)) continue;
+    const int box_begin = static_cast<int>(room_.boxes.size());
     if (kind <= 2)
       poster(k, sc, zc, w, h);
     else if (kind <= 6)
@@ -208,9 +210,30 @@ void RoomBuilder::placeDecorations(int k, float length, float start, float end, 
       corkboard(k, sc, zc, w, h);
     else
       wallShelf(k, sc, zc, w);
+    record_.decorations.push_back({k, sc - w / 2, sc + w / 2, zc - h / 2, zc + h / 2, box_begin,
+                                   static_cast<int>(room_.boxes.size())});
     blocked.push_back({sc - w / 2, sc + w / 2, zc - h / 2, zc + h / 2});
     ++decor;
   }
+}
+
+std::pair<float, float> RoomBuilder::drawDecorationSpot(float w, float h, float length) {
+  const float height = room_.hi.z();
+  const float sc = rng_.uniform(0.15 + w / 2, length - 0.15 - w / 2);
+  const float zc =
+      rng_.uniform(std::max(1.0f + h / 2, 1.35f), std::min(height - 0.25f - h / 2, 1.85f));
+  return {sc, zc};
+}
+
+bool RoomBuilder::decorationFits(float sc, float zc, float w, float h, float start, float end,
+                                 const std::vector<Rect>& blocked) const {
+  const float height = room_.hi.z();
+  if (!(zc - h / 2 >= 0.9f && zc + h / 2 <= height - 0.2f)) return false;
+  const Rect r{sc - w / 2 - 0.08f, sc + w / 2 + 0.08f, zc - h / 2 - 0.08f, zc + h / 2 + 0.08f};
+  bool free = r.s0 > start - 0.7f && r.s1 < end + 0.7f;
+  for (const Rect& o : blocked)
+    free = free && !(r.s0 < o.s1 && r.s1 > o.s0 && r.z0 < o.z1 && r.z1 > o.z0);
+  return free;
 }
 
 void RoomBuilder::layRug() {
@@ -266,6 +289,10 @@ void RoomBuilder::prepareEffects() {
   cart.b = Vec3f(0.1f, 0.1f, 0.1f);
   cart.scale = 0.1f;
   room_.cart_material = material(cart);
+  drawPathPhases();
+}
+
+void RoomBuilder::drawPathPhases() {
   room_.path_phase = rng_.uniform(0, kTwoPi);
   for (double& p : room_.phases) p = rng_.uniform(0, kTwoPi);
 }

@@ -3,7 +3,8 @@
 // randomness, materials, boxes and the room data. Not installed, not API.
 //
 // room_layout.cpp builds a room from its seed (with room_builder.h: materials
-// and boxes, furniture, wall features; room_bvh.cpp the BVH),
+// and boxes, furniture, wall features, room_rearrangement.cpp a look-alike's
+// layout; room_bvh.cpp the BVH),
 // synthetic_textures.cpp colours its surfaces, synthetic_room.cpp ray casts,
 // renders and plans camera paths, synthetic_scene.cpp writes datasets.
 
@@ -269,7 +270,8 @@ struct SyntheticRoom::Impl {
     Vec3f colour;  // intensity per channel
   };
 
-  uint64_t seed = 0;
+  uint64_t seed = 0;             // the layout's seed, and the renders' (depth noise)
+  uint64_t appearance_seed = 0;  // materials and pieces; == seed but in a look-alike room
   Vec3f lo{0, 0, 0}, hi{6, 5, 2.8f};
   std::array<int, 6> shell_material{};
   std::vector<Material> materials;
@@ -304,7 +306,9 @@ struct SyntheticRoom::Impl {
 };
 
 namespace synthetic {
-// Fills in a room from its seed (walls, furniture, lights, BVH).
+// Fills in a room from its seeds (walls, furniture, lights, BVH): the room of
+// appearance_seed, with its furniture and decorations rearranged by seed when
+// the two differ.
 void buildRoom(SyntheticRoom::Impl& room);
 }  // namespace synthetic
 

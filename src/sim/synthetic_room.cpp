@@ -4,6 +4,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <cstring>
+#include <initializer_list>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -205,20 +207,66 @@ double KinectDepthModel::quantise(double z) {
                    : std::numeric_limits<double>::infinity();
 }
 
-SyntheticRoom::SyntheticRoom(uint64_t seed) {
+SyntheticRoom::SyntheticRoom(uint64_t seed) : SyntheticRoom(RoomRecipe{seed, seed}) {}
+
+SyntheticRoom::SyntheticRoom(const RoomRecipe& recipe) {
   auto impl = std::make_shared<Impl>();
-  impl->seed = seed;
+  impl->seed = recipe.layout_seed;
+  impl->appearance_seed = recipe.appearance_seed;
   buildRoom(*impl);
   impl_ = std::move(impl);
 }
 
 uint64_t SyntheticRoom::seed() const { return impl_->seed; }
+uint64_t SyntheticRoom::appearanceSeed() const { return impl_->appearance_seed; }
 
 Eigen::AlignedBox3d SyntheticRoom::bounds() const {
   return {impl_->lo.cast<double>(), impl_->hi.cast<double>()};
 }
 
 int SyntheticRoom::boxCount() const { return static_cast<int>(impl_->boxes.size()); }
+
+namespace {
+
+uint64_t hashFloats(uint64_t h, std::initializer_list<float> values) {
+  for (const float v : values) {
+    uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    h = mix64(h ^ bits);
+  }
+  return h;
+}
+
+uint64_t materialFingerprint(const SyntheticRoom::Impl& room, const Material& m) {
+  uint64_t h = mix64(static_cast<uint64_t>(m.pattern) ^ (uint64_t{m.seed} << 8) ^
+                     (static_cast<uint64_t>(m.variant) << 40) ^ (m.gives_depth ? 1ULL << 60 : 0));
+  h = hashFloats(h, {m.a.x(), m.a.y(), m.a.z(), m.b.x(), m.b.y(), m.b.z(), m.c.x(), m.c.y(),
+                     m.c.z(), m.scale});
+  for (int i = m.shapes_begin; i < m.shapes_begin + m.shapes_count; ++i) {
+    const Shape& s = room.shapes[i];
+    h = hashFloats(mix64(h ^ s.kind),
+                   {s.x, s.y, s.rx, s.ry, s.colour.x(), s.colour.y(), s.colour.z()});
+  }
+  return h;
+}
+
+}  // namespace
+
+std::vector<RoomBox> SyntheticRoom::boxes() const {
+  // The BVH has reordered the boxes; their ids are their creation order.
+  std::vector<RoomBox> result(impl_->boxes.size());
+  for (const Box& box : impl_->boxes) {
+    RoomBox& b = result[box.id];
+    b.centre = box.centre.cast<double>();
+    b.half_size = box.half.cast<double>();
+    b.yaw = std::atan2(box.sin_yaw, box.cos_yaw);
+    uint64_t h = 0;
+    for (const int m : box.material)
+      h = mix64(h ^ materialFingerprint(*impl_, impl_->materials[m]));
+    b.appearance = h;
+  }
+  return result;
+}
 
 namespace {
 

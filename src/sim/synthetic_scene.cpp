@@ -150,7 +150,8 @@ Status writeSyntheticScene(const std::string& output_dir, const SyntheticSceneOp
       return makeError("cannot write " + (dir / "colour-registration.txt").string());
   }
 
-  const SyntheticRoom room(options.seed);
+  const SyntheticRoom room(
+      RoomRecipe{options.appearance_seed.value_or(options.seed), options.seed});
   const SyntheticTrajectories paths = room.trajectories(options.train_frames, options.test_frames);
   const std::vector<Pose>* split_paths[2] = {&paths.train, &paths.test};
 
@@ -233,6 +234,7 @@ Status writeSyntheticScene(const std::string& output_dir, const SyntheticSceneOp
   json["generator"] = "relocalizer synthetic room";
   json["format_version"] = 1;
   json["seed"] = options.seed;
+  if (room.appearanceSeed() != room.seed()) json["appearance_seed"] = room.appearanceSeed();
   json["train_frames"] = options.train_frames;
   json["test_frames"] = options.test_frames;
   json["camera"] = {{"fx", k.fx}, {"fy", k.fy},       {"cx", k.cx},

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_support.h"
+#include "place_arguments.h"
 #include "relocalizer/core/version.h"
 #include "relocalizer/eval/frame_evaluation.h"
 #include "relocalizer/eval/plot.h"
@@ -214,31 +215,11 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
   return -1;
 }
 
-// NAME=PATH (or PATH, named by its file's stem) for each --model.
-Expected<std::vector<std::pair<std::string, std::string>>> placeArguments(
-    const std::vector<std::string>& models) {
-  std::vector<std::pair<std::string, std::string>> places;
-  for (const std::string& argument : models) {
-    const size_t equals = argument.find('=');
-    std::string name = equals == std::string::npos ? std::filesystem::path(argument).stem().string()
-                                                   : argument.substr(0, equals);
-    std::string path = equals == std::string::npos ? argument : argument.substr(equals + 1);
-    if (name.empty() || path.empty())
-      return makeError("--model " + argument + ": expected NAME=PATH with a name and a path");
-    for (const auto& [other, other_path] : places)
-      if (other == name)
-        return makeError("--model " + argument + ": the place name " + name + " is given twice (" +
-                         other_path + " and " + path + ")");
-    places.emplace_back(std::move(name), std::move(path));
-  }
-  return places;
-}
-
 // Many places: loads each --model into one set and relocalizes every frame
 // against the whole set.
 Expected<FrameEvaluation> evaluatePlaces(const Options& o, const RelocalizerParams& params,
                                          const FrameSource& data) {
-  auto arguments = placeArguments(o.models);
+  auto arguments = cli::parseNamedPaths(o.models, "--model");
   if (!arguments) return makeError(arguments.error());
   PlaceSet places;
   bool expected_found = o.expect_place.empty();

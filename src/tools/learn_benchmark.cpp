@@ -16,6 +16,8 @@
 #include "cli_support.h"
 #include "dataset_arguments.h"
 #include "relocalizer/core/statistics.h"
+#include "relocalizer/eval/evaluation.h"
+#include "relocalizer/eval/metrics.h"
 #include "relocalizer/online/key_frame_feed.h"
 
 using namespace relocalizer;
@@ -65,8 +67,8 @@ std::vector<Attempt> relocalizeUntilDone(const Dataset& test_data,
     const RgbdFrame& frame = *loaded;
     const auto t0 = Clock::now();
     const Relocalization r = model->relocalize(frame);
-    const bool correct = r.success && translationError(r.pose, *frame.ground_truth) < 0.05 &&
-                         rotationErrorDegrees(r.pose, *frame.ground_truth) < 5.0;
+    const EvaluationRecord record = recordAttempt(frame.id, frame.stamp, *frame.ground_truth, r);
+    const bool correct = within(frameError(record.id, record.estimate, record.truth), kCorrectPose);
     attempts.push_back({since(start), since(t0), correct, learner.status().keyframes_learned});
     if (slot < Clock::now()) slot = Clock::now();
   }
@@ -92,9 +94,7 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
     latencies.push_back(1000.0 * a.latency);
   }
   const double p50 = latencies.empty() ? 0.0 : median(latencies);
-  std::sort(latencies.begin(), latencies.end());
-  const double p95 =
-      latencies.empty() ? 0.0 : latencies[static_cast<size_t>(0.95 * (latencies.size() - 1))];
+  const double p95 = latencies.empty() ? 0.0 : percentile(latencies, 95.0);
   std::printf(
       "stream: %ld frames in %.1f s at %.0f Hz (%ld later than one frame period, worst lag %.0f "
       "ms)\n",

@@ -69,6 +69,76 @@ geometry_msgs::TransformStamped transformMsg(const Pose& pose, const ros::Time& 
   return t;
 }
 
+// What the bag is written with, as the options give it.
+struct BagSettings {
+  std::string output, depth_encoding = "16UC1", frame_id = "camera_rgb_optical_frame",
+                      compression = "lz4";
+  double rate = 0.0;
+  bool tf = false;
+  bool synthesize = false;  // stamps at `rate` rather than the dataset's
+};
+
+// /dataset/info: where the frames came from and how they were written.
+nlohmann::json sourceInfo(const cli::DatasetArguments& arguments, const Dataset& data,
+                          const BagSettings& settings, bool numbered) {
+  const bool synthesize = settings.synthesize;
+  return {{"dataset", arguments.path},
+          {"format", formatName(data.format())},
+          {"frames", arguments.frames},
+          {"split", arguments.split},
+          {"frame_count", data.size()},
+          {"stamps", synthesize ? "synthesized" : "dataset"},
+          {"rate", synthesize ? settings.rate : 0.0},
+          {"integer_stamps", numbered},
+          {"depth_encoding", settings.depth_encoding},
+          {"frame_id", settings.frame_id},
+          {"software_version", kSoftwareVersion}};
+}
+
+// One frame's messages under `header` (its stamp, id and frame id): the ground
+// truth (and with --tf its TF), camera_info, depth, colour. True when it had ground truth.
+bool writeFrame(rosbag::Bag& bag, const std_msgs::Header& header, const RgbdFrame& frame,
+                const std::optional<Pose>& truth, const BagSettings& settings) {
+  if (truth) {
+    std_msgs::Header truth_header = header;
+    truth_header.frame_id = "map";
+    bag.write("/ground_truth/pose", header.stamp, poseMsg(*truth, truth_header));
+    if (settings.tf) {
+      tf2_msgs::TFMessage message;
+      message.transforms.push_back(transformMsg(mapToOdom(), header.stamp, "map", "odom"));
+      message.transforms.push_back(
+          transformMsg(mapToOdom().inverse() * *truth, header.stamp, "odom", settings.frame_id));
+      bag.write("/tf", header.stamp, message);
+    }
+  }
+  bag.write("/camera/rgb/camera_info", header.stamp, cameraInfoMsg(frame.camera, header));
+  // REP 118: 16UC1 millimetres with 0 for no reading, or 32FC1 metres with NaN.
+  const cv_bridge::CvImage depth =
+      settings.depth_encoding == "16UC1"
+          ? cv_bridge::CvImage(header, sensor_msgs::image_encodings::TYPE_16UC1,
+                               depthToMillimetres(frame.depth))
+          : cv_bridge::CvImage(header, sensor_msgs::image_encodings::TYPE_32FC1, frame.depth);
+  bag.write("/camera/depth/image_raw", header.stamp, *depth.toImageMsg());
+  bag.write(
+      "/camera/rgb/image_raw", header.stamp,
+      *cv_bridge::CvImage(header, sensor_msgs::image_encodings::BGR8, frame.colour).toImageMsg());
+  return truth.has_value();
+}
+
+void printWritten(const BagSettings& settings, int written, int with_truth, double elapsed) {
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(settings.output, ec);
+  char stamps[64];
+  if (settings.synthesize)
+    std::snprintf(stamps, sizeof(stamps), "synthesized at %g Hz", settings.rate);
+  else
+    std::snprintf(stamps, sizeof(stamps), "from the dataset");
+  std::printf(
+      "wrote %d frames (%d with ground truth, depth %s, stamps %s) to %s (%.1f MB) in %.1f s\n",
+      written, with_truth, settings.depth_encoding.c_str(), stamps, settings.output.c_str(),
+      ec ? 0.0 : static_cast<double>(bytes) / 1e6, elapsed);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -83,29 +153,28 @@ int main(int argc, char** argv) {
       "synthesized at 30 Hz unless --rate says otherwise).",
       "make_bag"};
   cli::DatasetArguments arguments;
-  std::string output, depth_encoding = "16UC1", frame_id = "camera_rgb_optical_frame",
-                      compression = "lz4";
-  double rate = 0.0;
+  BagSettings settings;
   arguments.add(app, "Dataset folder (7-Scenes, 12-Scenes, TUM, synthetic)",
                 "Frame ids to write, e.g. 100-199,300-399 (default: all)");
-  app.add_option("-o,--output", output, "Bag file to write (replaced if it exists)")->required();
+  app.add_option("-o,--output", settings.output, "Bag file to write (replaced if it exists)")
+      ->required();
   auto* rate_option =
-      app.add_option("--rate", rate, "Synthesize stamps at this many frames per second")
+      app.add_option("--rate", settings.rate, "Synthesize stamps at this many frames per second")
           ->check(CLI::Range(0.001, 10000.0));
-  app.add_option("--depth-encoding", depth_encoding, "16UC1 (millimetres) | 32FC1 (metres)")
+  app.add_option("--depth-encoding", settings.depth_encoding,
+                 "16UC1 (millimetres) | 32FC1 (metres)")
       ->check(CLI::IsMember({"16UC1", "32FC1"}))
       ->capture_default_str();
-  app.add_option("--frame-id", frame_id, "frame_id of the colour and depth images")
+  app.add_option("--frame-id", settings.frame_id, "frame_id of the colour and depth images")
       ->capture_default_str();
-  bool tf = false;
-  app.add_flag("--tf", tf,
+  app.add_flag("--tf", settings.tf,
                "Also write the ground truth on /tf as a SLAM system with odometry publishes it: "
                "map -> odom (fixed, not the identity) and odom -> FRAME_ID at each frame's stamp");
-  app.add_option("--compression", compression, "none | lz4 | bz2")
+  app.add_option("--compression", settings.compression, "none | lz4 | bz2")
       ->check(CLI::IsMember({"none", "lz4", "bz2"}))
       ->capture_default_str();
   if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
-  if (frame_id.empty() || frame_id[0] == '/')
+  if (settings.frame_id.empty() || settings.frame_id[0] == '/')
     return cli::fail(app, "--frame-id must be a non-empty tf2 frame id without a leading slash");
 
   auto opened = arguments.open();
@@ -115,82 +184,41 @@ int main(int argc, char** argv) {
   // 7-Scenes and 12-Scenes "stamps" are frame numbers; played as seconds they
   // would be a 1 Hz camera.
   const bool numbered = data.format() != DatasetFormat::Tum;
-  const bool synthesize = *rate_option || numbered;
-  if (!*rate_option) rate = 30.0;
-  const bool millimetres = depth_encoding == "16UC1";
+  settings.synthesize = *rate_option || numbered;
+  if (!*rate_option) settings.rate = 30.0;
   std::printf("%s\n", data.summary().c_str());
 
   const auto start = std::chrono::steady_clock::now();
   int written = 0, with_truth = 0;
   try {
-    rosbag::Bag bag(output, rosbag::bagmode::Write);
-    if (compression == "lz4") bag.setCompression(rosbag::compression::LZ4);
-    if (compression == "bz2") bag.setCompression(rosbag::compression::BZ2);
+    rosbag::Bag bag(settings.output, rosbag::bagmode::Write);
+    if (settings.compression == "lz4") bag.setCompression(rosbag::compression::LZ4);
+    if (settings.compression == "bz2") bag.setCompression(rosbag::compression::BZ2);
 
-    nlohmann::json info = {
-        {"dataset", arguments.path},           {"format", formatName(data.format())},
-        {"frames", arguments.frames},          {"split", arguments.split},
-        {"frame_count", data.size()},          {"stamps", synthesize ? "synthesized" : "dataset"},
-        {"rate", synthesize ? rate : 0.0},     {"integer_stamps", numbered},
-        {"depth_encoding", depth_encoding},    {"frame_id", frame_id},
-        {"software_version", kSoftwareVersion}};
     std_msgs::String info_msg;
-    info_msg.data = info.dump();
+    info_msg.data = sourceInfo(arguments, data, settings, numbered).dump();
     ProgressBar bar("writing", data.size());
     for (size_t i = 0; i < data.size(); ++i) {
       bar.advance();
       auto frame = data.load(i);
       if (!frame) return cli::fail(app, frame.error());
       // Ids, not indices, so a selection with gaps keeps its gaps in time.
-      const double seconds =
-          synthesize ? kSynthesizedStart + (data.id(i) - data.id(0)) / rate : data.stamp(i);
+      const double seconds = settings.synthesize
+                                 ? kSynthesizedStart + (data.id(i) - data.id(0)) / settings.rate
+                                 : data.stamp(i);
       std_msgs::Header header;
       header.seq = static_cast<uint32_t>(data.id(i));
       header.stamp = ros::Time(seconds);
-      header.frame_id = frame_id;
+      header.frame_id = settings.frame_id;
       if (i == 0) bag.write("/dataset/info", header.stamp, info_msg);
-      if (data.groundTruth(i)) {
-        std_msgs::Header truth_header = header;
-        truth_header.frame_id = "map";
-        bag.write("/ground_truth/pose", header.stamp, poseMsg(*data.groundTruth(i), truth_header));
-        ++with_truth;
-        if (tf) {
-          tf2_msgs::TFMessage message;
-          message.transforms.push_back(transformMsg(mapToOdom(), header.stamp, "map", "odom"));
-          message.transforms.push_back(transformMsg(mapToOdom().inverse() * *data.groundTruth(i),
-                                                    header.stamp, "odom", frame_id));
-          bag.write("/tf", header.stamp, message);
-        }
-      }
-      bag.write("/camera/rgb/camera_info", header.stamp, cameraInfoMsg(frame->camera, header));
-      // REP 118: 16UC1 millimetres with 0 for no reading, or 32FC1 metres with NaN.
-      const cv_bridge::CvImage depth =
-          millimetres
-              ? cv_bridge::CvImage(header, sensor_msgs::image_encodings::TYPE_16UC1,
-                                   depthToMillimetres(frame->depth))
-              : cv_bridge::CvImage(header, sensor_msgs::image_encodings::TYPE_32FC1, frame->depth);
-      bag.write("/camera/depth/image_raw", header.stamp, *depth.toImageMsg());
-      bag.write("/camera/rgb/image_raw", header.stamp,
-                *cv_bridge::CvImage(header, sensor_msgs::image_encodings::BGR8, frame->colour)
-                     .toImageMsg());
+      with_truth += writeFrame(bag, header, *frame, data.groundTruth(i), settings);
       ++written;
     }
     bag.close();
   } catch (const rosbag::BagException& e) {
-    return cli::fail(app, output + ": " + e.what(), 1);
+    return cli::fail(app, settings.output + ": " + e.what(), 1);
   }
-  const double elapsed =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::error_code ec;
-  const auto bytes = std::filesystem::file_size(output, ec);
-  char stamps[64];
-  if (synthesize)
-    std::snprintf(stamps, sizeof(stamps), "synthesized at %g Hz", rate);
-  else
-    std::snprintf(stamps, sizeof(stamps), "from the dataset");
-  std::printf(
-      "wrote %d frames (%d with ground truth, depth %s, stamps %s) to %s (%.1f MB) in %.1f s\n",
-      written, with_truth, depth_encoding.c_str(), stamps, output.c_str(),
-      ec ? 0.0 : static_cast<double>(bytes) / 1e6, elapsed);
+  printWritten(settings, written, with_truth,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   return 0;
 }

@@ -1,5 +1,6 @@
 // synthesize: writes a synthetic RGB-D relocalization dataset (7-Scenes layout)
-// of a procedurally generated room with exact ground truth.
+// of a procedurally generated room with exact ground truth, or with --rooms a
+// building of such rooms.
 
 #include <algorithm>
 #include <charconv>
@@ -9,6 +10,7 @@
 #include <string>
 
 #include "cli_support.h"
+#include "relocalizer/sim/synthetic_building.h"
 #include "relocalizer/sim/synthetic_scene.h"
 
 using relocalizer::cli::fail;
@@ -45,6 +47,16 @@ int main(int argc, char** argv) {
                "Vary exposure, colour cast and lights from frame to frame");
   app.add_flag("--moving-objects", options.moving_objects,
                "Add moving distractors (not part of the static ground truth)");
+  int rooms = 0;
+  auto* rooms_option =
+      app.add_option("--rooms", rooms,
+                     "Write a building of this many rooms instead of one room: OUTPUT/room-0 ... "
+                     "OUTPUT/room-(N-1), each a dataset as above (room i has seed SEED + i), and "
+                     "OUTPUT/building.json (names, seeds, the look-alike pair, placement in one "
+                     "building frame). The rooms differ; from 3 rooms on, the last one looks like "
+                     "room-0 (the same furniture and textures, placed differently). The other "
+                     "options apply to every room.")
+          ->check(CLI::Range(relocalizer::kMinBuildingRooms, relocalizer::kMaxBuildingRooms));
 
   if (const int code = relocalizer::cli::parse(app, argc, argv); code >= 0) return code;
 
@@ -58,12 +70,17 @@ int main(int argc, char** argv) {
   if (!invalid.empty()) return fail(app, invalid);
 
   const auto start = std::chrono::steady_clock::now();
-  const relocalizer::Status status = relocalizer::writeSyntheticScene(output, options);
+  const relocalizer::Status status =
+      rooms_option->count() > 0 ? relocalizer::writeSyntheticBuilding(
+                                      output, relocalizer::SyntheticBuildingOptions{options, rooms})
+                                : relocalizer::writeSyntheticScene(output, options);
   if (!status) return fail(app, status.error(), 1);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::printf("wrote %d training and %d test frames (%dx%d, seed %llu) to %s in %.1f s\n",
-              options.train_frames, options.test_frames, options.camera.width,
+  const std::string what =
+      rooms_option->count() > 0 ? " in each of " + std::to_string(rooms) + " rooms" : "";
+  std::printf("wrote %d training and %d test frames%s (%dx%d, seed %llu) to %s in %.1f s\n",
+              options.train_frames, options.test_frames, what.c_str(), options.camera.width,
               options.camera.height, static_cast<unsigned long long>(options.seed), output.c_str(),
               seconds);
   return 0;

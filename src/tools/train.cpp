@@ -11,10 +11,13 @@
 #endif
 
 #include "cli_support.h"
-#include "frame_source.h"
+#include "relocalizer/core/file_io.h"
 #include "relocalizer/core/progress.h"
+#include "relocalizer/data/frame_source.h"
 #include "relocalizer/forest/model_builder.h"
+#include "relocalizer/forest/model_io.h"
 #include "relocalizer/forest/training_config.h"
+#include "source_arguments.h"
 
 using namespace relocalizer;
 
@@ -22,7 +25,7 @@ namespace {
 
 // Frames load in parallel but are kept in dataset order, so the model does
 // not depend on the thread count. Frames without a pose are counted, not kept.
-Status loadPosedFrames(const cli::FrameSource& data, ModelBuilder& builder, int& without_pose) {
+Status loadPosedFrames(const FrameSource& data, ModelBuilder& builder, int& without_pose) {
   std::vector<std::optional<RgbdFrame>> frames_read(data.size());
   std::string load_error;
   std::mutex error_mutex;
@@ -137,7 +140,7 @@ int main(int argc, char** argv) {
   }
   auto source = source_options.open();
   if (!source) return cli::fail(app, source.error());
-  const cli::FrameSource& data = **source;
+  const FrameSource& data = **source;
   const std::string& dataset_path = data.path();
   std::printf("%s\n", data.summary().c_str());
 
@@ -165,7 +168,12 @@ int main(int argc, char** argv) {
   const Model& model = *built;
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (const Status saved = saveModel(model, output); !saved)
+  // Written beside the target and renamed over it, as the node's ~save_model does: a train
+  // killed while writing leaves the old model whole, and a path that holds something other
+  // than a model (a folder, a symlink, another file) is refused rather than overwritten.
+  if (const Status saved =
+          replaceFiles({{output, kModelMagic, "relocalizer model file", serializeModel(model)}});
+      !saved)
     return cli::fail(app, saved.error(), 1);
   const auto bytes = std::filesystem::file_size(output);
 

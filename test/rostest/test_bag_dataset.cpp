@@ -24,7 +24,6 @@
 #include <sstream>
 
 #include "../../src/ros/bag_dataset.h"
-#include "../../src/ros/key_frames.h"
 #include "../../src/ros/message_conversion.h"
 #include "../unit/support.h"
 #include "relocalizer/core/frame.h"
@@ -32,6 +31,7 @@
 #include "relocalizer/data/dataset.h"
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/key_frame_rule.h"
 
 using namespace relocalizer_ros;
 using relocalizer::testing::TempDir;
@@ -471,12 +471,13 @@ TEST(BagDataset, BadBagsSayWhichTopicOrFrame) {
 }
 
 TEST(BagDataset, MinMotionParses) {
+  using relocalizer::parseMinMotion;
   auto both = parseMinMotion("0.05,5");
   ASSERT_TRUE(both.ok());
-  EXPECT_EQ(both->first, 0.05);
-  EXPECT_EQ(both->second, 5.0);
+  EXPECT_EQ(both->metres, 0.05);
+  EXPECT_EQ(both->degrees, 5.0);
   ASSERT_TRUE(parseMinMotion("0.1").ok());
-  EXPECT_EQ(parseMinMotion("0.1")->second, 0.0);
+  EXPECT_EQ(parseMinMotion("0.1")->degrees, 0.0);
   for (const char* bad : {"", "a,5", "0.05,", "-1,5", "1,2,3", "0.05;5", "nan,1"})
     EXPECT_FALSE(parseMinMotion(bad).ok()) << bad;
 }

@@ -188,8 +188,9 @@ TEST(TimeJump, NodeResetsReportsEachJumpOnceAndGoesOn) {
   ASSERT_TRUE(ros::service::waitForService("/relocalizer/relocalize", ros::Duration(30)));
   ASSERT_TRUE(g_camera->waitForNode());
   Source source(frame);
-  if (g_odom)
+  if (g_odom) {
     ASSERT_TRUE(source.waitForTfSubscribers(2, 10.0)) << "the node does not listen to /tf";
+  }
   ros::WallDuration(0.5).sleep();
 
   {
@@ -236,7 +237,9 @@ TEST(TimeJump, NodeResetsReportsEachJumpOnceAndGoesOn) {
     expectMapToOdomFollows(response, odom, ros::Time::now());
     ros::WallDuration(1.0).sleep();
     EXPECT_EQ(jumpWarnings(), 2u);
-    if (g_continuous) EXPECT_EQ(jumpResults(), 2u);
+    if (g_continuous) {
+      EXPECT_EQ(jumpResults(), 2u);
+    }
   }
   if (g_odom) {
     // An odometry message of the old timeline arriving after the reset: tf2
@@ -281,8 +284,9 @@ TEST(TimeJump, OneBadStampCostsAtMostItsOwnFrame) {
   ASSERT_TRUE(ros::service::waitForService("/relocalizer/relocalize", ros::Duration(30)));
   ASSERT_TRUE(g_camera->waitForNode());
   Source source(frame);
-  if (g_odom)
+  if (g_odom) {
     ASSERT_TRUE(source.waitForTfSubscribers(2, 10.0)) << "the node does not listen to /tf";
+  }
   const Pose odom = odometry(0.3, 0.2);
   source.timeline(0.0, odom);
   ros::WallDuration(1.0).sleep();

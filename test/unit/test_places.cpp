@@ -3,12 +3,15 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "relocalizer/eval/evaluation.h"
 #include "relocalizer/eval/metrics.h"
 #include "relocalizer/forest/model_builder.h"
+#include "relocalizer/forest/model_io.h"
 #include "relocalizer/relocalize/place_set.h"
 #include "relocalizer/sim/synthetic_scene.h"
 #include "support.h"
@@ -232,4 +235,69 @@ TEST_F(Places, EvaluationCountsWrongPlacesAndWritesPlacesCsv) {
   text << json.rdbuf();
   EXPECT_NE(text.str().find("\"wrong_place\": " + std::to_string(answered_by_other)),
             std::string::npos);
+}
+
+namespace {
+
+// Runs a tool of this build; its output goes to `log`. The exit status.
+int runTool(const std::string& tool, const std::string& arguments, const std::string& log) {
+  const std::string command =
+      std::string(RELOCALIZER_TOOL_DIR) + "/" + tool + " " + arguments + " > '" + log + "' 2>&1";
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string fileText(const std::filesystem::path& path) {
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+}  // namespace
+
+TEST_F(Places, EvaluateRelocalizesAgainstEveryModelAndNamesEachFramesPlace) {
+  const relocalizer::testing::TempDir dir;
+  for (const Room& room : rooms_)
+    ASSERT_TRUE(saveModel(room.relocalizer->model(), dir.str() + "/" + room.name + ".model").ok());
+  // Frames of room 7 (the same seed gives the same room), written as a dataset.
+  ASSERT_EQ(
+      runTool("synthesize",
+              "--seed 7 --train-frames 1 --test-frames 6 --width 320 --height 240 --output '" +
+                  dir.str() + "/scene'",
+              dir.str() + "/synthesize.log"),
+      0)
+      << fileText(dir.path() / "synthesize.log");
+  const std::string models = " --model room7='" + dir.str() + "/room7.model' --model room8='" +
+                             dir.str() + "/room8.model' --dataset '" + dir.str() + "/scene/test'";
+  ASSERT_EQ(runTool("evaluate", models + " --expect-place room7 --output '" + dir.str() + "/out'",
+                    dir.str() + "/evaluate.log"),
+            0)
+      << fileText(dir.path() / "evaluate.log");
+  const std::string log = fileText(dir.path() / "evaluate.log");
+  EXPECT_NE(log.find("wrong place (not room7)"), std::string::npos) << log;
+  std::istringstream places(fileText(dir.path() / "out" / "places.csv"));
+  std::string line;
+  std::getline(places, line);
+  int rows = 0, room7 = 0;
+  while (std::getline(places, line)) {
+    ++rows;
+    EXPECT_TRUE(line == std::to_string(rows - 1) + " room7" ||
+                line == std::to_string(rows - 1) + " ")
+        << line;
+    room7 += line.find("room7") != std::string::npos ? 1 : 0;
+  }
+  EXPECT_EQ(rows, 6);
+  EXPECT_GE(room7, 4);
+  EXPECT_NE(fileText(dir.path() / "out" / "summary.json").find("\"wrong_place\": 0"),
+            std::string::npos);
+
+  // Mistakes name the option.
+  EXPECT_NE(runTool("evaluate", models + " --expect-place kitchen", dir.str() + "/bad.log"), 0);
+  EXPECT_NE(fileText(dir.path() / "bad.log").find("--expect-place kitchen"), std::string::npos);
+  EXPECT_NE(runTool("evaluate", models + " --model room7='" + dir.str() + "/room8.model'",
+                    dir.str() + "/twice.log"),
+            0);
+  EXPECT_NE(fileText(dir.path() / "twice.log").find("given twice"), std::string::npos)
+      << fileText(dir.path() / "twice.log");
 }

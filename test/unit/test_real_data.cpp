@@ -59,7 +59,9 @@ TEST(RealData, ReducedRedkitchenDevProtocolStaysAboveItsFloor) {
     auto frame = (*test_set)->load(i);
     ASSERT_TRUE(frame.ok()) << frame.error();
     const Relocalization r = relocalizer.relocalize(*frame);
-    if (r.success) EXPECT_GE(r.surface_agreement, relocalizer.params().surface.min_agreement);
+    if (r.success) {
+      EXPECT_GE(r.surface_agreement, relocalizer.params().surface.min_agreement);
+    }
     std::optional<Pose> estimate;
     if (r.success) estimate = r.pose;
     errors.push_back(frameError(frame->id, estimate, *frame->ground_truth));

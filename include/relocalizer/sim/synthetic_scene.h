@@ -69,6 +69,9 @@ struct SyntheticTrajectories {
 // Everything writeSyntheticScene needs; scene.json records it.
 struct SyntheticSceneOptions {
   uint64_t seed = 1;
+  // When set (and not seed), the room is a look-alike: the furniture and
+  // textures of this seed's room, placed by `seed` (see RoomRecipe).
+  std::optional<uint64_t> appearance_seed;
   int train_frames = 300;
   int test_frames = 100;
   // Kinect default (640x480, f = 585); smaller images via
@@ -82,17 +85,43 @@ struct SyntheticSceneOptions {
   std::string validationError() const;
 };
 
+// Which room to build. A room follows from one seed; a look-alike room takes
+// its shell (size, wall, floor and ceiling textures, door, window, lights) and
+// every piece of furniture and decoration (sizes, colours, textures) from the
+// room of appearance_seed, and puts the pieces elsewhere along the walls, drawn
+// from layout_seed, which also seeds its camera paths and render noise. Equal
+// seeds give exactly SyntheticRoom(seed).
+struct RoomRecipe {
+  uint64_t appearance_seed = 1;
+  uint64_t layout_seed = 1;
+};
+
+// One static box of a room, as tests compare rooms: its pose and size, and a
+// fingerprint of its faces' materials (equal for the same colours, patterns
+// and texture seeds).
+struct RoomBox {
+  Eigen::Vector3d centre;
+  Eigen::Vector3d half_size;  // along the box's own axes
+  double yaw = 0;             // radians about z
+  uint64_t appearance = 0;
+};
+
 // The room is built once (well under a millisecond) and never changes, so
 // copies are cheap and every const method may run on many threads at once.
 class SyntheticRoom {
  public:
   explicit SyntheticRoom(uint64_t seed);
+  explicit SyntheticRoom(const RoomRecipe& recipe);
 
+  // The layout seed: seed() == appearanceSeed() but in a look-alike room.
   uint64_t seed() const;
+  uint64_t appearanceSeed() const;
   // The room's interior (walls, floor and ceiling are its faces).
   Eigen::AlignedBox3d bounds() const;
   // Static boxes (furniture, books, frames, ...) besides the room shell.
   int boxCount() const;
+  // Those boxes, in the order they were built.
+  std::vector<RoomBox> boxes() const;
 
   // One RGB-D frame seen from camera_to_world. frame_index is the frame's time:
   // it seeds the depth noise and drives the optional effects, so the same

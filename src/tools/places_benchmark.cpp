@@ -1,0 +1,200 @@
+// places_benchmark: what many places cost and how well the set picks the
+// place. Loads each --place (recording the resident memory it adds), then
+// times the first --test's frames against the first n places for each n of
+// --counts (one thread by default, the counts taking turns frame by frame),
+// and relocalizes every --test's frames against the whole set, counting
+// answers from another place than the one the frames were taken in.
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "cli_support.h"
+#include "place_arguments.h"
+#include "relocalizer/data/frame_source.h"
+#include "relocalizer/eval/latency_benchmark.h"
+#include "relocalizer/eval/place_benchmark.h"
+
+using namespace relocalizer;
+
+namespace {
+
+struct TestSet {
+  std::string place;
+  std::vector<RgbdFrame> frames;
+};
+
+// NAME=DATASET or NAME=DATASET@FRAMES: the frames of place NAME.
+Expected<TestSet> loadTestSet(const cli::NamedPath& argument) {
+  std::string path = argument.path, frames;
+  if (const size_t at = path.rfind('@'); at != std::string::npos) {
+    frames = path.substr(at + 1);
+    path = path.substr(0, at);
+  }
+  DatasetOptions options;
+  options.frames = frames;
+  auto dataset = openDatasetSource(path, options);
+  if (!dataset) return makeError("--test " + argument.name + ": " + dataset.error());
+  auto loaded = loadAllFrames(**dataset);
+  if (!loaded) return makeError("--test " + argument.name + ": " + loaded.error());
+  TestSet set{argument.name, {}};
+  for (RgbdFrame& frame : *loaded)
+    if (frame.ground_truth) set.frames.push_back(std::move(frame));
+  if (set.frames.empty())
+    return makeError("--test " + argument.name + ": " + path + ": no selected frame has a pose");
+  return set;
+}
+
+Expected<std::vector<int>> parseCounts(const std::string& text, int places) {
+  std::vector<int> counts;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    const int count = item == "all" ? places : std::atoi(item.c_str());
+    if (count < 1 || count > places)
+      return makeError("--counts: " + item + " is not a place count in 1.." +
+                       std::to_string(places) + " (or all)");
+    counts.push_back(count);
+  }
+  if (counts.empty()) return makeError("--counts: no place count given");
+  return counts;
+}
+
+// The latency table: each place count's median and p95 and its ratio to the first count's.
+void printLatency(const std::vector<PlaceCountRun>& runs, const TestSet& timed, int repeat,
+                  nlohmann::json& out) {
+  std::printf(
+      "\nlatency on %s's %zu frames x %d passes\n  places  median ms  p95 ms  x one  "
+      "within 5cm/5deg  wrong place\n",
+      timed.place.c_str(), timed.frames.size(), repeat);
+  const double one = stageLatency(runs.front().timings, &StageTimings::total).median_ms;
+  for (const PlaceCountRun& run : runs) {
+    const LatencySummary total = stageLatency(run.timings, &StageTimings::total);
+    std::printf("  %6d  %9.1f  %6.1f  %5.2f  %14.1f %%  %11d\n", run.places, total.median_ms,
+                total.p95_ms, total.median_ms / one, 100.0 * run.summary.accuracy.within_5cm_5deg,
+                run.summary.wrong_place);
+    out["latency"].push_back({{"places", run.places},
+                              {"median_ms", total.median_ms},
+                              {"p95_ms", total.p95_ms},
+                              {"within_5cm_5deg", run.summary.accuracy.within_5cm_5deg},
+                              {"wrong_place", run.summary.wrong_place}});
+  }
+}
+
+// Every test set against the whole set; returns the wrong-place answers in all.
+int printPlaceChoice(const PlaceSet& all, const std::vector<TestSet>& tests, nlohmann::json& out) {
+  std::printf(
+      "\nagainst all %zu places\n  frames of    frames  own place  wrong place  no pose  "
+      "within 5cm/5deg\n",
+      all.size());
+  int wrong_total = 0;
+  for (const TestSet& test : tests) {
+    const std::vector<EvaluationRecord> records = relocalizeAgainstPlaces(all, test.frames);
+    const EvaluationSummary summary = summarizeEvaluation(records, test.place);
+    const int answered = summary.accuracy.frames_with_pose;
+    wrong_total += summary.wrong_place;
+    std::printf("  %-10s %7d  %9d  %11d  %7d  %14.1f %%\n", test.place.c_str(),
+                summary.accuracy.frames, answered - summary.wrong_place, summary.wrong_place,
+                summary.accuracy.frames - answered, 100.0 * summary.accuracy.within_5cm_5deg);
+    out["choice"].push_back({{"place", test.place},
+                             {"frames", summary.accuracy.frames},
+                             {"own_place", answered - summary.wrong_place},
+                             {"wrong_place", summary.wrong_place},
+                             {"no_pose", summary.accuracy.frames - answered},
+                             {"within_5cm_5deg", summary.accuracy.within_5cm_5deg}});
+  }
+  return wrong_total;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Measures many places: the resident memory each place adds, the latency of relocalizing "
+      "the first --test's frames against the first n places for each n of --counts (medians, "
+      "measured side by side), and, against the whole set, the share of each --test's frames "
+      "answered by its own place, answered by another (wrong place) or without a pose.",
+      "places_benchmark"};
+  std::vector<std::string> place_arguments, test_arguments;
+  std::string counts_text = "1,2,all", json_path, config;
+  int repeat = 1, threads = 1;
+  app.add_option("--place", place_arguments,
+                 "NAME=MODEL, repeated; the first is the place whose frames are timed")
+      ->required();
+  app.add_option("--test", test_arguments,
+                 "NAME=DATASET or NAME=DATASET@FRAMES: frames taken in place NAME, repeated; "
+                 "the first is timed")
+      ->required();
+  app.add_option("--counts", counts_text, "Place counts to time, comma-separated ('all')")
+      ->capture_default_str();
+  app.add_option("-c,--config", config, "YAML with a 'relocalizer:' section");
+  app.add_option("--repeat", repeat, "Timed passes over the frames")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  app.add_option("-j,--threads", threads, "Worker threads inside each call")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  app.add_option("--json", json_path, "Write the figures to this JSON file");
+  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+
+  RelocalizerParams params;
+  if (!config.empty()) {
+    auto loaded = loadRelocalizerParams(config);
+    if (!loaded) return cli::fail(app, loaded.error());
+    params = *loaded;
+  }
+  auto named_places = cli::parseNamedPaths(place_arguments, "--place");
+  if (!named_places) return cli::fail(app, named_places.error());
+  auto named_tests = cli::parseNamedPaths(test_arguments, "--test");
+  if (!named_tests) return cli::fail(app, named_tests.error());
+  auto counts = parseCounts(counts_text, static_cast<int>(named_places->size()));
+  if (!counts) return cli::fail(app, counts.error());
+  if (named_tests->front().name != named_places->front().name)
+    return cli::fail(app, "the first --test must be taken in the first --place (" +
+                              named_places->front().name + "), whose frames are timed");
+
+  nlohmann::json out;
+  out["cpu"] = cpuModel();
+  out["threads"] = threads;
+  std::printf("CPU: %s; %d thread(s)\n", cpuModel().c_str(), threads);
+  std::vector<Place> places;
+  PlaceSet all;
+  for (const auto& [name, path] : *named_places) {
+    const ResidentMemory before = residentMemory();
+    auto place = PlaceSet::load(name, path, name, params);
+    if (!place) return cli::fail(app, place.error());
+    const ResidentMemory after = residentMemory();
+    const PlaceFigures figures = placeFigures(*place);
+    std::printf("place %-12s %6.1f MiB resident (model %.1f MiB), %ld modes, %d training frames\n",
+                name.c_str(), (after.current - before.current) / 1048576.0,
+                figures.model_bytes / 1048576.0, figures.modes,
+                static_cast<int>(figures.training_frames));
+    out["places"].push_back({{"name", name},
+                             {"model", path},
+                             {"resident_bytes", after.current - before.current},
+                             {"model_bytes", figures.model_bytes}});
+    if (Status added = all.put(*place); !added) return cli::fail(app, added.error());
+    places.push_back(std::move(*place));
+  }
+  std::vector<TestSet> tests;
+  for (const cli::NamedPath& argument : *named_tests) {
+    auto test = loadTestSet(argument);
+    if (!test) return cli::fail(app, test.error());
+    tests.push_back(std::move(*test));
+  }
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+
+  printLatency(timePlaceCounts(places, tests.front().frames, *counts, repeat), tests.front(),
+               repeat, out);
+  const int wrong_total = printPlaceChoice(all, tests, out);
+  const ResidentMemory end = residentMemory();
+  std::printf("wrong-place answers in all: %d; peak resident memory %.0f MiB\n", wrong_total,
+              end.peak / 1048576.0);
+  out["wrong_place"] = wrong_total;
+  out["peak_resident_bytes"] = end.peak;
+  if (!json_path.empty()) {
+    std::ofstream file(json_path);
+    file << out.dump(2) << "\n";
+    if (!file) return cli::fail(app, json_path + ": cannot write", 1);
+  }
+  return 0;
+}
