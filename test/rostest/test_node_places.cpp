@@ -148,12 +148,21 @@ TEST(Places, UnloadLoadAndReplaceAtRunTime) {
   EXPECT_FALSE(unloaded.success);
   EXPECT_EQ(unloaded.message, "no place named " + room2.place);
   ASSERT_EQ(listPlaces().size(), 1u);
+  g_results->clear();
   // Room 2's frames now fit no place; room 1's still answer.
   for (size_t i : kFrames) {
     const auto response = ask(room2.frames[i]);
     EXPECT_FALSE(response.success) << "room 2 frame " << i << " answered by " << response.place;
     EXPECT_NE(response.place, room2.place);
   }
+  // "No pose" names no place, is stamped in the node's map_frame, and says what was tried.
+  const auto no_pose = g_results->waitFor(
+      [](const ResultMsg& r) { return !r.success && r.places_screened > 0; }, 5.0);
+  ASSERT_TRUE(no_pose.has_value());
+  EXPECT_EQ(no_pose->place, "");
+  EXPECT_EQ(no_pose->header.frame_id, "map");
+  EXPECT_EQ(no_pose->places_screened, 1u);
+  EXPECT_FALSE(no_pose->message.empty());
   expectAnsweredBy(room1, room1.frames[kFrames[0]]);
 
   // A file that does not load is refused with its reason; nothing changes.
