@@ -1,6 +1,9 @@
 #include "node_output.h"
 
+#include <algorithm>
+
 #include "message_conversion.h"
+#include "node_text.h"
 
 namespace relocalizer_ros {
 
@@ -11,7 +14,6 @@ NodeOutput::NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const Nod
   result_pub_ = private_nh.advertise<ResultMsg>("result", 10);
   if (params_.publish_tf) {
     TransformPublisher::Options options;
-    options.map_frame = params_.map_frame;
     options.odom_frame = params_.odom_frame;
     options.transform_tolerance = params_.transform_tolerance;
     options.tf_rate = params_.tf_rate;
@@ -32,10 +34,19 @@ NodeOutput::ResultMsg NodeOutput::failure(const ros::Time& stamp,
 }
 
 NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
-                                         const relocalizer::Relocalization& solved,
+                                         const relocalizer::PlaceAnswer& found,
                                          Clock::time_point start) {
+  const relocalizer::Relocalization& solved = found.relocalization;
   const ros::Time stamp = input.colour->header.stamp;
   ResultMsg result = failure(stamp, "");
+  result.places_screened = saturate(found.attempts.size());
+  result.places_solved = saturate(static_cast<uint64_t>(
+      std::count_if(found.attempts.begin(), found.attempts.end(),
+                    [](const relocalizer::PlaceAttempt& attempt) { return attempt.solved; })));
+  if (solved.success) {
+    result.place = found.place;
+    result.header.frame_id = found.map_frame;
+  }
   result.success = solved.success;
   result.message = solved.message;
   result.point_inliers = static_cast<uint32_t>(solved.point_inliers);
@@ -51,14 +62,14 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
   std::optional<geometry_msgs::TransformStamped> transform;
   if (solved.success && transforms_) {
     const std::string camera_frame = stripLeadingSlashes(input.colour->header.frame_id);
-    auto prepared = transforms_->prepare(solved.pose, stamp, camera_frame);
+    auto prepared = transforms_->prepare(solved.pose, found.map_frame, stamp, camera_frame);
     if (prepared) {
       transform = std::move(*prepared);
     } else {
       // The pose alone would leave TF consumers without the correction they
       // act on; report the attempt as failed rather than half-done.
       result.success = false;
-      result.message = "relocalized, but " + prepared.error();
+      result.message = "relocalized in place '" + found.place + "', but " + prepared.error();
     }
   }
   if (!result.success && log_.allow(result.message)) {
@@ -69,6 +80,7 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
                result.message.c_str());
   }
   if (result.success) {
+    logPlace(stamp, found);
     result.pose.header = result.header;
     result.pose.pose = toPoseWithCovarianceMsg(solved.pose, solved.covariance);
   } else {
@@ -77,6 +89,16 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
   result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
   publish(result, transform, input.epoch);
   return result;
+}
+
+void NodeOutput::logPlace(const ros::Time& stamp, const relocalizer::PlaceAnswer& found) {
+  {
+    std::lock_guard<std::mutex> lock(place_mutex_);
+    if (found.place == last_place_) return;
+    last_place_ = found.place;
+  }
+  ROS_INFO("relocalizer: the frame at %.3f is in place '%s' (%s; %zu places screened)",
+           stamp.toSec(), found.place.c_str(), found.map_frame.c_str(), found.attempts.size());
 }
 
 void NodeOutput::frameFailed(ResultMsg& result) {

@@ -11,11 +11,12 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include "frame_input.h"
 #include "node_params.h"
-#include "relocalizer/relocalize/relocalizer.h"
+#include "relocalizer/relocalize/place_set.h"
 #include "throttled_log.h"
 #include "transform_publisher.h"
 
@@ -33,8 +34,9 @@ class NodeOutput {
   ResultMsg failure(const ros::Time& stamp, const std::string& message) const;
 
   // A relocalized frame's answer: ~result, and when the pose holds and its TF
-  // could be prepared, ~pose and TF. Logs a failure (throttled per reason).
-  ResultMsg answer(const FrameInput& input, const relocalizer::Relocalization& solved,
+  // could be prepared, ~pose and TF, in the answering place's map frame. Logs
+  // a failure (throttled per reason) and each change of the answering place.
+  ResultMsg answer(const FrameInput& input, const relocalizer::PlaceAnswer& found,
                    Clock::time_point start);
   // A frame that was not relocalized (unusable, no model yet, an internal error).
   void frameFailed(ResultMsg& result);
@@ -46,6 +48,8 @@ class NodeOutput {
   uint64_t framesFailed() const { return frames_failed_; }
 
  private:
+  // Says so when the answering place is another than the last answer's.
+  void logPlace(const ros::Time& stamp, const relocalizer::PlaceAnswer& found);
   void publish(ResultMsg& result, const std::optional<geometry_msgs::TransformStamped>& transform,
                uint64_t epoch);
 
@@ -56,6 +60,8 @@ class NodeOutput {
   std::unique_ptr<TransformPublisher> transforms_;
   std::atomic<uint64_t> frames_failed_{0};
   ThrottledLog log_;
+  std::mutex place_mutex_;
+  std::string last_place_;  // the place of the last answer, for the log
 };
 
 }  // namespace relocalizer_ros

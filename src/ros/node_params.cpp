@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <nlohmann/json.hpp>
 
@@ -157,7 +158,91 @@ Expected<relocalizer::RelocalizerParams> readRelocalizerParams(const ros::NodeHa
   return params;
 }
 
+constexpr const char* kPlaceForm = "{name: NAME, model: FILE, map_frame: FRAME (optional)}";
+
+// One field of a `places` entry: absent is "", anything but a string an error.
+std::string placeField(XmlRpc::XmlRpcValue& entry, const char* key, const std::string& entry_name,
+                       std::string& value) {
+  if (!entry.hasMember(key)) return {};
+  if (entry[key].getType() != XmlRpc::XmlRpcValue::TypeString)
+    return "'" + entry_name + "/" + key + "' must be a string";
+  value = static_cast<std::string>(entry[key]);
+  return {};
+}
+
+std::string placeEntry(XmlRpc::XmlRpcValue& entry, const std::string& entry_name,
+                       const std::string& map_frame, PlaceSpec& place) {
+  if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct)
+    return "'" + entry_name + "' must be " + kPlaceForm;
+  for (const auto& member : entry)
+    if (member.first != "name" && member.first != "model" && member.first != "map_frame")
+      return "'" + entry_name + "' has an unknown key '" + member.first + "'; expected " +
+             kPlaceForm;
+  for (auto [key, field] :
+       {std::pair{"name", &place.name}, {"model", &place.model}, {"map_frame", &place.map_frame}})
+    if (std::string why = placeField(entry, key, entry_name, *field); !why.empty()) return why;
+  if (place.name.empty()) return "'" + entry_name + "' has no name; expected " + kPlaceForm;
+  if (place.model.empty()) return "'" + entry_name + "' has no model; expected " + kPlaceForm;
+  place.map_frame = stripLeadingSlashes(place.map_frame);
+  if (place.map_frame.empty()) place.map_frame = map_frame;
+  return {};
+}
+
+// `places`: a list of {name, model, map_frame}. A typo in a key or a name used
+// twice is refused, never a place silently missing or shadowed.
+Expected<std::vector<PlaceSpec>> readPlaces(const ros::NodeHandle& nh,
+                                            const std::string& map_frame) {
+  std::vector<PlaceSpec> places;
+  if (!nh.hasParam("places")) return places;
+  const std::string name = nh.resolveName("places");
+  XmlRpc::XmlRpcValue list;
+  nh.getParam("places", list);
+  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    return makeError("parameter '" + name + "' must be a list of " + kPlaceForm);
+  for (int i = 0; i < list.size(); ++i) {
+    const std::string entry_name = name + "[" + std::to_string(i) + "]";
+    PlaceSpec place;
+    if (std::string why = placeEntry(list[i], entry_name, map_frame, place); !why.empty())
+      return makeError(why);
+    for (size_t j = 0; j < places.size(); ++j)
+      if (places[j].name == place.name)
+        return makeError("'" + entry_name + "' is named '" + place.name + "' like places[" +
+                         std::to_string(j) + "]; place names must be unique");
+    places.push_back(std::move(place));
+  }
+  return places;
+}
+
+// The place names and frames together: unique names, no place in odom_frame.
+std::string checkPlaces(const ros::NodeHandle& nh, const NodeParams& p) {
+  const bool model_place = p.learn || !p.model.empty();
+  const std::string own = placeName(p);
+  for (size_t i = 0; i < p.places.size(); ++i) {
+    const std::string entry = "'" + nh.resolveName("places") + "[" + std::to_string(i) + "]'";
+    if (model_place && p.places[i].name == own)
+      return entry + " is named '" + own + "' like the place of " +
+             (p.learn ? "learning" : "model " + p.model) +
+             "; set place_name to another name, or rename the entry";
+    if (!p.odom_frame.empty() && p.places[i].map_frame == p.odom_frame)
+      return entry + "'s map_frame equals odom_frame";
+  }
+  return {};
+}
+
 }  // namespace
+
+std::string placeName(const NodeParams& params) {
+  if (!params.place_name.empty()) return params.place_name;
+  if (params.learn) return "learned";
+  return std::filesystem::path(params.model).stem().string();
+}
+
+std::vector<PlaceSpec> startupPlaces(const NodeParams& params) {
+  std::vector<PlaceSpec> places = params.places;
+  if (!params.learn && !params.model.empty())
+    places.push_back({placeName(params), params.model, params.map_frame});
+  return places;
+}
 
 const char* modeName(Mode mode) { return mode == Mode::OnDemand ? "on_demand" : "continuous"; }
 
@@ -169,6 +254,7 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
     if (why.empty()) why = std::move(error);
   };
   check(read(nh, "model", p.model));
+  check(read(nh, "place_name", p.place_name));
   check(read(nh, "mode", mode));
   check(read(nh, "map_frame", p.map_frame));
   check(read(nh, "odom_frame", p.odom_frame));
@@ -204,9 +290,12 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   }
   p.map_frame = stripLeadingSlashes(p.map_frame);
   p.odom_frame = stripLeadingSlashes(p.odom_frame);
-  if (p.model.empty() && !p.learn)
+  auto places = readPlaces(nh, p.map_frame);
+  if (!places) return makeError(places.error());
+  p.places = std::move(*places);
+  if (p.model.empty() && !p.learn && p.places.empty())
     return makeError(ns("model") +
-                     " is not set (path to a model file from `train`, or learn: true)");
+                     " is not set (path to a model file from `train`; or places, or learn: true)");
   if (p.learn && p.publish_tf)
     return makeError(ns("learn") +
                      " is true but publish_tf is true too: the node would learn from "
@@ -230,6 +319,7 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   }
   if (p.map_frame.empty()) return makeError(ns("map_frame") + " is empty");
   if (p.odom_frame == p.map_frame) return makeError(ns("odom_frame") + " equals map_frame");
+  if (std::string why = checkPlaces(nh, p); !why.empty()) return makeError(why);
   if (std::string why = checkBounded(nh, p); !why.empty()) return makeError(why);
 
   auto relocalizer_params = readRelocalizerParams(nh);
@@ -239,7 +329,13 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
 }
 
 std::string nodeParamsToJson(const NodeParams& p) {
+  json places = json::array();
+  for (const PlaceSpec& place : p.places)
+    places.push_back(
+        {{"name", place.name}, {"model", place.model}, {"map_frame", place.map_frame}});
   json j = {{"model", p.model},
+            {"place_name", p.place_name},
+            {"places", places},
             {"mode", modeName(p.mode)},
             {"map_frame", p.map_frame},
             {"odom_frame", p.odom_frame},

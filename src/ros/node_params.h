@@ -6,6 +6,7 @@
 #include <ros/node_handle.h>
 
 #include <string>
+#include <vector>
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/online/online_learner.h"
@@ -23,8 +24,19 @@ enum class Mode {
   Continuous  // relocalize incoming frames in a worker thread, up to max_rate
 };
 
+// One entry of the `places` parameter.
+struct PlaceSpec {
+  std::string name;
+  std::string model;
+  std::string map_frame;  // the node's map_frame when the entry names none
+};
+
 struct NodeParams {
   std::string model;
+  // The name of `model`'s place (learn: of the learned place); empty: the
+  // model file's stem, or "learned" (placeName()).
+  std::string place_name;
+  std::vector<PlaceSpec> places;  // further places, as given
   Mode mode = Mode::OnDemand;
   std::string map_frame = "map";
   std::string odom_frame;  // empty: publish map_frame -> camera frame
@@ -62,6 +74,12 @@ struct NodeParams {
 // names it, its value and the allowed range: a typo must not silently keep a
 // default on a robot, nor a huge duration abort the node inside ros::Duration.
 relocalizer::Expected<NodeParams> loadNodeParams(const ros::NodeHandle& private_nh);
+
+// The places to load at start: `places`, then `model`'s place (not in learn
+// mode, where `model` is the learned place's start).
+std::vector<PlaceSpec> startupPlaces(const NodeParams& params);
+// The name of `model`'s place, or of the learned place in learn mode.
+std::string placeName(const NodeParams& params);
 
 // The parameters as JSON, keyed as in config/default.yaml, for the start-up
 // log and for the test that compares the compiled defaults with that file.

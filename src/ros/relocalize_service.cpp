@@ -55,6 +55,7 @@ bool RelocalizeService::onRelocalize(relocalizer::Relocalize::Request& request,
   response.success = result.success;
   response.message = result.message;
   response.pose = result.pose;
+  response.place = result.place;
   response.point_inliers = result.point_inliers;
   response.line_inliers = result.line_inliers;
   response.score = result.score;

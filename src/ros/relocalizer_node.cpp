@@ -15,6 +15,7 @@ constexpr size_t kServiceThreads = 64;
 // A process_all backlog this long means the source outruns the node: the
 // replay player paces itself, rosbag play does not.
 constexpr size_t kBacklogWarning = 30;
+constexpr const char* kNoPlace = "no place loaded (load one with ~load_place)";
 
 }  // namespace
 
@@ -22,30 +23,24 @@ relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
     ros::NodeHandle nh, ros::NodeHandle private_nh) {
   auto params = loadNodeParams(private_nh);
   if (!params) return relocalizer::makeError(params.error());
+  std::unique_ptr<relocalizer::KeyFrameFeed> feed;
+  NodePlaces::LearnedModel learned;
   if (params->learn) {
-    auto feed = LearningFeed::makeFeed(*params);
-    if (!feed) return relocalizer::makeError(feed.error());
-    return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(
-        std::move(nh), std::move(private_nh), std::move(*params), nullptr, std::move(*feed)));
+    auto made = LearningFeed::makeFeed(*params);
+    if (!made) return relocalizer::makeError(made.error());
+    feed = std::move(*made);
+    // The feed lives as long as the node, and the places only ask while it runs.
+    learned = [learner = &feed->learner()] { return learner->current(); };
   }
-  relocalizer::Expected<std::unique_ptr<relocalizer::Relocalizer>> relocalizer =
-      relocalizer::makeError("not loaded");
-  try {
-    relocalizer = relocalizer::Relocalizer::fromFile(params->model, params->relocalizer);
-  } catch (const std::exception& e) {
-    // Whatever the loader throws (e.g. std::bad_alloc on a corrupt size) is
-    // one line and exit code 1 too, never an abort.
-    return relocalizer::makeError(params->model + ": cannot be loaded: " + e.what());
-  }
-  if (!relocalizer) return relocalizer::makeError(relocalizer.error());
-  if (std::string why = (*relocalizer)->validationError(); !why.empty())
-    return relocalizer::makeError(params->model + ": " + why);
-  return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(
-      std::move(nh), std::move(private_nh), std::move(*params), std::move(*relocalizer), nullptr));
+  auto places = NodePlaces::create(*params, std::move(learned));
+  if (!places) return relocalizer::makeError(places.error());
+  return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(std::move(nh), std::move(private_nh),
+                                                              std::move(*params),
+                                                              std::move(*places), std::move(feed)));
 }
 
 RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
-                                 std::shared_ptr<const relocalizer::Relocalizer> relocalizer,
+                                 std::unique_ptr<NodePlaces> places,
                                  std::unique_ptr<relocalizer::KeyFrameFeed> feed)
     : nh_(std::move(nh)),
       private_nh_(std::move(private_nh)),
@@ -54,7 +49,7 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
                                               tbb::global_control::max_allowed_parallelism,
                                               static_cast<size_t>(params_.threads))
                                         : nullptr),
-      fixed_model_(std::move(relocalizer)),
+      places_(std::move(places)),
       frames_(params_.mode == Mode::Continuous && params_.process_all
                   ? FrameBuffer<FrameInputPtr>::Policy::Fifo
                   : FrameBuffer<FrameInputPtr>::Policy::Latest),
@@ -72,6 +67,7 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   if (feed)
     learning_ =
         std::make_unique<LearningFeed>(nh_, private_nh_, params_, std::move(feed), service_calls_);
+  places_->advertise(private_nh_, service_calls_);
   if (params_.mode == Mode::Continuous) worker_ = std::thread(&RelocalizerNode::workerLoop, this);
 
   NodeInputs::Handlers handlers;
@@ -89,29 +85,24 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
 }
 
 void RelocalizerNode::logStartup() const {
-  const std::shared_ptr<const relocalizer::Relocalizer> current = currentModel();
   std::string model_text;
-  if (current) {
-    const relocalizer::Model& model = current->model();
-    model_text = "model " + (params_.model.empty() ? std::string("(learned)") : params_.model) +
-                 " (" + std::to_string(model.points.trees.size()) + " point trees, " +
-                 std::to_string(model.lines.trees.size()) + " line trees)";
-  } else {
-    model_text = "no model yet";
-  }
+  for (const relocalizer::PlaceFigures& place : places_->list())
+    model_text += (model_text.empty() ? "" : ", ") + placeText(place);
+  model_text = model_text.empty() ? "no place yet" : "places " + model_text;
   if (learning_) {
     const relocalizer::LearningStatus status = learning_->status();
     model_text +=
-        std::string(", learning from TF ") + params_.map_frame + " -> camera (" +
-        std::to_string(status.keyframes_stored) + " key frames so far, key frames at " +
+        std::string(", learning place '") + placeName(params_) + "' from TF " + params_.map_frame +
+        " -> camera (" + std::to_string(status.keyframes_stored) +
+        " key frames so far, key frames at " +
         relocalizer::formatMinMotion(params_.learning.min_motion) + " m,deg" +
         (params_.save_on_exit.empty() ? "" : ", saved to " + params_.save_on_exit + " on exit") +
         ")";
   }
   const std::string tf_text = !params_.publish_tf ? "no TF"
                               : params_.odom_frame.empty()
-                                  ? params_.map_frame + " -> camera TF"
-                                  : params_.map_frame + " -> " + params_.odom_frame + " TF";
+                                  ? "place frame -> camera TF"
+                                  : "place frame -> " + params_.odom_frame + " TF";
   const std::string mode_text =
       params_.mode == Mode::OnDemand
           ? "on demand (call " + service_->name() + ")"
@@ -120,13 +111,6 @@ void RelocalizerNode::logStartup() const {
                 (params_.process_all ? ", every frame" : "");
   ROS_INFO("relocalizer: %s, %s, %s; frames from %s", model_text.c_str(), mode_text.c_str(),
            tf_text.c_str(), inputs_->topics().c_str());
-  if (current)
-    if (const std::string limits = current->limitations(); !limits.empty())
-      ROS_WARN("relocalizer: %s: %s", params_.model.c_str(), limits.c_str());
-}
-
-std::shared_ptr<const relocalizer::Relocalizer> RelocalizerNode::currentModel() const {
-  return learning_ ? learning_->current() : fixed_model_;
 }
 
 RelocalizerNode::~RelocalizerNode() {
@@ -138,6 +122,7 @@ RelocalizerNode::~RelocalizerNode() {
   frames_.close();
   if (learning_) learning_->close();
   service_->shutdown();
+  places_->shutdown();
   service_calls_.stop();
   if (worker_.joinable()) worker_.join();
   // learning_'s destructor joins its thread and writes save_on_exit.
@@ -207,16 +192,17 @@ RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const FrameInput& inp
                                                            Clock::time_point start) {
   const ros::Time stamp = input.colour->header.stamp;
   auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
-  const std::shared_ptr<const relocalizer::Relocalizer> model = currentModel();
-  if (!frame || !model) {
-    ResultMsg result = output_.failure(stamp, frame ? learning_->noModelYet() : frame.error());
+  const bool no_place = frame && places_->empty();
+  if (!frame || no_place) {
+    ResultMsg result = output_.failure(
+        stamp, frame ? (learning_ ? learning_->noModelYet() : kNoPlace) : frame.error());
     if (!frame && log_.allow(result.message))
       ROS_WARN("relocalizer: unusable frame: %s", result.message.c_str());
     result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
     output_.frameFailed(result);
     return result;
   }
-  return output_.answer(input, model->relocalize(*frame), start);
+  return output_.answer(input, places_->relocalize(*frame), start);
 }
 
 }  // namespace relocalizer_ros

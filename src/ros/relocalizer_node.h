@@ -12,6 +12,8 @@
 //  - LearningFeed (learning_feed.h, learn mode): SLAM-posed key frames into
 //    the online learner, ~save_model; relocalizations use whichever model is
 //    current;
+//  - NodePlaces (node_places.h): the places relocalized against, and the
+//    services that load, unload and list them;
 //  - NodeOutput (node_output.h): ~result, and a whole answer (pose, TF) or none.
 
 #include <ros/ros.h>
@@ -27,8 +29,8 @@
 #include "node_inputs.h"
 #include "node_output.h"
 #include "node_params.h"
+#include "node_places.h"
 #include "relocalize_service.h"
-#include "relocalizer/relocalize/relocalizer.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
 
@@ -36,8 +38,9 @@ namespace relocalizer_ros {
 
 class RelocalizerNode {
  public:
-  // Reads the parameters and loads the model; fails with one line naming the
-  // parameter or file at fault. Subscribes only once the model is ready, so a
+  // Reads the parameters and loads the places; fails with one line naming the
+  // parameter or file at fault (a place that does not load is only logged
+  // while another one does, or while learning). Subscribes only once the model is ready, so a
   // publisher that waits for a subscriber (the replay player) waits for it.
   static relocalizer::Expected<std::unique_ptr<RelocalizerNode>> create(ros::NodeHandle nh,
                                                                         ros::NodeHandle private_nh);
@@ -49,12 +52,9 @@ class RelocalizerNode {
   using ResultMsg = NodeOutput::ResultMsg;
 
   RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
-                  std::shared_ptr<const relocalizer::Relocalizer> relocalizer,
+                  std::unique_ptr<NodePlaces> places,
                   std::unique_ptr<relocalizer::KeyFrameFeed> feed);
 
-  // The model relocalizations use now: the loaded one, or the learner's newest
-  // (null while learning has produced none yet).
-  std::shared_ptr<const relocalizer::Relocalizer> currentModel() const;
   void onFrame(FrameInputPtr input);
   void workerLoop();
   // Relocalizes one input and publishes its answer.
@@ -67,7 +67,7 @@ class RelocalizerNode {
   ros::NodeHandle private_nh_;
   const NodeParams params_;
   std::unique_ptr<tbb::global_control> thread_limit_;
-  const std::shared_ptr<const relocalizer::Relocalizer> fixed_model_;  // null in learn mode
+  const std::unique_ptr<NodePlaces> places_;
 
   std::atomic<uint64_t> frames_processed_{0};
   ThrottledLog log_;

@@ -21,10 +21,10 @@ TransformPublisher::TransformPublisher(ros::NodeHandle nh, Options options)
 }
 
 relocalizer::Expected<geometry_msgs::TransformStamped> TransformPublisher::prepare(
-    const relocalizer::Pose& map_T_camera, const ros::Time& stamp,
+    const relocalizer::Pose& map_T_camera, const std::string& map_frame, const ros::Time& stamp,
     const std::string& camera_frame) const {
   geometry_msgs::TransformStamped out;
-  out.header.frame_id = options_.map_frame;
+  out.header.frame_id = map_frame;
   if (options_.odom_frame.empty()) {
     if (camera_frame.empty())
       return relocalizer::makeError(

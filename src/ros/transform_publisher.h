@@ -30,7 +30,6 @@ namespace relocalizer_ros {
 class TransformPublisher {
  public:
   struct Options {
-    std::string map_frame = "map";
     std::string odom_frame;  // empty: map -> camera
     double transform_tolerance = 0.1;
     double tf_rate = 10.0;
@@ -39,16 +38,15 @@ class TransformPublisher {
 
   TransformPublisher(ros::NodeHandle nh, Options options);
 
-  // The transform that publishes `map_T_camera` for a frame of `camera_frame`
-  // at `stamp`. In odom mode this waits up to tf_timeout for odom -> camera;
-  // a missing transform is an error, never an indefinite wait. Thread-safe.
-  // If the lookup fails because the buffer only holds odom -> camera from
-  // more than its cache length after `stamp` (the source's time went back,
-  // e.g. a looping bag, and an old-timeline transform arrived after reset()),
-  // tf2 would refuse every new transform as too old until time caught up
-  // again; the buffer is cleared instead and the error says so.
+  // The transform that publishes `map_T_camera` (the camera in `map_frame`,
+  // the answering place's frame) for a frame of `camera_frame` at `stamp`. In odom mode this waits
+  // up to tf_timeout for odom -> camera; a missing transform is an error, never an indefinite wait.
+  // Thread-safe. If the lookup fails because the buffer only holds odom -> camera from more than
+  // its cache length after `stamp` (the source's time went back, e.g. a looping bag, and an
+  // old-timeline transform arrived after reset()), tf2 would refuse every new transform as too old
+  // until time caught up again; the buffer is cleared instead and the error says so.
   relocalizer::Expected<geometry_msgs::TransformStamped> prepare(
-      const relocalizer::Pose& map_T_camera, const ros::Time& stamp,
+      const relocalizer::Pose& map_T_camera, const std::string& map_frame, const ros::Time& stamp,
       const std::string& camera_frame) const;
 
   // Broadcasts a prepared transform and, in odom mode, keeps it for the

@@ -2,14 +2,20 @@
 
 Each command runs in a fresh bash that has only sourced the devel space the README
 names (`source devel/setup.bash`), from a scratch folder holding the files the
-README's lines refer to (model.bin and place.model are the rostest fixture's
-model; test.bag is written by `rosrun relocalizer make_bag`). The lines are read
-from README.md itself:
+README's lines refer to (model.bin, place.model and kitchen.model are the rostest
+fixture's model, lab.model the model of its second room; test.bag is written by
+`rosrun relocalizer make_bag`). The lines are read from README.md itself:
 
 - every `roslaunch relocalizer relocalizer.launch ...` line is launched verbatim and
   answered with the README's own `rosservice call` line (on-demand mode) or
   `rostopic echo` line (continuous mode), while `rosbag play` plays the fixture
   frames; the pose must be within 5 cm / 5 degrees of a ground-truth pose;
+- every `roslaunch relocalizer relocalizer.launch places:=...` line is launched verbatim
+  while the fixture frames play: the README's `rosservice call /relocalizer/relocalize`
+  line must be answered by the place whose model is kitchen.model (the frames' room),
+  within 5 cm / 5 degrees; then its `list_places` line must list every place the launch
+  line names, and its `unload_place` and `load_place` lines must succeed, in that order,
+  after which the place is listed again;
 - every `roslaunch relocalizer replay.launch ...` line is run verbatim;
 - every `roslaunch relocalizer relocalizer.launch learn:=true ...` line is launched
   verbatim while the fixture's training frames play with their poses on /tf (the
@@ -162,8 +168,11 @@ class ReadmeCommandsTest(unittest.TestCase):
         cls.commands = readme_commands()
         cls.scratch = tempfile.TemporaryDirectory(prefix="readme_commands_")
         cls.work = pathlib.Path(cls.scratch.name)
-        for name in ("model.bin", "place.model"):
+        if not (FIXTURE / "model2.bin").is_file():
+            raise AssertionError(f"{FIXTURE}/model2.bin is missing: rebuild the rostest fixture")
+        for name in ("model.bin", "place.model", "kitchen.model"):
             (cls.work / name).symlink_to(FIXTURE / "model.bin")
+        (cls.work / "lab.model").symlink_to(FIXTURE / "model2.bin")
         shell = UserShell(cls.work)
         made = shell.run(f'rosrun relocalizer make_bag --dataset "{FIXTURE}/scene/test" '
                          "--output test.bag")
@@ -177,7 +186,7 @@ class ReadmeCommandsTest(unittest.TestCase):
 
     def setUp(self):
         self.shell = UserShell(pathlib.Path(tempfile.mkdtemp(dir=self.work)))
-        for name in ("model.bin", "place.model", "test.bag"):
+        for name in ("model.bin", "place.model", "kitchen.model", "lab.model", "test.bag"):
             (self.shell.work / name).symlink_to(self.work / name)
 
     def tearDown(self):
@@ -237,7 +246,8 @@ class ReadmeCommandsTest(unittest.TestCase):
     def test_relocalizer_launch_lines_answer_the_readme_service_call(self):
         calls = self.readme_lines("rosservice call /relocalizer/relocalize")
         launches = [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
-                    if "mode:=continuous" not in c and "learn:=true" not in c]
+                    if "mode:=continuous" not in c and "learn:=true" not in c
+                    and "places:=" not in c]
         self.assertTrue(launches, "README.md has no on-demand relocalizer.launch line")
         for launch in launches:
             with self.subTest(launch=launch):
@@ -253,6 +263,41 @@ class ReadmeCommandsTest(unittest.TestCase):
                     p, q = pose["position"], pose["orientation"]
                     self.assert_near_ground_truth([p["x"], p["y"], p["z"]],
                                                   [q["x"], q["y"], q["z"], q["w"]], call)
+                self.shell.stop_all()
+
+    def call_yaml(self, call):
+        result = self.shell.run(call, timeout=60)
+        self.assertEqual(result.returncode, 0, f"`{call}`:\n{result.stdout}{result.stderr}")
+        return yaml.safe_load(result.stdout)
+
+    def test_places_launch_line_answers_and_the_place_services_work(self):
+        call = self.readme_lines("rosservice call /relocalizer/relocalize")[0]
+        listing = self.readme_lines("rosservice call /relocalizer/list_places")[0]
+        unload = self.readme_lines("rosservice call /relocalizer/unload_place")[0]
+        load = self.readme_lines("rosservice call /relocalizer/load_place")[0]
+        for launch in [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
+                       if "places:=" in c]:
+            with self.subTest(launch=launch):
+                names = re.findall(r"name: (\w+)", launch)
+                kitchen = re.search(r"name: (\w+), model: \$PWD/kitchen\.model", launch)
+                self.assertTrue(kitchen, f"`{launch}` has no place with model $PWD/kitchen.model")
+                self.shell.start(launch, "roslaunch.log")
+                self.play_fixture_frames("")
+                answer = self.call_yaml(call)
+                self.assertTrue(answer["success"], f"`{call}` after `{launch}`: {answer['message']}"
+                                + self.shell.logs())
+                self.assertEqual(answer["place"], kitchen.group(1))
+                pose = answer["pose"]["pose"]["pose"]
+                p, q = pose["position"], pose["orientation"]
+                self.assert_near_ground_truth([p["x"], p["y"], p["z"]],
+                                              [q["x"], q["y"], q["z"], q["w"]], call)
+                listed = [place["name"] for place in self.call_yaml(listing)["places"]]
+                self.assertEqual(sorted(listed), sorted(names), listing)
+                for line in (unload, load):
+                    answer = self.call_yaml(line)
+                    self.assertTrue(answer["success"], f"`{line}`: {answer['message']}")
+                listed = [place["name"] for place in self.call_yaml(listing)["places"]]
+                self.assertEqual(sorted(listed), sorted(names), f"{listing} after `{load}`")
                 self.shell.stop_all()
 
     def test_continuous_launch_line_publishes_what_the_readme_echoes(self):

@@ -46,12 +46,13 @@ inline sensor_msgs::Image imageMessage(const cv::Mat& mat, const std::string& en
   return *cv_bridge::CvImage(std_msgs::Header(), encoding, mat).toImageMsg();
 }
 
-// The fixture's synthetic test frames (make_fixture.sh), as a camera driver
-// would send them: bgr8 colour, 16UC1 millimetre depth, camera_info.
-inline std::vector<FrameMessages> loadFixtureFrames() {
+// The test frames of a fixture room (make_fixture.sh: `scene`, and `scene2`
+// for the second place), as a camera driver would send them: bgr8 colour,
+// 16UC1 millimetre depth, camera_info.
+inline std::vector<FrameMessages> loadFixtureFrames(const std::string& scene = "scene") {
   std::string fixture;
   ros::NodeHandle("~").getParam("fixture", fixture);
-  auto dataset = relocalizer::openDataset(fixture + "/scene/test");
+  auto dataset = relocalizer::openDataset(fixture + "/" + scene + "/test");
   if (!dataset) throw std::runtime_error(dataset.error());
   std::vector<FrameMessages> frames;
   for (size_t i = 0; i < (*dataset)->size(); ++i) {

@@ -3,7 +3,9 @@
 // from no model. Then TF stops, as when tracking is lost, and ~relocalize must
 // place held-out frames of the room within 5 cm / 5 deg.
 
+#include <relocalizer/ListPlaces.h>
 #include <relocalizer/SaveModel.h>
+#include <relocalizer/UnloadPlace.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <tf2_msgs/TFMessage.h>
@@ -92,9 +94,37 @@ TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
     ASSERT_TRUE(response.success) << "frame " << i << ": " << response.message;
     EXPECT_LT(translationError(response.pose.pose.pose, frame.truth), 0.05) << "frame " << i;
     EXPECT_LT(rotationError(response.pose.pose.pose, frame.truth), 5.0) << "frame " << i;
+    // The learned model is a place of its own, in map_frame.
+    EXPECT_EQ(response.place, "learned") << "frame " << i;
+    EXPECT_EQ(response.pose.header.frame_id, "map") << "frame " << i;
     ++answered;
   }
   EXPECT_EQ(answered, 3);
+
+  // The place loaded beside it answers its own room, and the listing shows both.
+  FrameMessages other = loadFixtureFrames("scene2")[5];
+  const relocalizer::Relocalize::Response beside = callWhilePublishing(
+      [&] {
+        other.stamp(ros::Time::now());
+        camera.publish(other);
+      },
+      5.0);
+  ASSERT_TRUE(beside.success) << beside.message;
+  EXPECT_EQ(beside.place, "room2");
+  EXPECT_EQ(beside.pose.header.frame_id, "room2_map");
+  EXPECT_LT(translationError(beside.pose.pose.pose, other.truth), 0.05);
+  relocalizer::ListPlaces listing;
+  ASSERT_TRUE(ros::service::call("/relocalizer/list_places", listing));
+  ASSERT_EQ(listing.response.places.size(), 2u);
+  EXPECT_EQ(listing.response.places[0].name, "room2");
+  EXPECT_EQ(listing.response.places[1].name, "learned");
+  EXPECT_EQ(listing.response.places[1].model, "");
+  EXPECT_GE(listing.response.places[1].training_frames, 2u);
+  // The learned place follows the learner: it cannot be unloaded.
+  relocalizer::UnloadPlace unload;
+  unload.request.name = "learned";
+  ASSERT_TRUE(ros::service::call("/relocalizer/unload_place", unload));
+  EXPECT_FALSE(unload.response.success);
 
   // The learning thread gives up on a frame's TF after tf_timeout; one more
   // call after that, and its ~result counts the held-out frames as untracked.

@@ -100,7 +100,8 @@ TEST(OdomMode, MissingOdometryIsAFailureResultNotAWait) {
       },
       5.0);
   EXPECT_FALSE(response.success);
-  EXPECT_TRUE(contains(response.message, "relocalized, but no odom -> camera_without_odometry"))
+  EXPECT_TRUE(contains(response.message,
+                       "relocalized in place 'model', but no odom -> camera_without_odometry"))
       << response.message;
   EXPECT_LT((ros::WallTime::now() - start).toSec(), 4.0);
 }

@@ -61,14 +61,109 @@ TEST(NodeParams, OverridesReachTheCoreAndFramesLoseLeadingSlashes) {
   EXPECT_EQ(p->relocalizer.point_samples, relocalizer::RelocalizerParams{}.point_samples);
 }
 
+namespace {
+
+// A `places` entry as rosparam stores a YAML mapping.
+XmlRpc::XmlRpcValue placeEntry(
+    const std::vector<std::pair<std::string, XmlRpc::XmlRpcValue>>& fields) {
+  XmlRpc::XmlRpcValue entry;
+  entry.begin();  // an empty struct even without fields
+  for (const auto& [key, value] : fields) entry[key] = value;
+  return entry;
+}
+
+XmlRpc::XmlRpcValue placeList(const std::vector<XmlRpc::XmlRpcValue>& entries) {
+  XmlRpc::XmlRpcValue list;
+  list.setSize(static_cast<int>(entries.size()));
+  for (size_t i = 0; i < entries.size(); ++i) list[static_cast<int>(i)] = entries[i];
+  return list;
+}
+
+}  // namespace
+
+TEST(NodeParams, PlacesAndTheModelAreTheStartUpPlaces) {
+  ros::NodeHandle nh("/places");
+  nh.setParam("model", "/models/kitchen.model");
+  nh.setParam("map_frame", "building");
+  nh.setParam(
+      "places",
+      placeList(
+          {placeEntry({{"name", "lab"}, {"model", "/models/lab.model"}, {"map_frame", "/lab_map"}}),
+           placeEntry({{"name", "hall"}, {"model", "hall.model"}})}));
+  auto p = loadNodeParams(nh);
+  ASSERT_TRUE(p.ok()) << p.error();
+  auto places = relocalizer_ros::startupPlaces(*p);
+  ASSERT_EQ(places.size(), 3u);
+  EXPECT_EQ(places[0].name, "lab");
+  EXPECT_EQ(places[0].map_frame, "lab_map");  // leading slash dropped
+  EXPECT_EQ(places[1].name, "hall");
+  EXPECT_EQ(places[1].model, "hall.model");
+  EXPECT_EQ(places[1].map_frame, "building");  // none given: the node's map_frame
+  // The model is one more place, named after its file unless place_name says otherwise.
+  EXPECT_EQ(places[2].name, "kitchen");
+  EXPECT_EQ(places[2].model, "/models/kitchen.model");
+  EXPECT_EQ(places[2].map_frame, "building");
+  nh.setParam("place_name", "galley");
+  p = loadNodeParams(nh);
+  ASSERT_TRUE(p.ok()) << p.error();
+  EXPECT_EQ(relocalizer_ros::startupPlaces(*p).back().name, "galley");
+  // Places alone need no model.
+  nh.deleteParam("model");
+  p = loadNodeParams(nh);
+  ASSERT_TRUE(p.ok()) << p.error();
+  EXPECT_EQ(relocalizer_ros::startupPlaces(*p).size(), 2u);
+}
+
 TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
   struct Case {
     std::string ns;
     std::function<void(ros::NodeHandle&)> set;
     std::string error;
   };
+  const std::string form = "{name: NAME, model: FILE, map_frame: FRAME (optional)}";
   const std::vector<Case> cases = {
       {"/no_model", [](ros::NodeHandle&) {}, "/no_model/model' is not set"},
+      // Malformed places are refused at start, naming the entry and the form expected.
+      {"/places_text", [](ros::NodeHandle& nh) { nh.setParam("places", "lab.model"); },
+       "parameter '/places_text/places' must be a list of " + form},
+      {"/places_entry",
+       [](ros::NodeHandle& nh) { nh.setParam("places", placeList({XmlRpc::XmlRpcValue("lab")})); },
+       "'/places_entry/places[0]' must be " + form},
+      {"/places_no_name",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("places", placeList({placeEntry({{"model", "lab.model"}})}));
+       },
+       "'/places_no_name/places[0]' has no name; expected " + form},
+      {"/places_no_model",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("places", placeList({placeEntry({{"name", "lab"}, {"model", "a.model"}}),
+                                          placeEntry({{"name", "hall"}})}));
+       },
+       "'/places_no_model/places[1]' has no model; expected " + form},
+      {"/places_twice",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("places", placeList({placeEntry({{"name", "lab"}, {"model", "a.model"}}),
+                                          placeEntry({{"name", "lab"}, {"model", "b.model"}})}));
+       },
+       "'/places_twice/places[1]' is named 'lab' like places[0]; place names must be unique"},
+      {"/places_type",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("places", placeList({placeEntry({{"name", "lab"}, {"model", 3}})}));
+       },
+       "'/places_type/places[0]/model' must be a string"},
+      {"/places_key",
+       [](ros::NodeHandle& nh) {
+         nh.setParam(
+             "places",
+             placeList({placeEntry({{"name", "lab"}, {"model", "a.model"}, {"frame", "lab"}})}));
+       },
+       "'/places_key/places[0]' has an unknown key 'frame'; expected " + form},
+      // The model's place is named after its file (m.bin: m).
+      {"/places_clash",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("places", placeList({placeEntry({{"name", "m"}, {"model", "a.model"}})}));
+       },
+       "'/places_clash/places[0]' is named 'm' like the place of model m.bin"},
       {"/typo", [](ros::NodeHandle& nh) { nh.setParam("relocalizer/solver/hypothesis", 10); },
        "unknown parameter 'solver.hypothesis'"},
       {"/wrong_type", [](ros::NodeHandle& nh) { nh.setParam("max_rate", "fast"); },
@@ -185,6 +280,24 @@ void writeBytes(const std::string& path, const std::vector<uint8_t>& bytes) {
 }
 
 }  // namespace
+
+// Places that do not load are logged while another one works; when none
+// loads, the node stops with every reason in its one line.
+TEST(NodeParams, NodeWhosePlacesAllFailExitsNonZeroNamingEach) {
+  ros::NodeHandle("/no_places")
+      .setParam("places",
+                placeList({placeEntry({{"name", "lab"}, {"model", "/nonexistent/lab.model"}}),
+                           placeEntry({{"name", "hall"}, {"model", "/nonexistent/hall.model"}})}));
+  const NodeRun run = runNodeWithModel("", "", "no_places");
+  ASSERT_TRUE(WIFEXITED(run.status)) << run.output;
+  EXPECT_EQ(WEXITSTATUS(run.status), 1) << run.output;
+  EXPECT_NE(run.output.find("lab"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("/nonexistent/lab.model: cannot open model file"), std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("/nonexistent/hall.model: cannot open model file"), std::string::npos)
+      << run.output;
+  EXPECT_EQ(std::count(run.output.begin(), run.output.end(), '\n'), 1) << run.output;
+}
 
 TEST(NodeParams, NodeWithAnUnreadableModelExitsNonZeroWithOneLine) {
   const NodeRun run = runNodeWithModel("/nonexistent/model.bin");
@@ -312,8 +425,9 @@ TEST(NodeParams, BadModelFilesStopTheNodeWithTheirReason) {
     const NodeRun run = runNodeWithModel(c.path);
     ASSERT_TRUE(WIFEXITED(run.status)) << "killed by a signal: " << run.output;
     EXPECT_EQ(WEXITSTATUS(run.status), 1);
-    EXPECT_NE(run.output.find("relocalizer: " + c.path + ": " + c.reason), std::string::npos)
-        << run.output;
+    // The model is the one place: its error (naming the place) is the line.
+    EXPECT_NE(run.output.find("relocalizer: "), std::string::npos) << run.output;
+    EXPECT_NE(run.output.find(c.path + ": " + c.reason), std::string::npos) << run.output;
     EXPECT_EQ(std::count(run.output.begin(), run.output.end(), '\n'), 1) << run.output;
   }
   std::filesystem::remove_all(dir);

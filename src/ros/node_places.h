@@ -1,0 +1,74 @@
+#pragma once
+// The places the node relocalizes against (relocalize/place_set.h) and the
+// services that change them at run time: ~load_place, ~unload_place,
+// ~list_places. The services run on the node's service-call queue, a thread
+// per call, so a model that takes seconds to load never holds up a
+// relocalization: those work on the places as they were when they started.
+//
+// In learn mode the learner's current model is one more place (placeName(),
+// in map_frame), put again whenever the learner swaps in a new model.
+
+#include <relocalizer/ListPlaces.h>
+#include <relocalizer/LoadPlace.h>
+#include <relocalizer/UnloadPlace.h>
+#include <ros/ros.h>
+
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "node_params.h"
+#include "relocalizer/core/expected.h"
+#include "relocalizer/relocalize/place_set.h"
+#include "service_call_queue.h"
+#include "throttled_log.h"
+
+namespace relocalizer_ros {
+
+class NodePlaces {
+ public:
+  using LearnedModel = std::function<std::shared_ptr<const relocalizer::Relocalizer>()>;
+
+  // Loads the start-up places (startupPlaces()). One that does not load is
+  // logged as an error naming the place, the file and why, and the others
+  // keep working; when none loads and `learned` is empty (not learn mode),
+  // the error says why each failed.
+  static relocalizer::Expected<std::unique_ptr<NodePlaces>> create(const NodeParams& params,
+                                                                   LearnedModel learned);
+
+  // Advertises the three services on `calls`.
+  void advertise(ros::NodeHandle private_nh, ServiceCallQueue& calls);
+  void shutdown();
+
+  // Against every place, the learned one as it is now included.
+  relocalizer::PlaceAnswer relocalize(const relocalizer::RgbdFrame& frame);
+  // The places now, each with its figures (learned one included).
+  std::vector<relocalizer::PlaceFigures> list();
+  bool empty();
+  bool learning() const { return static_cast<bool>(learned_); }
+
+ private:
+  NodePlaces(const NodeParams& params, LearnedModel learned);
+  // Puts the learner's model into the set when it changed since the last look.
+  void followLearner();
+  bool onLoad(relocalizer::LoadPlace::Request& request, relocalizer::LoadPlace::Response& response);
+  bool onUnload(relocalizer::UnloadPlace::Request& request,
+                relocalizer::UnloadPlace::Response& response);
+  bool onList(relocalizer::ListPlaces::Request& request,
+              relocalizer::ListPlaces::Response& response);
+
+  const NodeParams params_;     // a copy: the node's own is moved in after create()
+  const LearnedModel learned_;  // empty unless learn mode
+  const std::string learned_name_;
+  relocalizer::PlaceSet places_;
+  std::mutex learned_mutex_;
+  std::shared_ptr<const relocalizer::Relocalizer> learned_model_;  // the one last put
+  ThrottledLog log_;
+  ros::ServiceServer load_service_, unload_service_, list_service_;
+};
+
+// What a listing says of a place, as ~list_places and the start-up log show it.
+std::string placeText(const relocalizer::PlaceFigures& figures);
+
+}  // namespace relocalizer_ros
