@@ -58,6 +58,19 @@ void frameSweepPlot(Plot& plot) {
 
 }  // namespace
 
+ResidentMemory residentMemory() {
+  ResidentMemory memory;
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  // "VmRSS:    12345 kB"
+  const auto bytes = [&] { return std::stoull(line.substr(6)) * 1024ull; };
+  while (std::getline(status, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) memory.current = bytes();
+    if (line.rfind("VmHWM:", 0) == 0) memory.peak = bytes();
+  }
+  return memory;
+}
+
 std::string cpuModel() {
   std::ifstream in("/proc/cpuinfo");
   std::string line;

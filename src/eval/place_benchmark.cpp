@@ -1,28 +1,8 @@
 #include "relocalizer/eval/place_benchmark.h"
 
-#include <malloc.h>
-
-#include <fstream>
-
 #include "relocalizer/core/progress.h"
 
 namespace relocalizer {
-
-ResidentMemory residentMemory() {
-  // Pages freed by earlier work (a loader's file buffer) would otherwise count
-  // against whatever is measured next, or hide it.
-  malloc_trim(0);
-  ResidentMemory memory;
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  // "VmRSS:    12345 kB"
-  const auto bytes = [&] { return std::stoull(line.substr(6)) * 1024ull; };
-  while (std::getline(status, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) memory.current = bytes();
-    if (line.rfind("VmHWM:", 0) == 0) memory.peak = bytes();
-  }
-  return memory;
-}
 
 std::vector<EvaluationRecord> relocalizeAgainstPlaces(const PlaceSet& places,
                                                       const std::vector<RgbdFrame>& frames) {

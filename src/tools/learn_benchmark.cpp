@@ -17,6 +17,7 @@
 #include "dataset_arguments.h"
 #include "relocalizer/core/statistics.h"
 #include "relocalizer/eval/evaluation.h"
+#include "relocalizer/eval/latency_benchmark.h"
 #include "relocalizer/eval/metrics.h"
 #include "relocalizer/online/key_frame_feed.h"
 
@@ -25,16 +26,10 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-// Resident and peak resident memory of this process, MiB (Linux).
+// Resident and peak resident memory of this process, MiB.
 std::pair<double, double> residentMiB() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  double rss = 0, peak = 0;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) rss = std::stod(line.substr(6)) / 1024.0;
-    if (line.rfind("VmHWM:", 0) == 0) peak = std::stod(line.substr(6)) / 1024.0;
-  }
-  return {rss, peak};
+  const ResidentMemory memory = residentMemory();
+  return {memory.current / 1048576.0, memory.peak / 1048576.0};
 }
 
 double since(Clock::time_point start) {

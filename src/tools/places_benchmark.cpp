@@ -5,6 +5,8 @@
 // and relocalizes every --test's frames against the whole set, counting
 // answers from another place than the one the frames were taken in.
 
+#include <malloc.h>
+
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -42,6 +44,13 @@ Expected<TestSet> loadTestSet(const cli::NamedPath& argument) {
   if (set.frames.empty())
     return makeError("--test " + argument.name + ": " + path + ": no selected frame has a pose");
   return set;
+}
+
+// Resident memory after returning freed heap pages to the system (glibc): a
+// loader's freed file buffer would otherwise count against the next place, or hide it.
+ResidentMemory trimmedResidentMemory() {
+  malloc_trim(0);
+  return residentMemory();
 }
 
 Expected<std::vector<int>> parseCounts(const std::string& text, int places) {
@@ -159,10 +168,10 @@ int main(int argc, char** argv) {
   std::vector<Place> places;
   PlaceSet all;
   for (const auto& [name, path] : *named_places) {
-    const ResidentMemory before = residentMemory();
+    const ResidentMemory before = trimmedResidentMemory();
     auto place = PlaceSet::load(name, path, name, params);
     if (!place) return cli::fail(app, place.error());
-    const ResidentMemory after = residentMemory();
+    const ResidentMemory after = trimmedResidentMemory();
     const PlaceFigures figures = placeFigures(*place);
     std::printf("place %-12s %6.1f MiB resident (model %.1f MiB), %ld modes, %d training frames\n",
                 name.c_str(), (after.current - before.current) / 1048576.0,

@@ -3,6 +3,7 @@
 // preloaded frames, per thread count, and the speed-accuracy sweep over
 // sampled pixels and RANSAC hypotheses (the `benchmark` tool's figures).
 
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -16,6 +17,13 @@ namespace relocalizer {
 
 // The CPU's model name from /proc/cpuinfo, for the record.
 std::string cpuModel();
+
+// This process's resident memory (Linux /proc/self/status), bytes.
+struct ResidentMemory {
+  uint64_t current = 0;  // VmRSS
+  uint64_t peak = 0;     // VmHWM
+};
+ResidentMemory residentMemory();
 
 // Every frame of `source`, in order, so timing never waits on the disk.
 Expected<std::vector<RgbdFrame>> loadAllFrames(const FrameSource& source);

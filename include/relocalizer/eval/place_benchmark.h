@@ -2,9 +2,8 @@
 // What many places cost and how well the set picks the place: latency against
 // the number of places (one thread, the same frames, measured side by side),
 // wrong-place answers over each place's frames, and resident memory per place
-// (the `places_benchmark` tool's figures).
+// (the `places_benchmark` tool's figures; memory: latency_benchmark.h's residentMemory).
 
-#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -13,14 +12,6 @@
 #include "relocalizer/relocalize/place_set.h"
 
 namespace relocalizer {
-
-// This process's resident memory (Linux /proc/self/status), bytes, after
-// returning freed heap pages to the system (glibc malloc_trim).
-struct ResidentMemory {
-  uint64_t current = 0;  // VmRSS
-  uint64_t peak = 0;     // VmHWM
-};
-ResidentMemory residentMemory();
 
 struct PlaceCountRun {
   int places = 0;
