@@ -87,7 +87,7 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
     ++frames_failed_;
   }
   result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
-  publish(result, transform, input.epoch);
+  publish(result, transform, input.epoch, &input, &found);
   return result;
 }
 
@@ -101,9 +101,9 @@ void NodeOutput::logPlace(const ros::Time& stamp, const relocalizer::PlaceAnswer
            stamp.toSec(), found.place.c_str(), found.map_frame.c_str(), found.attempts.size());
 }
 
-void NodeOutput::frameFailed(ResultMsg& result) {
+void NodeOutput::frameFailed(ResultMsg& result, const FrameInput* input) {
   ++frames_failed_;
-  publish(result, std::nullopt, 0);
+  publish(result, std::nullopt, 0, input);
 }
 
 void NodeOutput::report(ResultMsg& result) { publish(result, std::nullopt, 0); }
@@ -114,12 +114,16 @@ void NodeOutput::resetTransforms() {
 
 void NodeOutput::publish(ResultMsg& result,
                          const std::optional<geometry_msgs::TransformStamped>& transform,
-                         uint64_t epoch) {
+                         uint64_t epoch, const FrameInput* input,
+                         const relocalizer::PlaceAnswer* found) {
   counters_(result);
   result_pub_.publish(result);
-  if (!result.success) return;
-  pose_pub_.publish(result.pose);
-  if (transform) transforms_->send(*transform, result.header.stamp, epoch);
+  if (result.success) {
+    pose_pub_.publish(result.pose);
+    if (transform) transforms_->send(*transform, result.header.stamp, epoch);
+  }
+  const Published published{result, input, found};
+  for (const Listener& listener : listeners_) listener(published);
 }
 
 }  // namespace relocalizer_ros

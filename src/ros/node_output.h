@@ -13,6 +13,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "frame_input.h"
 #include "node_params.h"
@@ -27,6 +28,15 @@ class NodeOutput {
   using ResultMsg = relocalizer::RelocalizationResult;
   using Clock = std::chrono::steady_clock;
 
+  // What a listener sees of each ~result once it is published: the parts that
+  // watch answers (diagnostics, RViz, hand-off) see exactly what users see.
+  struct Published {
+    const ResultMsg& result;
+    const FrameInput* input = nullptr;                // null for a report that is no frame's
+    const relocalizer::PlaceAnswer* found = nullptr;  // null when the frame was not relocalized
+  };
+  using Listener = std::function<void(const Published&)>;
+
   // `counters` fills the node's counters into every ~result.
   NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
              std::function<void(ResultMsg&)> counters);
@@ -39,9 +49,13 @@ class NodeOutput {
   ResultMsg answer(const FrameInput& input, const relocalizer::PlaceAnswer& found,
                    Clock::time_point start);
   // A frame that was not relocalized (unusable, no model yet, an internal error).
-  void frameFailed(ResultMsg& result);
+  void frameFailed(ResultMsg& result, const FrameInput* input = nullptr);
   // A report that is no frame's answer (no frame for a call, a time jump, the watchdog).
   void report(ResultMsg& result);
+
+  // Called on the publishing thread after every ~result. Add listeners before
+  // any frame or service call can arrive: the list is not locked.
+  void addListener(Listener listener) { listeners_.push_back(std::move(listener)); }
 
   // The input's time went back: tf2 would refuse the new timeline's odometry.
   void resetTransforms();
@@ -51,7 +65,8 @@ class NodeOutput {
   // Says so when the answering place is another than the last answer's.
   void logPlace(const ros::Time& stamp, const relocalizer::PlaceAnswer& found);
   void publish(ResultMsg& result, const std::optional<geometry_msgs::TransformStamped>& transform,
-               uint64_t epoch);
+               uint64_t epoch, const FrameInput* input = nullptr,
+               const relocalizer::PlaceAnswer* found = nullptr);
 
   const NodeParams& params_;
   const std::function<void(ResultMsg&)> counters_;
@@ -62,6 +77,7 @@ class NodeOutput {
   ThrottledLog log_;
   std::mutex place_mutex_;
   std::string last_place_;  // the place of the last answer, for the log
+  std::vector<Listener> listeners_;
 };
 
 }  // namespace relocalizer_ros

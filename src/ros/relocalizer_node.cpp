@@ -172,7 +172,7 @@ RelocalizerNode::ResultMsg RelocalizerNode::process(const FrameInput& input) {
   ResultMsg result = output_.failure(stamp, input.error);
   if (!input.error.empty()) {
     // Already logged when it arrived.
-    output_.frameFailed(result);
+    output_.frameFailed(result, &input);
     return result;
   }
   try {
@@ -183,7 +183,7 @@ RelocalizerNode::ResultMsg RelocalizerNode::process(const FrameInput& input) {
     result.message = std::string("internal error: ") + e.what();
     ROS_ERROR("relocalizer: frame at %.3f: %s", stamp.toSec(), result.message.c_str());
     result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
-    output_.frameFailed(result);
+    output_.frameFailed(result, &input);
     return result;
   }
 }
@@ -199,7 +199,7 @@ RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const FrameInput& inp
     if (!frame && log_.allow(result.message))
       ROS_WARN("relocalizer: unusable frame: %s", result.message.c_str());
     result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
-    output_.frameFailed(result);
+    output_.frameFailed(result, &input);
     return result;
   }
   return output_.answer(input, places_->relocalize(*frame), start);
