@@ -37,6 +37,7 @@ struct Hypothesis {
   Eigen::Matrix3f rotation;
   Eigen::Vector3f translation;
   int score = 0;          // inliers accumulated over rounds
+  double rank = 0;        // score weighed by the hint, when there is one
   AlignmentSums inliers;  // camera point -> mode mean of those inliers, for Kabsch refits
   int index = 0;
 
@@ -214,8 +215,8 @@ std::vector<Hypothesis> drawHypotheses(const std::vector<const SolverSample*>& a
 class PreemptiveRounds {
  public:
   PreemptiveRounds(const std::vector<const SolverSample*>& all, const PoseSolverParams& params,
-                   std::mt19937& rng)
-      : all_(all), params_(params), order_(all.size()) {
+                   std::mt19937& rng, const HintPrior* hint = nullptr)
+      : all_(all), params_(params), hint_(hint), order_(all.size()) {
     std::iota(order_.begin(), order_.end(), 0);
     std::shuffle(order_.begin(), order_.end(), rng);
   }
@@ -262,7 +263,8 @@ class PreemptiveRounds {
   }
 
   // Adds the batch's inliers to every hypothesis and sorts them best first
-  // (ties by creation order, so the outcome never depends on threads).
+  // (ties by creation order, so the outcome never depends on threads); with
+  // a hint, by their inliers weighed by it.
   void score(std::vector<Hypothesis>& hypotheses) const {
     const size_t blocks = (hypotheses.size() + kLanes - 1) / kLanes;
     tbb::parallel_for(size_t{0}, blocks, [&](size_t b) {
@@ -270,6 +272,14 @@ class PreemptiveRounds {
                  static_cast<int>(std::min(kLanes, hypotheses.size() - b * kLanes)), batch_,
                  batch_modes_, params_.inlier_chi2);
     });
+    if (hint_) {
+      for (Hypothesis& h : hypotheses)
+        h.rank = h.score * hint_->factor(h.pose, params_.hint_weight);
+      std::sort(hypotheses.begin(), hypotheses.end(), [](const Hypothesis& a, const Hypothesis& b) {
+        return a.rank != b.rank ? a.rank > b.rank : a.index < b.index;
+      });
+      return;
+    }
     std::sort(hypotheses.begin(), hypotheses.end(), [](const Hypothesis& a, const Hypothesis& b) {
       return a.score != b.score ? a.score > b.score : a.index < b.index;
     });
@@ -306,6 +316,7 @@ class PreemptiveRounds {
 
   const std::vector<const SolverSample*>& all_;
   const PoseSolverParams& params_;
+  const HintPrior* hint_;
   std::vector<int> order_;
   size_t next_sample_ = 0;
   std::vector<BatchEntry> batch_;
@@ -356,7 +367,7 @@ void judgeEvidence(size_t samples, const PoseSolverParams& params, PoseSolution&
 
 PoseSolution solvePose(const std::vector<SolverSample>& points,
                        const std::vector<SolverSample>& lines, const PoseSolverParams& params,
-                       std::mt19937& rng) {
+                       std::mt19937& rng, const HintPrior* hint) {
   PoseSolution solution;
   const auto ransac_start = Clock::now();
   int point_count = 0;
@@ -377,9 +388,16 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
     solution.ransac_seconds = secondsSince(ransac_start);
     return solution;
   }
+  if (hint && hint->complete()) {
+    // Drawn last, so the random draws are those of a solve without a hint.
+    Hypothesis seeded;
+    seeded.setPose(hint->pose());
+    seeded.index = static_cast<int>(hypotheses.size());
+    hypotheses.push_back(seeded);
+  }
 
   double lm_seconds = 0.0;
-  PreemptiveRounds rounds(all, params, rng);
+  PreemptiveRounds rounds(all, params, rng, hint);
   const Pose winner = rounds.run(hypotheses, lm_seconds);
   solution.failed_refinements = rounds.failedRefinements();
   solution.ransac_seconds = secondsSince(ransac_start) - lm_seconds;

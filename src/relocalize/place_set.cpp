@@ -18,12 +18,31 @@ double secondsSince(Clock::time_point start) {
 
 int inliersOf(const Relocalization& answer) { return answer.point_inliers + answer.line_inliers; }
 
+// The hint for a place: only a place in the hint's frame hears it.
+const PoseHint* hintFor(const Place& place, const PoseHint* hint) {
+  return hint && hint->frame == place.map_frame ? hint : nullptr;
+}
+
+// What a place's evidence counts for against another place: its hint's factor
+// at the pose (the largest, 1 + hint_weight, for a screen that has no pose).
+// Float, as the ratios it meets are: without a hint every comparison is the
+// one made before hints existed.
+float hintFactor(const Place& place, const PoseHint* hint, const Pose* pose) {
+  const PoseHint* heard = hintFor(place, hint);
+  if (!heard) return 1.0f;
+  const double weight = place.relocalizer->params().solver.hint_weight;
+  if (!pose) return static_cast<float>(1.0 + weight);
+  const Expected<HintPrior> prior = HintPrior::make(*heard);
+  return prior ? static_cast<float>(prior->factor(*pose, weight)) : 1.0f;
+}
+
 // The places, best screened first (ties: the order they were added).
-std::vector<size_t> rankByScreen(const std::vector<PlaceAttempt>& attempts) {
+std::vector<size_t> rankByScreen(const std::vector<PlaceAttempt>& attempts,
+                                 const std::vector<float>& factors) {
   std::vector<size_t> order(attempts.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return attempts[a].screen_inliers > attempts[b].screen_inliers;
+    return attempts[a].screen_inliers * factors[a] > attempts[b].screen_inliers * factors[b];
   });
   return order;
 }
@@ -135,7 +154,7 @@ size_t PlaceSet::size() const {
   return places_.size();
 }
 
-PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame) const {
+PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) const {
   const auto start = Clock::now();
   const std::vector<std::shared_ptr<const Place>> places = snapshot();
   PlaceAnswer answer;
@@ -152,7 +171,7 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame) const {
   if (places.size() == 1) {
     // Nothing to rank: the one-place path, with its line branch beside the point forest.
     const Place& place = *places.front();
-    Relocalization alone = place.relocalizer->relocalize(frame);
+    Relocalization alone = place.relocalizer->relocalize(frame, hintFor(place, hint));
     answer.attempts.push_back({place.name, -1, true, alone.success, alone.message});
     if (alone.success)
       answerWith(place, std::move(alone));
@@ -181,22 +200,28 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame) const {
     }
   });
   const double screen_seconds = secondsSince(screen_start);
-  const std::vector<size_t> order = rankByScreen(answer.attempts);
+  std::vector<float> screen_factors(places.size());
+  for (size_t i = 0; i < places.size(); ++i)
+    screen_factors[i] = hintFactor(*places[i], hint, nullptr);
+  const std::vector<size_t> order = rankByScreen(answer.attempts, screen_factors);
 
   // Full solves for the best screened place and the runners-up that screened
   // close to it: a look-alike place must not win by being asked alone. A place
   // that screened far below the best is not asked even when the best fails:
   // its full solve would be the likeliest way to a wrong-place answer.
-  const int best_screen = answer.attempts[order.front()].screen_inliers;
+  const float best_screen =
+      answer.attempts[order.front()].screen_inliers * screen_factors[order.front()];
   std::vector<std::pair<size_t, Relocalization>> answered;
   Relocalization first_failure;
   for (size_t rank = 0; rank < order.size() && static_cast<int>(rank) < params_.max_solved;
        ++rank) {
     PlaceAttempt& attempt = answer.attempts[order[rank]];
-    const bool close = attempt.screen_inliers > 0 &&
-                       attempt.screen_inliers >= params_.runner_up_ratio * best_screen;
+    const float weighed = attempt.screen_inliers * screen_factors[order[rank]];
+    const bool close =
+        attempt.screen_inliers > 0 && weighed >= params_.runner_up_ratio * best_screen;
     if (rank > 0 && !close) break;
-    Relocalization full = places[order[rank]]->relocalizer->relocalize(frame, *shared);
+    const Place& place = *places[order[rank]];
+    Relocalization full = place.relocalizer->relocalize(frame, *shared, hintFor(place, hint));
     attempt.solved = true;
     attempt.success = full.success;
     attempt.message = full.message;
@@ -212,12 +237,15 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame) const {
     answer.relocalization.message = "no place fits; best screened " + best.place + ": " +
                                     (best.message.empty() ? "not solved" : best.message);
   } else {
-    std::stable_sort(answered.begin(), answered.end(), [](const auto& a, const auto& b) {
-      return inliersOf(a.second) > inliersOf(b.second);
-    });
+    // Weighed by the hint: a place in its frame, answering near it, counts up.
+    auto weighed = [&](const std::pair<size_t, Relocalization>& a) {
+      return inliersOf(a.second) * hintFactor(*places[a.first], hint, &a.second.pose);
+    };
+    std::stable_sort(answered.begin(), answered.end(),
+                     [&](const auto& a, const auto& b) { return weighed(a) > weighed(b); });
     const auto& [winner, winning] = answered.front();
     if (answered.size() > 1 &&
-        inliersOf(answered[1].second) >= params_.ambiguity_ratio * inliersOf(winning)) {
+        weighed(answered[1]) >= params_.ambiguity_ratio * weighed(answered.front())) {
       const std::string why = ambiguityMessage(places[winner]->name, winning,
                                                places[answered[1].first]->name, answered[1].second);
       answer.relocalization = winning;

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "relocalizer/core/config.h"
@@ -47,6 +48,8 @@ std::string Relocalizer::validationError() const {
     return "point_samples and line_samples must be >= 0 and max_leaves >= 1";
   if (params_.solver.hypotheses < 1 || params_.solver.batch_size < 1)
     return "solver.hypotheses and solver.batch_size must be >= 1";
+  if (!(params_.solver.hint_weight >= 0 && params_.solver.hint_weight <= 1))
+    return "solver.hint_weight must be a share between 0 and 1";
   const SurfaceFitParams& s = params_.surface;
   if (s.points < 1 || s.iterations < 0 || s.min_correspondences < 0)
     return "surface.points must be >= 1, surface.iterations and surface.min_correspondences >= 0";
@@ -184,7 +187,7 @@ std::string Relocalizer::frameRefusal(const RgbdFrame& frame) const {
   return {};
 }
 
-Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
+Relocalization Relocalizer::relocalize(const RgbdFrame& frame, const PoseHint* hint) const {
   const auto start = Clock::now();
   Relocalization result;
   if (std::string refusal = frameRefusal(frame); !refusal.empty())
@@ -193,7 +196,8 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame) const {
   samples.recipe = samplingRecipe();
   ForestPredictions predictions;
   sampleFrame(model_, params_, frame, samples, &predictions, result.timings);
-  return solve(frame, samples, predictions.points, predictions.lines, std::move(result), start);
+  return solve(frame, samples, predictions.points, predictions.lines, std::move(result), start,
+               hint);
 }
 
 Expected<FrameSamples> Relocalizer::sample(const RgbdFrame& frame) const {
@@ -205,13 +209,15 @@ Expected<FrameSamples> Relocalizer::sample(const RgbdFrame& frame) const {
   return samples;
 }
 
-Relocalization Relocalizer::relocalize(const RgbdFrame& frame, const FrameSamples& samples) const {
-  if (!samples.recipe.sameAs(samplingRecipe())) return relocalize(frame);
+Relocalization Relocalizer::relocalize(const RgbdFrame& frame, const FrameSamples& samples,
+                                       const PoseHint* hint) const {
+  if (!samples.recipe.sameAs(samplingRecipe())) return relocalize(frame, hint);
   const auto start = Clock::now();
   Relocalization result;
   ForestPredictions predictions;
   predictForests(model_, params_, samples, predictions, result.timings);
-  return solve(frame, samples, predictions.points, predictions.lines, std::move(result), start);
+  return solve(frame, samples, predictions.points, predictions.lines, std::move(result), start,
+               hint);
 }
 
 int Relocalizer::screen(const FrameSamples& samples, const ScreenParams& screen) const {
@@ -246,7 +252,14 @@ Relocalization Relocalizer::solve(const RgbdFrame& frame, const FrameSamples& sa
                                   const std::vector<Prediction>& point_predictions,
                                   const std::vector<Prediction>& line_predictions,
                                   Relocalization result,
-                                  std::chrono::steady_clock::time_point start) const {
+                                  std::chrono::steady_clock::time_point start,
+                                  const PoseHint* hint) const {
+  std::optional<HintPrior> prior;
+  if (hint) {
+    Expected<HintPrior> made = HintPrior::make(*hint);
+    if (!made) return failed(std::move(result), "unusable pose hint: " + made.error(), start);
+    prior = *made;
+  }
   const bool use_points = usesPoints(model_, params_);
   result.point_samples = static_cast<int>(samples.points.size());
   result.line_samples = static_cast<int>(samples.lines.samples.size());
@@ -262,9 +275,10 @@ Relocalization Relocalizer::solve(const RgbdFrame& frame, const FrameSamples& sa
   // The solver continues the sampling's stream (a copy: the samples may be shared).
   std::mt19937 rng = samples.rng;
   // Without the point forest, line samples seed the hypotheses too.
-  const PoseSolution solution = use_points
-                                    ? solvePose(point_inputs, line_inputs, params_.solver, rng)
-                                    : solvePose(line_inputs, {}, params_.solver, rng);
+  const HintPrior* weigh = prior ? &*prior : nullptr;
+  const PoseSolution solution =
+      use_points ? solvePose(point_inputs, line_inputs, params_.solver, rng, weigh)
+                 : solvePose(line_inputs, {}, params_.solver, rng, weigh);
   result.timings.ransac = solution.ransac_seconds;
   result.timings.refinement = solution.refinement_seconds;
   result.point_inliers = solution.point_inliers;
@@ -390,7 +404,8 @@ json toJson(const RelocalizerParams& p) {
             {"robust_scale", s.robust_scale},
             {"use_lines_in_refinement", s.use_lines_in_refinement},
             {"min_inliers", s.min_inliers},
-            {"min_inlier_ratio", s.min_inlier_ratio}}},
+            {"min_inlier_ratio", s.min_inlier_ratio},
+            {"hint_weight", s.hint_weight}}},
           {"surface",
            {{"enabled", p.surface.enabled},
             {"points", p.surface.points},
@@ -437,6 +452,8 @@ Expected<RelocalizerParams> relocalizerParamsFromJson(const std::string& json_te
     readField(s, at, "use_lines_in_refinement", q.use_lines_in_refinement);
     readField(s, at, "min_inliers", q.min_inliers);
     readField(s, at, "min_inlier_ratio", q.min_inlier_ratio);
+    // Written since pose hints (issue 27); older parameter files keep the default.
+    if (s.contains("hint_weight")) readField(s, at, "hint_weight", q.hint_weight);
     const json& f = j.at("surface");
     const std::string in = "surface.";
     SurfaceFitParams& r = p.surface;

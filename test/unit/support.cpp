@@ -11,6 +11,23 @@
 
 namespace relocalizer::testing {
 
+TrainingParams smallRoomTraining() {
+  TrainingParams training;
+  for (ForestParams* f : {&training.points, &training.lines}) {
+    f->trees = 3;
+    f->max_depth = 16;
+    f->samples_per_image = 800;
+  }
+  return training;
+}
+
+RelocalizerParams smallRoomRelocalizer() {
+  RelocalizerParams params;
+  params.point_samples = 800;
+  params.line_samples = 400;
+  return params;
+}
+
 TempDir::TempDir(const std::string& prefix) {
   static std::atomic<int> counter{0};
   const auto now = std::chrono::steady_clock::now().time_since_epoch().count();

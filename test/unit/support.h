@@ -8,7 +8,15 @@
 #include <map>
 #include <string>
 
+#include "relocalizer/forest/training.h"
+#include "relocalizer/relocalize/relocalizer.h"
+
 namespace relocalizer::testing {
+
+// The small forests and sample counts that tests train a generated room's
+// model with (320x240 frames, a few dozen training frames; seconds to train).
+TrainingParams smallRoomTraining();
+RelocalizerParams smallRoomRelocalizer();
 
 // A fresh folder under the system temp dir, removed when the object dies.
 class TempDir {

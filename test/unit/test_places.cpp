@@ -35,15 +35,8 @@ class Places : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     const CameraIntrinsics camera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
-    TrainingParams training;
-    for (ForestParams* f : {&training.points, &training.lines}) {
-      f->trees = 3;
-      f->max_depth = 16;
-      f->samples_per_image = 800;
-    }
-    RelocalizerParams params;
-    params.point_samples = 800;
-    params.line_samples = 400;
+    const TrainingParams training = relocalizer::testing::smallRoomTraining();
+    const RelocalizerParams params = relocalizer::testing::smallRoomRelocalizer();
     for (const uint64_t seed : {7, 8}) {
       const SyntheticRoom room(seed);
       const SyntheticTrajectories paths = room.trajectories(kTrainFrames, kTestFrames);

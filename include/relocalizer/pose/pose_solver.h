@@ -23,6 +23,7 @@
 #include "relocalizer/core/pose.h"
 #include "relocalizer/forest/forest.h"
 #include "relocalizer/forest/sampling.h"
+#include "relocalizer/pose/pose_hint.h"
 
 namespace relocalizer {
 
@@ -46,6 +47,9 @@ struct PoseSolverParams {
   // Evidence needed to answer with a pose (on all samples, after refinement).
   int min_inliers = 30;
   float min_inlier_ratio = 0.15f;
+  // With a pose hint: the largest share by which a hypothesis at the hint
+  // counts its inliers up when hypotheses are ranked (pose_hint.h).
+  float hint_weight = 0.5f;
 };
 
 // One sample as the solver sees it: a camera point and its candidate modes.
@@ -78,9 +82,12 @@ struct PoseSolution {
 };
 
 // `points` seed hypotheses and are scored; `lines` are scored and used in refinement.
+// With a `hint`, hypotheses are ranked by their inliers times hint->factor
+// (pose_hint.h), and a hint that constrains all six axes is one more
+// hypothesis; without one, nothing differs from a solve that never heard of hints.
 PoseSolution solvePose(const std::vector<SolverSample>& points,
                        const std::vector<SolverSample>& lines, const PoseSolverParams& params,
-                       std::mt19937& rng);
+                       std::mt19937& rng, const HintPrior* hint = nullptr);
 
 // How well the point samples fit one rigid motion, for ranking places at a
 // small share of solvePose's cost: a short preemptive RANSAC of `hypotheses`

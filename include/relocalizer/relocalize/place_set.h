@@ -89,8 +89,11 @@ class PlaceSet {
   size_t size() const;
 
   // Thread-safe, also against put/remove from other threads: a call works on
-  // the places as they were when it started.
-  PlaceAnswer relocalize(const RgbdFrame& frame) const;
+  // the places as they were when it started. A `hint` (pose_hint.h) reaches
+  // only the places whose map frame is hint->frame: their screens rank and
+  // their answers weigh against a rival place by the hint's factor (at most
+  // 1 + hint_weight), as hypotheses do inside one place.
+  PlaceAnswer relocalize(const RgbdFrame& frame, const PoseHint* hint = nullptr) const;
 
   const PlaceSearchParams& params() const { return params_; }
 

@@ -90,8 +90,10 @@ class Relocalizer {
   static Expected<std::unique_ptr<Relocalizer>> fromFile(const std::string& model_path,
                                                          const RelocalizerParams& params = {});
 
-  // Thread-safe; concurrent calls do not share scratch memory.
-  Relocalization relocalize(const RgbdFrame& frame) const;
+  // Thread-safe; concurrent calls do not share scratch memory. A `hint`
+  // (pose_hint.h; its frame is not checked here) favours hypotheses near it;
+  // an unusable one is the answer's reason for no pose.
+  Relocalization relocalize(const RgbdFrame& frame, const PoseHint* hint = nullptr) const;
 
   // The same answer in two halves, so that many places can share the first.
   // sample(): the frame's samples and descriptors (an error: why the frame is
@@ -99,7 +101,8 @@ class Relocalizer {
   // them; the answer equals relocalize(frame) when the samples' recipe is this
   // relocalizer's, and otherwise it samples the frame itself.
   Expected<FrameSamples> sample(const RgbdFrame& frame) const;
-  Relocalization relocalize(const RgbdFrame& frame, const FrameSamples& samples) const;
+  Relocalization relocalize(const RgbdFrame& frame, const FrameSamples& samples,
+                            const PoseHint* hint = nullptr) const;
   SamplingRecipe samplingRecipe() const;
   // How well the frame fits this place, cheaply: the inliers of a short
   // RANSAC on a few of the samples (0 when the model has no point forest).
@@ -125,7 +128,7 @@ class Relocalizer {
   Relocalization solve(const RgbdFrame& frame, const FrameSamples& samples,
                        const std::vector<Prediction>& point_predictions,
                        const std::vector<Prediction>& line_predictions, Relocalization result,
-                       std::chrono::steady_clock::time_point start) const;
+                       std::chrono::steady_clock::time_point start, const PoseHint* hint) const;
   static Relocalization failed(Relocalization result, std::string message,
                                std::chrono::steady_clock::time_point start);
 
