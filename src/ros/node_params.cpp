@@ -91,6 +91,8 @@ constexpr double kMaxSyncInterval = 10.0;
 constexpr double kMinMaxRate = 0.001, kMaxMaxRate = 1000.0;
 // The watchdog reports a silence; after an hour the report helps nobody (0: off).
 constexpr double kMaxInputTimeout = 3600.0;
+// A hint older than an hour describes a robot that has long moved on.
+constexpr double kMinHintTimeout = 0.01, kMaxHintTimeout = 3600.0;
 
 constexpr Bounded kBounded[] = {
     {"transform_tolerance", &NodeParams::transform_tolerance, 0.0, kMaxTransformTolerance, "s",
@@ -101,6 +103,7 @@ constexpr Bounded kBounded[] = {
     {"max_rate", &NodeParams::max_rate, kMinMaxRate, kMaxMaxRate, "Hz", "no limit"},
     {"service_timeout", &NodeParams::service_timeout, 0.0, kMaxServiceWaitSeconds, "s", nullptr},
     {"input_timeout", &NodeParams::input_timeout, 0.0, kMaxInputTimeout, "s", nullptr},
+    {"hint_timeout", &NodeParams::hint_timeout, kMinHintTimeout, kMaxHintTimeout, "s", nullptr},
 };
 
 std::string checkBounded(const ros::NodeHandle& nh, const NodeParams& p) {
@@ -269,6 +272,7 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   check(read(nh, "process_all", p.process_all));
   check(read(nh, "service_timeout", p.service_timeout));
   check(read(nh, "input_timeout", p.input_timeout));
+  check(read(nh, "hint_timeout", p.hint_timeout));
   check(readInt(nh, "threads", p.threads, 0));
   check(read(nh, "learn", p.learn));
   check(read(nh, "save_on_exit", p.save_on_exit));
@@ -350,6 +354,7 @@ std::string nodeParamsToJson(const NodeParams& p) {
             {"process_all", p.process_all},
             {"service_timeout", p.service_timeout},
             {"input_timeout", p.input_timeout},
+            {"hint_timeout", p.hint_timeout},
             {"threads", p.threads},
             {"learn", p.learn},
             {"save_on_exit", p.save_on_exit},

@@ -53,6 +53,9 @@ struct NodeParams {
   double input_timeout =
       3.0;          // seconds of images without a synchronised frame before it is reported
   int threads = 0;  // TBB threads inside a relocalization (0: every core)
+  // Pose hints (node_hints.h): seconds an `initialpose` hint holds for the
+  // relocalizations after it, until one answers with a pose.
+  double hint_timeout = 10.0;
   // Online learning beside SLAM (docs/online_learning.md).
   bool learn = false;        // learn the place from frames posed by TF map_frame -> camera
   std::string save_on_exit;  // learn: write the model and its key frames here at shutdown

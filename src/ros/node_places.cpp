@@ -98,9 +98,10 @@ void NodePlaces::followLearner() {
     ROS_WARN("relocalizer: the learned model: %s", put.error().c_str());
 }
 
-relocalizer::PlaceAnswer NodePlaces::relocalize(const relocalizer::RgbdFrame& frame) {
+relocalizer::PlaceAnswer NodePlaces::relocalize(const relocalizer::RgbdFrame& frame,
+                                                const relocalizer::PoseHint* hint) {
   followLearner();
-  return places_.relocalize(frame);
+  return places_.relocalize(frame, hint);
 }
 
 std::vector<relocalizer::PlaceFigures> NodePlaces::list() {

@@ -42,7 +42,8 @@ class NodePlaces {
   void shutdown();
 
   // Against every place, the learned one as it is now included.
-  relocalizer::PlaceAnswer relocalize(const relocalizer::RgbdFrame& frame);
+  relocalizer::PlaceAnswer relocalize(const relocalizer::RgbdFrame& frame,
+                                      const relocalizer::PoseHint* hint = nullptr);
   // The places now, each with its figures (learned one included).
   std::vector<relocalizer::PlaceFigures> list();
   bool empty();

@@ -42,10 +42,22 @@ RelocalizeService::ResultMsg RelocalizeService::processShared(uint64_t seq,
     }
   }
   if (future.valid()) return future.get();
-  ResultMsg result = sources_.process(*input);
+  ResultMsg result = sources_.process(*input, nullptr);
   promise.set_value(result);
   std::lock_guard<std::mutex> lock(shared_mutex_);
   in_flight_.erase(seq);
+  return result;
+}
+
+RelocalizeService::ResultMsg RelocalizeService::processHinted(
+    const relocalizer::Relocalize::Request& request, const FrameInputPtr& input) {
+  const relocalizer::Expected<relocalizer::PoseHint> hint = sources_.read_hint(request.hint);
+  if (hint) return sources_.process(*input, &*hint);
+  ResultMsg result =
+      sources_.output->failure(input->colour->header.stamp, "hint refused: " + hint.error());
+  if (log_.allow(result.message))
+    ROS_WARN("relocalizer: %s: %s", name().c_str(), result.message.c_str());
+  sources_.output->report(result);
   return result;
 }
 
@@ -92,7 +104,8 @@ RelocalizeService::ResultMsg RelocalizeService::call(
     const uint64_t after = request.wait_for_next ? sources_.frames->lastSeq() : 0;
     auto entry = sources_.frames->newest(after, deadline);
     if (entry) {
-      result = processShared(entry->seq, entry->value);
+      result = request.use_hint ? processHinted(request, entry->value)
+                                : processShared(entry->seq, entry->value);
     } else {
       const std::string capped =
           asked > kMaxServiceWaitSeconds

@@ -17,6 +17,7 @@
 #include "frame_input.h"
 #include "node_output.h"
 #include "node_params.h"
+#include "relocalizer/pose/pose_hint.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
 
@@ -26,10 +27,15 @@ class RelocalizeService {
  public:
   using ResultMsg = NodeOutput::ResultMsg;
   struct Sources {
-    FrameBuffer<FrameInputPtr>* frames;                   // what calls wait on
-    std::function<ResultMsg(const FrameInput&)> process;  // relocalize and publish one frame
-    std::function<std::string()> input_status;            // why no frame came
-    NodeOutput* output;                                   // reports of calls without a frame
+    FrameBuffer<FrameInputPtr>* frames;  // what calls wait on
+    // Relocalize and publish one frame, with a call's own hint (or null).
+    std::function<ResultMsg(const FrameInput&, const relocalizer::PoseHint*)> process;
+    // A call's hint in a place's map frame, or why not (node_hints.h).
+    std::function<relocalizer::Expected<relocalizer::PoseHint>(
+        const geometry_msgs::PoseWithCovarianceStamped&)>
+        read_hint;
+    std::function<std::string()> input_status;  // why no frame came
+    NodeOutput* output;                         // reports of calls without a frame
   };
 
   RelocalizeService(ros::NodeHandle private_nh, const NodeParams& params, Sources sources,
@@ -44,6 +50,10 @@ class RelocalizeService {
   ResultMsg call(const relocalizer::Relocalize::Request& request);
   // Buffer entry `seq`'s relocalization, shared with any concurrent call that picked it.
   ResultMsg processShared(uint64_t seq, const FrameInputPtr& input);
+  // A call with its own hint relocalizes on its own; a hint that cannot be
+  // read is the call's failure.
+  ResultMsg processHinted(const relocalizer::Relocalize::Request& request,
+                          const FrameInputPtr& input);
 
   const NodeParams& params_;
   const Sources sources_;

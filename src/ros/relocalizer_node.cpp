@@ -57,7 +57,17 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
       service_calls_(kServiceThreads) {
   RelocalizeService::Sources sources;
   sources.frames = &frames_;
-  sources.process = [this](const FrameInput& input) { return process(input); };
+  hints_ = std::make_unique<NodeHints>(nh_, params_, [this] {
+    std::vector<std::string> frames;
+    for (const relocalizer::PlaceFigures& place : places_->list())
+      frames.push_back(place.map_frame);
+    if (frames.empty()) frames.push_back(params_.map_frame);
+    return frames;
+  });
+  sources.process = [this](const FrameInput& input, const relocalizer::PoseHint* hint) {
+    return process(input, hint);
+  };
+  sources.read_hint = [this](const NodeHints::HintMsg& msg) { return hints_->read(msg); };
   sources.input_status = [this] {
     return inputs_ ? inputs_->status() : std::string("no input yet");
   };
@@ -165,7 +175,8 @@ void RelocalizerNode::workerLoop() {
   }
 }
 
-RelocalizerNode::ResultMsg RelocalizerNode::process(const FrameInput& input) {
+RelocalizerNode::ResultMsg RelocalizerNode::process(const FrameInput& input,
+                                                    const relocalizer::PoseHint* hint) {
   const auto start = Clock::now();
   const ros::Time stamp = input.colour->header.stamp;
   ++frames_processed_;
@@ -176,7 +187,7 @@ RelocalizerNode::ResultMsg RelocalizerNode::process(const FrameInput& input) {
     return result;
   }
   try {
-    return processChecked(input, start);
+    return processChecked(input, start, hint);
   } catch (const std::exception& e) {
     // A frame the core chokes on must cost one failure result, not the node
     // (or, through an unset promise, every waiting service call).
@@ -189,7 +200,8 @@ RelocalizerNode::ResultMsg RelocalizerNode::process(const FrameInput& input) {
 }
 
 RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const FrameInput& input,
-                                                           Clock::time_point start) {
+                                                           Clock::time_point start,
+                                                           const relocalizer::PoseHint* hint) {
   const ros::Time stamp = input.colour->header.stamp;
   auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
   const bool no_place = frame && places_->empty();
@@ -202,7 +214,10 @@ RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const FrameInput& inp
     output_.frameFailed(result, &input);
     return result;
   }
-  return output_.answer(input, places_->relocalize(*frame), start);
+  const auto relocalize = [&](const relocalizer::PoseHint* used) {
+    return places_->relocalize(*frame, used);
+  };
+  return output_.answer(input, hints_->relocalize(relocalize, hint), start);
 }
 
 }  // namespace relocalizer_ros

@@ -26,6 +26,7 @@
 #include "frame_buffer.h"
 #include "frame_input.h"
 #include "learning_feed.h"
+#include "node_hints.h"
 #include "node_inputs.h"
 #include "node_output.h"
 #include "node_params.h"
@@ -57,9 +58,11 @@ class RelocalizerNode {
 
   void onFrame(FrameInputPtr input);
   void workerLoop();
-  // Relocalizes one input and publishes its answer.
-  ResultMsg process(const FrameInput& input);
-  ResultMsg processChecked(const FrameInput& input, NodeOutput::Clock::time_point start);
+  // Relocalizes one input and publishes its answer; `hint`: a service call's
+  // own (else the pending initialpose hint, node_hints.h).
+  ResultMsg process(const FrameInput& input, const relocalizer::PoseHint* hint = nullptr);
+  ResultMsg processChecked(const FrameInput& input, NodeOutput::Clock::time_point start,
+                           const relocalizer::PoseHint* hint);
   void fillCounters(ResultMsg& result) const;
   void logStartup() const;
 
@@ -76,6 +79,7 @@ class RelocalizerNode {
   // Service calls: a thread each, so none waits behind another.
   ServiceCallQueue service_calls_;
   std::unique_ptr<LearningFeed> learning_;
+  std::unique_ptr<NodeHints> hints_;
   std::unique_ptr<RelocalizeService> service_;
   std::thread worker_;
   // Last: destroyed first, so no input callback outlives what it feeds.

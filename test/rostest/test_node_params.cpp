@@ -193,6 +193,8 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
        "service_timeout' is 61 s; it must be from 0 to 60 s"},
       {"/input_timeout", [](ros::NodeHandle& nh) { nh.setParam("input_timeout", std::nan("")); },
        "input_timeout' is nan s; it must be from 0 to 3600 s"},
+      {"/hint_timeout", [](ros::NodeHandle& nh) { nh.setParam("hint_timeout", 0.0); },
+       "hint_timeout' is 0 s; it must be from 0.01 to 3600 s"},
       // Integers beyond XML-RPC's 32 bits arrive as doubles (roscpp's
       // `_key:=99999999999`): out of range, not the wrong type.
       {"/big_queue", [](ros::NodeHandle& nh) { nh.setParam("sync_queue_size", 99999999999.0); },
