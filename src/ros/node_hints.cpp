@@ -85,8 +85,8 @@ relocalizer::Expected<PoseHint> NodeHints::read(const HintMsg& msg) const {
   if (std::abs(q.norm() - 1.0) > kQuaternionTolerance) {
     char buffer[160];
     std::snprintf(buffer, sizeof buffer,
-                  "the hint's orientation is not a unit quaternion (|q| = %g; x y z w = 0 0 0 1 "
-                  "is no turn)",
+                  "the hint's orientation is not a unit quaternion (|q| = %g; for no turn give "
+                  "x y z w = 0 0 0 1)",
                   q.norm());
     return relocalizer::makeError(buffer);
   }

@@ -147,12 +147,11 @@ inline bool contains(const std::string& text, const std::string& part) {
 
 // A relocalize call made while `publish` runs every 0.1 s in another thread:
 // with wait_for_next the call only takes frames sent after it started.
-inline relocalizer::Relocalize::Response callWhilePublishing(const std::function<void()>& publish,
-                                                             double timeout,
-                                                             bool wait_for_next = true) {
+// `request` as given (a hint, for one).
+inline relocalizer::Relocalize::Response callWhilePublishing(
+    const std::function<void()>& publish, const relocalizer::Relocalize::Request& request) {
   relocalizer::Relocalize srv;
-  srv.request.timeout = timeout;
-  srv.request.wait_for_next = wait_for_next;
+  srv.request = request;
   std::atomic<bool> done{false};
   std::thread publisher([&] {
     while (!done && ros::ok()) {
@@ -165,6 +164,14 @@ inline relocalizer::Relocalize::Response callWhilePublishing(const std::function
   publisher.join();
   EXPECT_TRUE(called) << "the service call itself failed";
   return srv.response;
+}
+inline relocalizer::Relocalize::Response callWhilePublishing(const std::function<void()>& publish,
+                                                             double timeout,
+                                                             bool wait_for_next = true) {
+  relocalizer::Relocalize::Request request;
+  request.timeout = timeout;
+  request.wait_for_next = wait_for_next;
+  return callWhilePublishing(publish, request);
 }
 
 inline double translationError(const geometry_msgs::Pose& estimate, const Pose& truth) {
