@@ -16,6 +16,10 @@ fixture's model, lab.model the model of its second room; test.bag is written by
   within 5 cm / 5 degrees; then its `list_places` line must list every place the launch
   line names, and its `unload_place` and `load_place` lines must succeed, in that order,
   after which the place is listed again;
+- every `rostopic pub -1 /initialpose ...` line is published verbatim to the first on-demand
+  `roslaunch relocalizer relocalizer.launch` line's node while the fixture frames play: the
+  node must log that it took the hint, and the README's relocalize call must then answer
+  within 5 cm / 5 degrees and spend the hint;
 - every `roslaunch relocalizer replay.launch ...` line is run verbatim;
 - every `roslaunch relocalizer relocalizer.launch learn:=true ...` line is launched
   verbatim while the fixture's training frames play with their poses on /tf (the
@@ -47,7 +51,7 @@ README = SOURCE / "README.md"
 DEVEL = pathlib.Path(os.environ.get("RELOCALIZER_DEVEL", SOURCE / "devel"))
 FIXTURE = pathlib.Path(os.environ.get("RELOCALIZER_FIXTURE", SOURCE / "build" / "rostest_fixture"))
 COMMAND_PREFIXES = ("rosrun relocalizer ", "roslaunch relocalizer ", "rosservice call /relocalizer",
-                    "rostopic echo /relocalizer")
+                    "rostopic echo /relocalizer", "rostopic pub -1 /initialpose ")
 
 
 def readme_commands():
@@ -298,6 +302,40 @@ class ReadmeCommandsTest(unittest.TestCase):
                     self.assertTrue(answer["success"], f"`{line}`: {answer['message']}")
                 listed = [place["name"] for place in self.call_yaml(listing)["places"]]
                 self.assertEqual(sorted(listed), sorted(names), f"{listing} after `{load}`")
+                self.shell.stop_all()
+
+    def test_initialpose_line_gives_a_hint_the_next_call_uses(self):
+        call = self.readme_lines("rosservice call /relocalizer/relocalize")[0]
+        launch = [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
+                  if "mode:=" not in c and "learn:=" not in c and "places:=" not in c][0]
+        odom = re.search(r"odom_frame:=(\S+)", launch)
+        for hint in self.readme_lines("rostopic pub -1 /initialpose "):
+            with self.subTest(hint=hint):
+                self.shell.start(launch, "roslaunch.log")
+                self.play_fixture_frames(odom.group(1) if odom else "")
+                # The node's INFO lines reach a redirected stdout late (buffered);
+                # rostopic echo flushes each message.
+                self.shell.start("rostopic echo /rosout", "rosout.log")
+                self.shell.wait_until("rostopic info /rosout", "/rostopic_")
+                published = self.shell.run(hint, timeout=60)
+                self.assertEqual(published.returncode, 0, published.stdout + published.stderr)
+                log = self.shell.work / "rosout.log"
+                deadline = time.monotonic() + 30
+                while "pose hint on /initialpose from" not in log.read_text(errors="replace"):
+                    self.assertLess(time.monotonic(), deadline, "the node never took `" + hint + "`"
+                                    + self.shell.logs())
+                    time.sleep(0.2)
+                answer = self.call_yaml(call)
+                self.assertTrue(answer["success"], f"`{call}` after `{hint}`: {answer['message']}")
+                pose = answer["pose"]["pose"]["pose"]
+                p, q = pose["position"], pose["orientation"]
+                self.assert_near_ground_truth([p["x"], p["y"], p["z"]],
+                                              [q["x"], q["y"], q["z"], q["w"]], call)
+                deadline = time.monotonic() + 30
+                while "with the pose hint, which is now spent" not in log.read_text(errors="replace"):
+                    self.assertLess(time.monotonic(), deadline, "the hint was not used"
+                                    + self.shell.logs())
+                    time.sleep(0.2)
                 self.shell.stop_all()
 
     def test_continuous_launch_line_publishes_what_the_readme_echoes(self):
