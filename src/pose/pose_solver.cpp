@@ -389,7 +389,7 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
     return solution;
   }
   if (hint && hint->complete()) {
-    // Drawn last, so the random draws are those of a solve without a hint.
+    // Appended after the draws: the random stream is that of a solve without a hint.
     Hypothesis seeded;
     seeded.setPose(hint->pose());
     seeded.index = static_cast<int>(hypotheses.size());
