@@ -12,6 +12,7 @@
 #include <optional>
 #include <thread>
 
+#include "../../src/ros/node_params.h"
 #include "node_test_support.h"
 
 using namespace relocalizer_test;
@@ -276,6 +277,29 @@ TEST(Diagnostics, EachPlaceHasAStatusWhileTheNodeHoldsSeveral) {
   });
   ASSERT_TRUE(after);
   EXPECT_EQ(after->status.size(), 1u);
+}
+
+TEST(Diagnostics, ThresholdsOutOfRangeAreErrorsNamingThem) {
+  ros::NodeHandle nh("/diagnostics_params");
+  nh.setParam("model", "m.bin");
+  nh.setParam("diagnostic_period", 0.0);
+  auto params = relocalizer_ros::loadNodeParams(nh);
+  ASSERT_FALSE(params.ok());
+  EXPECT_EQ(
+      params.error(),
+      "parameter '/diagnostics_params/diagnostic_period' is 0 s; it must be from 0.1 to 60 s");
+  nh.setParam("diagnostic_period", 0.5);
+  nh.setParam("diagnostics_max_failures", -1);
+  params = relocalizer_ros::loadNodeParams(nh);
+  ASSERT_FALSE(params.ok());
+  EXPECT_EQ(params.error(),
+            "parameter '/diagnostics_params/diagnostics_max_failures' is -1; it must be an integer "
+            "from 0 to 2147483647");
+  nh.setParam("diagnostics_max_failures", 0);
+  params = relocalizer_ros::loadNodeParams(nh);
+  ASSERT_TRUE(params.ok()) << params.error();
+  EXPECT_EQ(params->diagnostic_period, 0.5);
+  EXPECT_EQ(params->diagnostics_max_failures, 0);
 }
 
 int main(int argc, char** argv) {
