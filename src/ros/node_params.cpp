@@ -92,6 +92,10 @@ constexpr double kMinMaxRate = 0.001, kMaxMaxRate = 1000.0;
 // The watchdog reports a silence; after an hour the report helps nobody (0: off).
 constexpr double kMaxInputTimeout = 3600.0;
 
+// /diagnostics: faster than 10 Hz floods the aggregators for nothing; a
+// status older than a minute says nothing about the node now.
+constexpr double kMinDiagnosticPeriod = 0.1, kMaxDiagnosticPeriod = 60.0;
+
 constexpr Bounded kBounded[] = {
     {"transform_tolerance", &NodeParams::transform_tolerance, 0.0, kMaxTransformTolerance, "s",
      nullptr},
@@ -101,6 +105,8 @@ constexpr Bounded kBounded[] = {
     {"max_rate", &NodeParams::max_rate, kMinMaxRate, kMaxMaxRate, "Hz", "no limit"},
     {"service_timeout", &NodeParams::service_timeout, 0.0, kMaxServiceWaitSeconds, "s", nullptr},
     {"input_timeout", &NodeParams::input_timeout, 0.0, kMaxInputTimeout, "s", nullptr},
+    {"diagnostic_period", &NodeParams::diagnostic_period, kMinDiagnosticPeriod,
+     kMaxDiagnosticPeriod, "s", nullptr},
 };
 
 std::string checkBounded(const ros::NodeHandle& nh, const NodeParams& p) {
@@ -278,6 +284,8 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   check(read(nh, "learn_retrain_growth", p.learn_retrain_growth));
   check(read(nh, "learn_surface_gate", p.learn_surface_gate));
   check(read(nh, "learn_config", p.learn_config));
+  check(read(nh, "diagnostic_period", p.diagnostic_period));
+  check(readInt(nh, "diagnostics_max_failures", p.diagnostics_max_failures, 0));
   if (!why.empty()) return makeError(why);
 
   auto ns = [&nh](const std::string& key) { return "'" + nh.resolveName(key) + "'"; };
@@ -359,6 +367,8 @@ std::string nodeParamsToJson(const NodeParams& p) {
             {"learn_retrain_growth", p.learn_retrain_growth},
             {"learn_surface_gate", p.learn_surface_gate},
             {"learn_config", p.learn_config},
+            {"diagnostic_period", p.diagnostic_period},
+            {"diagnostics_max_failures", p.diagnostics_max_failures},
             {"relocalizer", json::parse(relocalizer::relocalizerParamsToJson(p.relocalizer))}};
   return j.dump(2);
 }

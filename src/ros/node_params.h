@@ -63,6 +63,9 @@ struct NodeParams {
   bool learn_surface_gate = false;          // learned models: refuse poses off the learned surface
   std::string
       learn_config;  // training YAML (as `train --config`); empty: config/forest.yaml defaults
+  // /diagnostics (node_diagnostics.h); inputs count as stopped after input_timeout.
+  double diagnostic_period = 1.0;     // seconds between statuses (diagnostic_updater's name)
+  int diagnostics_max_failures = 10;  // relocalized frames in a row without a pose: WARN (0: never)
   // The learn_* settings as the learner takes them, read and checked by
   // readLearningParams (online_learner.h), the one check the tools share.
   relocalizer::LearningParams learning;

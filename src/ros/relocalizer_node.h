@@ -15,6 +15,8 @@
 //  - NodePlaces (node_places.h): the places relocalized against, and the
 //    services that load, unload and list them;
 //  - NodeOutput (node_output.h): ~result, and a whole answer (pose, TF) or none.
+//  - NodeDiagnostics (node_diagnostics.h): /diagnostics, from the answers as
+//    published, the inputs' activity, the places and the counters.
 
 #include <ros/ros.h>
 #include <tbb/global_control.h>
@@ -26,6 +28,7 @@
 #include "frame_buffer.h"
 #include "frame_input.h"
 #include "learning_feed.h"
+#include "node_diagnostics.h"
 #include "node_inputs.h"
 #include "node_output.h"
 #include "node_params.h"
@@ -61,6 +64,8 @@ class RelocalizerNode {
   ResultMsg process(const FrameInput& input);
   ResultMsg processChecked(const FrameInput& input, NodeOutput::Clock::time_point start);
   void fillCounters(ResultMsg& result) const;
+  // Why no frame can be relocalized now: no place loaded, or learning has no model yet.
+  std::string noPlaceReason() const;
   void logStartup() const;
 
   ros::NodeHandle nh_;
@@ -73,6 +78,7 @@ class RelocalizerNode {
   ThrottledLog log_;
   FrameBuffer<FrameInputPtr> frames_;
   NodeOutput output_;
+  std::unique_ptr<NodeDiagnostics> diagnostics_;
   // Service calls: a thread each, so none waits behind another.
   ServiceCallQueue service_calls_;
   std::unique_ptr<LearningFeed> learning_;

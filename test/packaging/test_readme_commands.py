@@ -23,6 +23,9 @@ fixture's model, lab.model the model of its second room; test.bag is written by
   `rosservice call /relocalizer/relocalize` line must place them (retried while the
   model is too young to answer; its first answer must be right), and its `rosservice call /relocalizer/save_model` line must write
   the model and its key frames;
+- the README's `rostopic echo -n 1 /diagnostics` line, run after its on-demand launch
+  line and `rosservice call /relocalizer/relocalize` line answered, must show the node's
+  status OK with the pose's age and the fixture model's place;
 - every tool named by a `rosrun relocalizer <tool>` line answers `--help` through
   rosrun, and `rosrun relocalizer train --help` is run exactly as written.
 
@@ -47,7 +50,7 @@ README = SOURCE / "README.md"
 DEVEL = pathlib.Path(os.environ.get("RELOCALIZER_DEVEL", SOURCE / "devel"))
 FIXTURE = pathlib.Path(os.environ.get("RELOCALIZER_FIXTURE", SOURCE / "build" / "rostest_fixture"))
 COMMAND_PREFIXES = ("rosrun relocalizer ", "roslaunch relocalizer ", "rosservice call /relocalizer",
-                    "rostopic echo /relocalizer")
+                    "rostopic echo /relocalizer", "rostopic echo -n 1 /diagnostics")
 
 
 def readme_commands():
@@ -356,6 +359,35 @@ class ReadmeCommandsTest(unittest.TestCase):
                     self.assertTrue((self.shell.work / path).is_file(), save)
                     self.assertTrue((self.shell.work / (path + ".keyframes")).is_file(), save)
                 self.shell.stop_all()
+
+    def test_diagnostics_line_shows_the_node_ok_after_an_answer(self):
+        echo = self.readme_lines("rostopic echo -n 1 /diagnostics")[0]
+        call = self.readme_lines("rosservice call /relocalizer/relocalize")[0]
+        launch = [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
+                  if "mode:=continuous" not in c and "learn:=true" not in c
+                  and "places:=" not in c][0]
+        self.shell.start(launch, "roslaunch.log")
+        odom = re.search(r"odom_frame:=(\S+)", launch)
+        self.play_fixture_frames(odom.group(1) if odom else "")
+        answer = self.call_yaml(call)
+        self.assertTrue(answer["success"], f"`{call}` after `{launch}`: {answer['message']}")
+        # Statuses come every second; the first one after the answer says so.
+        deadline = time.monotonic() + 60
+        while True:
+            result = self.shell.run(echo, timeout=60)
+            self.assertEqual(result.returncode, 0, f"`{echo}`:\n{result.stdout}{result.stderr}")
+            array = yaml.safe_load(result.stdout.split("\n---")[0])
+            node = [s for s in array["status"] if s["name"] == "relocalizer: relocalization"]
+            self.assertEqual(len(node), 1, f"`{echo}`: {result.stdout}")
+            values = {v["key"]: v["value"] for v in node[0]["values"]}
+            if values["last pose age (s)"] != "none yet" or time.monotonic() > deadline:
+                break
+            time.sleep(0.5)
+        self.assertEqual(node[0]["level"], 0, f"`{echo}`: {result.stdout}")
+        self.assertEqual(node[0]["hardware_id"], "relocalizer: /relocalizer")
+        self.assertTrue(node[0]["message"].startswith("last pose "), node[0]["message"])
+        self.assertEqual(values["places"], "model (map)")
+        self.assertGreaterEqual(int(values["frames processed"]), 1)
 
     def test_replay_launch_line_prints_the_evaluation(self):
         for launch in self.readme_lines("roslaunch relocalizer replay.launch"):
