@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Renders RViz with rviz/relocalizer.rviz to a PNG, headless:
-#   rosrun relocalizer render_rviz.sh --model MODEL --bag BAG --output PNG [--timeout SECONDS]
-# Starts a private ROS master, an X server of its own (Xvfb) and
+# Usage: rosrun relocalizer render_rviz.sh --model MODEL --bag BAG --output PNG [--timeout SECONDS]
+# Renders RViz with rviz/relocalizer.rviz to a PNG, headless. Starts a private
+# ROS master, an X server of its own (Xvfb) and
 # `roslaunch relocalizer view.launch model:=MODEL mode:=continuous` on it, plays
 # BAG (camera/rgb/image_raw, camera/depth/image_raw, camera/rgb/camera_info, as
 # `rosrun relocalizer make_bag` writes) until an answer's inliers are on
@@ -10,7 +10,7 @@
 # picture's colour shares; exits non-zero when RViz drew no surface or no
 # inliers. Stops everything it started. Needs a sourced devel space.
 set -euo pipefail
-usage() { sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; }
 model="" bag="" output="" timeout=120
 while [ $# -gt 0 ]; do
   case $1 in
