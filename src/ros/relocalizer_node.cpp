@@ -63,6 +63,11 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   diagnostics_ =
       std::make_unique<NodeDiagnostics>(nh_, private_nh_, params_, std::move(watched), output_);
 
+  visuals_ = std::make_unique<NodeVisuals>(private_nh_, params_.map_frame,
+                                           [this] { return places_->places(); });
+  output_.addListener([this](const NodeOutput::Published& p) { visuals_->onPublished(p); });
+  places_->onChange([this] { visuals_->placesChanged(); });
+  visuals_->placesChanged();
   RelocalizeService::Sources sources;
   sources.frames = &frames_;
   sources.process = [this](const FrameInput& input) { return process(input); };

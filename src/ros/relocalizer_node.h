@@ -17,6 +17,7 @@
 //  - NodeOutput (node_output.h): ~result, and a whole answer (pose, TF) or none.
 //  - NodeDiagnostics (node_diagnostics.h): /diagnostics, from the answers as
 //    published, the inputs' activity, the places and the counters.
+//  - NodeVisuals (node_visuals.h): ~surface and ~inliers, for RViz.
 
 #include <ros/ros.h>
 #include <tbb/global_control.h>
@@ -33,6 +34,7 @@
 #include "node_output.h"
 #include "node_params.h"
 #include "node_places.h"
+#include "node_visuals.h"
 #include "relocalize_service.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
@@ -79,6 +81,7 @@ class RelocalizerNode {
   FrameBuffer<FrameInputPtr> frames_;
   NodeOutput output_;
   std::unique_ptr<NodeDiagnostics> diagnostics_;
+  std::unique_ptr<NodeVisuals> visuals_;  // listens to output_ and places_
   // Service calls: a thread each, so none waits behind another.
   ServiceCallQueue service_calls_;
   std::unique_ptr<LearningFeed> learning_;

@@ -17,6 +17,11 @@ fixture's model, lab.model the model of its second room; test.bag is written by
   line names, and its `unload_place` and `load_place` lines must succeed, in that order,
   after which the place is listed again;
 - every `roslaunch relocalizer replay.launch ...` line is run verbatim;
+- every `roslaunch relocalizer view.launch ...` line is launched verbatim on an X display of
+  the test's own (Xvfb): ~surface must come latched in the map frame and RViz must subscribe
+  to it; every `rosrun relocalizer render_rviz.sh ...` line is run verbatim and its PNG must
+  not be blank: the surface's colours in over 5 % of the pixels, the inliers' in some, and
+  many distinct colours (scripts/xwd_to_png.py --stats);
 - every `roslaunch relocalizer relocalizer.launch learn:=true ...` line is launched
   verbatim while the fixture's training frames play with their poses on /tf (the
   rostest fixture's learn.bag), then the test frames play without TF and the README's
@@ -32,6 +37,7 @@ fixture's model, lab.model the model of its second room; test.bag is written by
 A private ROS master (ROS_MASTER_URI on a free port) keeps the test away from any
 master that runs on this machine.
 """
+import json
 import math
 import os
 import pathlib
@@ -398,6 +404,40 @@ class ReadmeCommandsTest(unittest.TestCase):
                 output = re.search(r"output:=\$PWD/(\S+)", launch)
                 if output:
                     self.assertTrue((self.shell.work / output.group(1) / "summary.json").is_file())
+
+    def test_view_launch_line_starts_rviz_on_the_latched_surface(self):
+        for launch in self.readme_lines("roslaunch relocalizer view.launch"):
+            with self.subTest(launch=launch):
+                xvfb = subprocess.Popen(["Xvfb", "-displayfd", "1", "-screen", "0", "1000x640x24",
+                                         "-nolisten", "tcp"], stdout=subprocess.PIPE,
+                                        stderr=subprocess.DEVNULL, text=True)
+                try:
+                    self.shell.env["DISPLAY"] = ":" + xvfb.stdout.readline().strip()
+                    self.shell.start(launch, "view.log")
+                    self.shell.wait_until("rostopic echo -n 1 /relocalizer/surface/header",
+                                          'frame_id: "map"', timeout=120)
+                    self.shell.wait_until("rostopic info /relocalizer/surface", "* /rviz",
+                                          timeout=120)
+                finally:
+                    self.shell.stop_all()
+                    xvfb.terminate()
+                    xvfb.wait(timeout=15)
+
+    def test_render_line_saves_a_picture_that_is_not_blank(self):
+        for line in self.readme_lines("rosrun relocalizer render_rviz.sh"):
+            with self.subTest(line=line):
+                started = time.monotonic()
+                result = self.shell.run(line, timeout=600)
+                self.assertEqual(result.returncode, 0, result.stdout[-3000:] + result.stderr[-3000:])
+                picture = self.shell.work / re.search(r"--output (\S+)", line).group(1)
+                stats = json.loads(subprocess.run(
+                    ["/usr/bin/python3", str(SOURCE / "scripts" / "xwd_to_png.py"), "--stats",
+                     str(picture)], capture_output=True, text=True, check=True).stdout)
+                share = stats["share"]
+                print(f"`{line}`: {time.monotonic() - started:.0f} s, {stats}")
+                self.assertGreater(share["surface"], 0.05, f"no surface drawn: {stats}")
+                self.assertGreater(share["points"] + share["lines"], 0.001, f"no inliers: {stats}")
+                self.assertGreater(stats["colours"], 100, f"too few colours: {stats}")
 
 
 if __name__ == "__main__":
