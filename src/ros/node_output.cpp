@@ -7,6 +7,14 @@
 
 namespace relocalizer_ros {
 
+ros::Time answerStamp(const FrameInput& input, const relocalizer::Relocalization& solved) {
+  // ICP aligned the pose with the depth image, so it holds at the depth's
+  // time; the solver's own pose rests on the colour the forests read (its
+  // rotation follows colour when the camera turns between the two).
+  return solved.success && solved.surface_refined ? input.depth->header.stamp
+                                                  : input.colour->header.stamp;
+}
+
 NodeOutput::NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
                        std::function<void(ResultMsg&)> counters)
     : params_(params), counters_(std::move(counters)) {
@@ -37,7 +45,7 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
                                          const relocalizer::PlaceAnswer& found,
                                          Clock::time_point start) {
   const relocalizer::Relocalization& solved = found.relocalization;
-  const ros::Time stamp = input.colour->header.stamp;
+  const ros::Time stamp = answerStamp(input, solved);
   ResultMsg result = failure(stamp, "");
   result.places_screened = saturate(found.attempts.size());
   result.places_solved = saturate(static_cast<uint64_t>(
@@ -69,6 +77,7 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
       // The pose alone would leave TF consumers without the correction they
       // act on; report the attempt as failed rather than half-done.
       result.success = false;
+      result.header.stamp = input.colour->header.stamp;  // as every answer without a pose
       result.message = "relocalized in place '" + found.place + "', but " + prepared.error();
     }
   }

@@ -23,6 +23,11 @@
 
 namespace relocalizer_ros {
 
+// The time an answer holds for, its stamp everywhere (~result, ~pose, TF, the
+// service): the depth image's when depth ICP refined the pose, else the
+// colour image's, which failures carry too.
+ros::Time answerStamp(const FrameInput& input, const relocalizer::Relocalization& solved);
+
 class NodeOutput {
  public:
   using ResultMsg = relocalizer::RelocalizationResult;

@@ -55,6 +55,11 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
                   : FrameBuffer<FrameInputPtr>::Policy::Latest),
       output_(nh_, private_nh_, params_, [this](ResultMsg& result) { fillCounters(result); }),
       service_calls_(kServiceThreads) {
+  if (PoseHandoff::wanted(params_)) {
+    handoff_ = std::make_unique<PoseHandoff>(nh_, params_);
+    output_.addListener(
+        [handoff = handoff_.get()](const NodeOutput::Published& p) { handoff->onPublished(p); });
+  }
   RelocalizeService::Sources sources;
   sources.frames = &frames_;
   sources.process = [this](const FrameInput& input) { return process(input); };

@@ -15,6 +15,8 @@
 //  - NodePlaces (node_places.h): the places relocalized against, and the
 //    services that load, unload and list them;
 //  - NodeOutput (node_output.h): ~result, and a whole answer (pose, TF) or none.
+//  - PoseHandoff (pose_handoff.h, optional): accepted poses to initialpose
+//    and robot_localization's SetPose, each frame once.
 
 #include <ros/ros.h>
 #include <tbb/global_control.h>
@@ -30,6 +32,7 @@
 #include "node_output.h"
 #include "node_params.h"
 #include "node_places.h"
+#include "pose_handoff.h"
 #include "relocalize_service.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
@@ -73,6 +76,7 @@ class RelocalizerNode {
   ThrottledLog log_;
   FrameBuffer<FrameInputPtr> frames_;
   NodeOutput output_;
+  std::unique_ptr<PoseHandoff> handoff_;  // listens to output_
   // Service calls: a thread each, so none waits behind another.
   ServiceCallQueue service_calls_;
   std::unique_ptr<LearningFeed> learning_;
