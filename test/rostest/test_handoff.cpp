@@ -141,7 +141,9 @@ TEST(Handoff, AcceptedPosesReachAmclAndTheFilterOnceEach) {
     });
     ASSERT_NE(same, accepted.end()) << "SetPose got a pose that was not accepted";
     expectSamePose(set[i], *same, "set_pose " + std::to_string(i));
-    if (i > 0) EXPECT_GT(set[i].header.stamp, set[i - 1].header.stamp) << "not in order";
+    if (i > 0) {
+      EXPECT_GT(set[i].header.stamp, set[i - 1].header.stamp) << "not in order";
+    }
   }
 }
 
