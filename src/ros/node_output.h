@@ -24,8 +24,8 @@
 namespace relocalizer_ros {
 
 // The time an answer holds for, its stamp everywhere (~result, ~pose, TF, the
-// service): the depth image's when depth ICP refined the pose, else the
-// colour image's, which failures carry too.
+// service): the depth image's for a pose; an answer without one carries the
+// colour image's, as every report of a frame does.
 ros::Time answerStamp(const FrameInput& input, const relocalizer::Relocalization& solved);
 
 class NodeOutput {
