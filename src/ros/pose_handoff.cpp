@@ -9,24 +9,21 @@ namespace relocalizer_ros {
 
 namespace {
 
-using relocalizer::Matrix6d;
-using relocalizer::Pose;
 using RowMajor6d = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
 
-// The covariance of map_T_camera * camera_T_frame from map_T_camera's. The
-// solver's covariance is for left perturbations R = Exp(w) R0, t = t0 + v
-// (refinement_costs.h); the frame's origin t0 + R0 c then moves by
-// v + w x (R0 c), and its rotation by the same w.
+}  // namespace
+
 Matrix6d moveCovariance(const Matrix6d& covariance, const Pose& map_T_camera,
                         const Pose& camera_T_frame) {
+  // The solver's covariance is for left perturbations R = Exp(w) R0,
+  // t = t0 + v (refinement_costs.h); the frame's origin t0 + R0 c then moves
+  // by v + w x (R0 c), and its rotation by the same w.
   const Eigen::Vector3d lever = map_T_camera.linear() * camera_T_frame.translation();
   Matrix6d jacobian = Matrix6d::Identity();
   jacobian.topRightCorner<3, 3>() << 0, lever.z(), -lever.y(), -lever.z(), 0, lever.x(), lever.y(),
       -lever.x(), 0;  // -[lever]x
   return jacobian * covariance * jacobian.transpose();
 }
-
-}  // namespace
 
 PoseHandoff::PoseHandoff(ros::NodeHandle nh, const NodeParams& params)
     : params_(params), nh_(std::move(nh)) {

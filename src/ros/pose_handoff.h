@@ -30,9 +30,19 @@
 #include "node_output.h"
 #include "node_params.h"
 #include "relocalizer/core/expected.h"
+#include "relocalizer/core/pose.h"
 #include "throttled_log.h"
 
 namespace relocalizer_ros {
+
+using relocalizer::Matrix6d;
+using relocalizer::Pose;
+
+// The covariance of map_T_camera * camera_T_frame (x y z, rotation about the
+// map axes) from map_T_camera's: the frame's position also moves with the
+// camera's rotation, along the lever arm between them.
+Matrix6d moveCovariance(const Matrix6d& covariance, const Pose& map_T_camera,
+                        const Pose& camera_T_frame);
 
 class PoseHandoff {
  public:
