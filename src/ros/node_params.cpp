@@ -276,6 +276,9 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   check(read(nh, "service_timeout", p.service_timeout));
   check(read(nh, "input_timeout", p.input_timeout));
   check(readInt(nh, "threads", p.threads, 0));
+  check(read(nh, "forward_initialpose", p.forward_initialpose));
+  check(read(nh, "set_pose_service", p.set_pose_service));
+  check(read(nh, "handoff_frame", p.handoff_frame));
   check(read(nh, "learn", p.learn));
   check(read(nh, "save_on_exit", p.save_on_exit));
   check(read(nh, "learn_min_motion", p.learn_min_motion));
@@ -298,6 +301,7 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   }
   p.map_frame = stripLeadingSlashes(p.map_frame);
   p.odom_frame = stripLeadingSlashes(p.odom_frame);
+  p.handoff_frame = stripLeadingSlashes(p.handoff_frame);
   auto places = readPlaces(nh, p.map_frame);
   if (!places) return makeError(places.error());
   p.places = std::move(*places);
@@ -359,6 +363,9 @@ std::string nodeParamsToJson(const NodeParams& p) {
             {"service_timeout", p.service_timeout},
             {"input_timeout", p.input_timeout},
             {"threads", p.threads},
+            {"forward_initialpose", p.forward_initialpose},
+            {"set_pose_service", p.set_pose_service},
+            {"handoff_frame", p.handoff_frame},
             {"learn", p.learn},
             {"save_on_exit", p.save_on_exit},
             {"learn_min_motion", p.learn_min_motion},

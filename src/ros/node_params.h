@@ -53,6 +53,10 @@ struct NodeParams {
   double input_timeout =
       3.0;          // seconds of images without a synchronised frame before it is reported
   int threads = 0;  // TBB threads inside a relocalization (0: every core)
+  // Hand-off of accepted poses (pose_handoff.h).
+  bool forward_initialpose = false;  // publish each accepted pose on initialpose (amcl, rtabmap)
+  std::string set_pose_service;      // call this robot_localization SetPose service ("": none)
+  std::string handoff_frame;         // hand off this frame's pose, not the camera's ("": camera)
   // Online learning beside SLAM (docs/online_learning.md).
   bool learn = false;        // learn the place from frames posed by TF map_frame -> camera
   std::string save_on_exit;  // learn: write the model and its key frames here at shutdown

@@ -68,6 +68,11 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   output_.addListener([this](const NodeOutput::Published& p) { visuals_->onPublished(p); });
   places_->onChange([this] { visuals_->placesChanged(); });
   visuals_->placesChanged();
+  if (PoseHandoff::wanted(params_)) {
+    handoff_ = std::make_unique<PoseHandoff>(nh_, params_);
+    output_.addListener(
+        [handoff = handoff_.get()](const NodeOutput::Published& p) { handoff->onPublished(p); });
+  }
   RelocalizeService::Sources sources;
   sources.frames = &frames_;
   sources.process = [this](const FrameInput& input) { return process(input); };

@@ -18,6 +18,8 @@
 //  - NodeDiagnostics (node_diagnostics.h): /diagnostics, from the answers as
 //    published, the inputs' activity, the places and the counters.
 //  - NodeVisuals (node_visuals.h): ~surface and ~inliers, for RViz.
+//  - PoseHandoff (pose_handoff.h, optional): accepted poses to initialpose
+//    and robot_localization's SetPose, each frame once.
 
 #include <ros/ros.h>
 #include <tbb/global_control.h>
@@ -35,6 +37,7 @@
 #include "node_params.h"
 #include "node_places.h"
 #include "node_visuals.h"
+#include "pose_handoff.h"
 #include "relocalize_service.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
@@ -82,6 +85,7 @@ class RelocalizerNode {
   NodeOutput output_;
   std::unique_ptr<NodeDiagnostics> diagnostics_;
   std::unique_ptr<NodeVisuals> visuals_;  // listens to output_ and places_
+  std::unique_ptr<PoseHandoff> handoff_;  // listens to output_
   // Service calls: a thread each, so none waits behind another.
   ServiceCallQueue service_calls_;
   std::unique_ptr<LearningFeed> learning_;

@@ -16,6 +16,9 @@ fixture's model, lab.model the model of its second room; test.bag is written by
   within 5 cm / 5 degrees; then its `list_places` line must list every place the launch
   line names, and its `unload_place` and `load_place` lines must succeed, in that order,
   after which the place is listed again;
+- every hand-off line (`forward_initialpose:=true` or `set_pose_service:=...`) is launched
+  verbatim with a static TF to its `handoff_frame`: after the README's service call, the pose
+  of that frame must reach /initialpose or a stand-in robot_localization SetPose service;
 - every `roslaunch relocalizer replay.launch ...` line is run verbatim;
 - every `roslaunch relocalizer view.launch ...` line is launched verbatim on an X display of
   the test's own (Xvfb): ~surface must come latched in the map frame and RViz must subscribe
@@ -394,6 +397,49 @@ class ReadmeCommandsTest(unittest.TestCase):
         self.assertTrue(node[0]["message"].startswith("last pose "), node[0]["message"])
         self.assertEqual(values["places"], "model (map)")
         self.assertGreaterEqual(int(values["frames processed"]), 1)
+    def test_handoff_launch_lines_hand_the_answer_to_amcl_and_robot_localization(self):
+        """The hand-off lines: the answer's pose reaches /initialpose (what amcl reads) or a
+        robot_localization SetPose service (a stand-in serving that very type name), as the
+        pose of handoff_frame, which a static TF puts 0.3 m below the camera."""
+        call = self.readme_lines("rosservice call /relocalizer/relocalize")[0]
+        launches = [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
+                    if "forward_initialpose:=true" in c or "set_pose_service:=" in c]
+        self.assertTrue(launches, "README.md has no hand-off line")
+        for launch in launches:
+            with self.subTest(launch=launch):
+                self.shell.start(launch, "roslaunch.log")
+                self.shell.wait_until("rostopic list", "/relocalizer/result")
+                frame = re.search(r"handoff_frame:=(\S+)", launch)
+                if frame:
+                    self.shell.start(
+                        "rostopic pub -l /tf_static tf2_msgs/TFMessage \"transforms: [{header: "
+                        "{frame_id: camera_rgb_optical_frame}, child_frame_id: "
+                        f"{frame.group(1)}, transform: {{translation: {{y: 0.3}}, "
+                        "rotation: {w: 1.0}}}]\"", "tf_static.log")
+                handed = self.shell.work / "handed.yaml"
+                service = re.search(r"set_pose_service:=(\S+)", launch)
+                if service:
+                    self.shell.start(f"python3 {SOURCE}/test/packaging/fake_set_pose.py "
+                                     f"{service.group(1)} {handed}", "fake_set_pose.log")
+                    self.shell.wait_until("rosservice list", service.group(1))
+                else:
+                    self.shell.start("rostopic echo -n 1 /initialpose", "handed.yaml")
+                    self.shell.wait_until("rostopic info /initialpose", "* /rostopic_")
+                self.shell.start("rosbag play --loop --quiet test.bag", "rosbag_play.log")
+                answer = self.call_yaml(call)
+                self.assertTrue(answer["success"], f"`{call}` after `{launch}`: {answer['message']}")
+                deadline = time.monotonic() + 30
+                while time.monotonic() < deadline and not (
+                        handed.exists() and "position" in handed.read_text()):
+                    time.sleep(0.2)
+                pose = yaml.safe_load(handed.read_text().split("---")[0])
+                self.assertEqual(pose["header"]["frame_id"], "map", self.shell.logs())
+                camera = answer["pose"]["pose"]["pose"]["position"]
+                base = pose["pose"]["pose"]["position"]
+                lever = math.dist([camera["x"], camera["y"], camera["z"]],
+                                  [base["x"], base["y"], base["z"]])
+                self.assertAlmostEqual(lever, 0.3 if frame else 0.0, delta=1e-3, msg=launch)
+                self.shell.stop_all()
 
     def test_replay_launch_line_prints_the_evaluation(self):
         for launch in self.readme_lines("roslaunch relocalizer replay.launch"):
