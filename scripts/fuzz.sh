@@ -10,6 +10,8 @@
 #   FUZZ_TARGETS   space-separated subset of targets (default: all)
 #   FUZZ_BUILD_DIR build folder (default build/fuzz)
 #   JOBS           parallel compile jobs (default: nproc)
+#   FUZZ_BUILD_ONLY set: build the targets and stop (CI builds them at low
+#                  priority while the new-machine stage runs)
 #   CXX_FUZZ       clang++ to use (default: clang++, else clang++-14)
 #
 # Inputs each target found interesting are kept in build/fuzz/corpus/<target>/
@@ -47,6 +49,7 @@ if ! cmake --build "$build_dir" -j "$jobs" --target "${targets[@]}" fuzz_seed_mo
   exit 1
 fi
 echo "fuzz: built in $(( $(date +%s) - start )) s; running ${#targets[@]} targets for ${seconds} s each, $parallel at a time"
+[ -z "${FUZZ_BUILD_ONLY:-}" ] || exit 0
 
 # Longest input per target: a small model is ~2 KB; text files are short.
 max_len() {

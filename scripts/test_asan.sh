@@ -15,6 +15,8 @@
 #   ASAN_GTEST_FILTER  gtest filter for every binary (default: all tests), e.g.
 #                      '-RealData.*' to leave out slow suites
 #   ASAN_TEST_TIMEOUT  seconds per binary before it counts as failed (default 1200)
+#   ASAN_BUILD_ONLY    set: build the binaries and stop (CI builds them at low
+#                      priority while the new-machine stage runs)
 set -uo pipefail
 cd "$(dirname "$0")/.."
 export PATH=/usr/bin:/bin:$PATH
@@ -44,6 +46,7 @@ if ! cmake --build "$build_dir" -j "$jobs" --target "${tests[@]}"; then
   fail "the unit tests did not build with sanitizers"
 fi
 echo "test-asan: built ${#tests[@]} unit-test binaries in $(( $(date +%s) - start )) s"
+[ -z "${ASAN_BUILD_ONLY:-}" ] || exit 0
 
 results_dir="$build_dir/test_results_asan"
 rm -rf "$results_dir"

@@ -118,10 +118,11 @@ Eigen::Matrix3d informationOf(const LeafMode& mode) {
   return mode.informationMatrix().cast<double>();
 }
 
-// Refinement terms for every sample that is an inlier of `pose`.
+// Refinement terms for every sample that is an inlier of `pose`; with
+// `solution`, its inlier counts and camera points too.
 void collectTerms(const std::vector<const SolverSample*>& samples, const Pose& pose,
                   const PoseSolverParams& params, std::vector<RefinementTerm>& terms,
-                  int* point_inliers, int* line_inliers) {
+                  int* point_inliers, int* line_inliers, PoseSolution* solution = nullptr) {
   terms.clear();
   int points = 0, lines = 0;
   const Eigen::Matrix3f r = pose.linear().cast<float>();
@@ -135,6 +136,9 @@ void collectTerms(const std::vector<const SolverSample*>& samples, const Pose& p
     term.camera_point = s->camera_point.cast<double>();
     term.mode_mean = mode.mean.cast<double>();
     term.information = informationOf(mode);
+    if (solution)
+      (s->line ? solution->line_inlier_cameras : solution->point_inlier_cameras)
+          .push_back(s->camera_point);
     if (s->line) {
       ++lines;
       term.on_line = params.use_lines_in_refinement;
@@ -342,7 +346,10 @@ void refineOnAllSamples(const std::vector<const SolverSample*>& all, const Pose&
       solution.refinement_failure = refined.message;
     }
   }
-  collectTerms(all, pose, params, terms, &solution.point_inliers, &solution.line_inliers);
+  solution.point_inlier_cameras.clear();
+  solution.line_inlier_cameras.clear();
+  collectTerms(all, pose, params, terms, &solution.point_inliers, &solution.line_inliers,
+               &solution);
   solution.covariance = refinementCovariance(pose, terms, params);
   solution.pose = pose;
 }

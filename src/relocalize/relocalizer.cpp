@@ -21,6 +21,14 @@ using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
+std::vector<Eigen::Vector3f> inWorld(const Pose& camera_to_world,
+                                     const std::vector<Eigen::Vector3f>& camera_points) {
+  const Eigen::Isometry3f pose = camera_to_world.cast<float>();
+  std::vector<Eigen::Vector3f> world;
+  world.reserve(camera_points.size());
+  for (const Eigen::Vector3f& p : camera_points) world.push_back(pose * p);
+  return world;
+}
 }  // namespace
 
 Relocalizer::Relocalizer(Model model, RelocalizerParams params)
@@ -307,6 +315,8 @@ Relocalization Relocalizer::solve(const RgbdFrame& frame, const FrameSamples& sa
       return failed(std::move(result), buffer, start);
     }
   }
+  result.point_inlier_world = inWorld(result.pose, solution.point_inlier_cameras);
+  result.line_inlier_world = inWorld(result.pose, solution.line_inlier_cameras);
   result.success = true;
   result.timings.total = secondsSince(start);
   return result;

@@ -190,13 +190,8 @@ std::string NodeInputs::topics() const {
 void NodeInputs::onWatchdog(const ros::WallTimerEvent&) {
   const int64_t now = steadyNanoseconds();
   const double timeout = params_.input_timeout;
-  const double since_start = 1e-9 * static_cast<double>(now - start_ns_);
-  const int64_t last_image = last_image_ns_.load();
-  const int64_t last_frame = last_frame_ns_.load();
-  const double since_image =
-      last_image ? 1e-9 * static_cast<double>(now - last_image) : since_start;
-  const double since_frame =
-      last_frame ? 1e-9 * static_cast<double>(now - last_frame) : since_start;
+  const double since_image = secondsSince(last_image_ns_, now);
+  const double since_frame = secondsSince(last_frame_ns_, now);
   if (since_image < timeout && since_frame >= timeout) {
     // Images flow but never form a set: a missing camera_info, or stamps that
     // never match. Nothing else would ever report it, so the watchdog does.
@@ -215,6 +210,20 @@ void NodeInputs::onWatchdog(const ros::WallTimerEvent&) {
     ROS_WARN("relocalizer: no image for %s s on %s or %s", secondsText(since_image).c_str(),
              colour_sub_.getTopic().c_str(), depth_sub_.getTopic().c_str());
   }
+}
+
+double NodeInputs::secondsSince(int64_t last_ns, int64_t now_ns) const {
+  return 1e-9 * static_cast<double>(now_ns - (last_ns ? last_ns : start_ns_));
+}
+
+NodeInputs::Activity NodeInputs::activity() const {
+  Activity activity;
+  for (int input = 0; input < 3; ++input) activity.topics[input] = topic(input);
+  activity.messages = {colour_count_, depth_count_, info_count_};
+  const int64_t last_frame = last_frame_ns_;
+  activity.any_frame = last_frame != 0;
+  activity.since_frame = secondsSince(last_frame, steadyNanoseconds());
+  return activity;
 }
 
 std::string NodeInputs::status() const {

@@ -12,6 +12,7 @@
 #include <message_filters/subscriber.h>
 #include <ros/ros.h>
 
+#include <array>
 #include <atomic>
 #include <functional>
 #include <memory>
@@ -55,6 +56,15 @@ class NodeInputs {
   uint64_t timeJumps() const { return time_jumps_; }
   uint64_t messagesDropped() const { return messages_dropped_; }
 
+  // What /diagnostics shows of the inputs (node_diagnostics.h).
+  struct Activity {
+    std::array<std::string, 3> topics;   // colour, depth, camera_info, as resolved
+    std::array<uint64_t, 3> messages{};  // received on each since start
+    bool any_frame = false;              // a synchronised set arrived
+    double since_frame = 0.0;            // seconds since the last set, or since start when none
+  };
+  Activity activity() const;
+
  private:
   template <int I, typename M>
   void onInput(const boost::shared_ptr<M const>& message);
@@ -66,6 +76,8 @@ class NodeInputs {
   void onStampDropped(int input, StampGate::Drop why, int64_t stamp_ns);
   void onWatchdog(const ros::WallTimerEvent&);
   std::string topic(int input) const;
+  // Seconds from the steady-clock time `last_ns` (0: never, then from the start) to `now_ns`.
+  double secondsSince(int64_t last_ns, int64_t now_ns) const;
 
   ros::NodeHandle nh_;
   const NodeParams& params_;

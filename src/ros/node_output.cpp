@@ -7,6 +7,14 @@
 
 namespace relocalizer_ros {
 
+ros::Time answerStamp(const FrameInput& input, const relocalizer::Relocalization& solved) {
+  // The pose is solved from the depth's 3D points (and ICP aligns it with
+  // them), so it holds at the depth's time, with or without ICP: a camera
+  // turning between the two stamps is placed where it was for the depth
+  // (test_stamps.cpp measures both).
+  return solved.success ? input.depth->header.stamp : input.colour->header.stamp;
+}
+
 NodeOutput::NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
                        std::function<void(ResultMsg&)> counters)
     : params_(params), counters_(std::move(counters)) {
@@ -37,7 +45,7 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
                                          const relocalizer::PlaceAnswer& found,
                                          Clock::time_point start) {
   const relocalizer::Relocalization& solved = found.relocalization;
-  const ros::Time stamp = input.colour->header.stamp;
+  const ros::Time stamp = answerStamp(input, solved);
   ResultMsg result = failure(stamp, "");
   result.places_screened = saturate(found.attempts.size());
   result.places_solved = saturate(static_cast<uint64_t>(
@@ -69,6 +77,7 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
       // The pose alone would leave TF consumers without the correction they
       // act on; report the attempt as failed rather than half-done.
       result.success = false;
+      result.header.stamp = input.colour->header.stamp;  // as every answer without a pose
       result.message = "relocalized in place '" + found.place + "', but " + prepared.error();
     }
   }

@@ -23,6 +23,11 @@
 
 namespace relocalizer_ros {
 
+// The time an answer holds for, its stamp everywhere (~result, ~pose, TF, the
+// service): the depth image's for a pose; an answer without one carries the
+// colour image's, as every report of a frame does.
+ros::Time answerStamp(const FrameInput& input, const relocalizer::Relocalization& solved);
+
 class NodeOutput {
  public:
   using ResultMsg = relocalizer::RelocalizationResult;

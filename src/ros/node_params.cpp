@@ -94,6 +94,10 @@ constexpr double kMaxInputTimeout = 3600.0;
 // A hint older than an hour describes a robot that has long moved on.
 constexpr double kMinHintTimeout = 0.01, kMaxHintTimeout = 3600.0;
 
+// /diagnostics: faster than 10 Hz floods the aggregators for nothing; a
+// status older than a minute says nothing about the node now.
+constexpr double kMinDiagnosticPeriod = 0.1, kMaxDiagnosticPeriod = 60.0;
+
 constexpr Bounded kBounded[] = {
     {"transform_tolerance", &NodeParams::transform_tolerance, 0.0, kMaxTransformTolerance, "s",
      nullptr},
@@ -104,6 +108,8 @@ constexpr Bounded kBounded[] = {
     {"service_timeout", &NodeParams::service_timeout, 0.0, kMaxServiceWaitSeconds, "s", nullptr},
     {"input_timeout", &NodeParams::input_timeout, 0.0, kMaxInputTimeout, "s", nullptr},
     {"hint_timeout", &NodeParams::hint_timeout, kMinHintTimeout, kMaxHintTimeout, "s", nullptr},
+    {"diagnostic_period", &NodeParams::diagnostic_period, kMinDiagnosticPeriod,
+     kMaxDiagnosticPeriod, "s", nullptr},
 };
 
 std::string checkBounded(const ros::NodeHandle& nh, const NodeParams& p) {
@@ -274,6 +280,9 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   check(read(nh, "input_timeout", p.input_timeout));
   check(read(nh, "hint_timeout", p.hint_timeout));
   check(readInt(nh, "threads", p.threads, 0));
+  check(read(nh, "forward_initialpose", p.forward_initialpose));
+  check(read(nh, "set_pose_service", p.set_pose_service));
+  check(read(nh, "handoff_frame", p.handoff_frame));
   check(read(nh, "learn", p.learn));
   check(read(nh, "save_on_exit", p.save_on_exit));
   check(read(nh, "learn_min_motion", p.learn_min_motion));
@@ -282,6 +291,8 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   check(read(nh, "learn_retrain_growth", p.learn_retrain_growth));
   check(read(nh, "learn_surface_gate", p.learn_surface_gate));
   check(read(nh, "learn_config", p.learn_config));
+  check(read(nh, "diagnostic_period", p.diagnostic_period));
+  check(readInt(nh, "diagnostics_max_failures", p.diagnostics_max_failures, 0));
   if (!why.empty()) return makeError(why);
 
   auto ns = [&nh](const std::string& key) { return "'" + nh.resolveName(key) + "'"; };
@@ -294,6 +305,7 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   }
   p.map_frame = stripLeadingSlashes(p.map_frame);
   p.odom_frame = stripLeadingSlashes(p.odom_frame);
+  p.handoff_frame = stripLeadingSlashes(p.handoff_frame);
   auto places = readPlaces(nh, p.map_frame);
   if (!places) return makeError(places.error());
   p.places = std::move(*places);
@@ -356,6 +368,9 @@ std::string nodeParamsToJson(const NodeParams& p) {
             {"input_timeout", p.input_timeout},
             {"hint_timeout", p.hint_timeout},
             {"threads", p.threads},
+            {"forward_initialpose", p.forward_initialpose},
+            {"set_pose_service", p.set_pose_service},
+            {"handoff_frame", p.handoff_frame},
             {"learn", p.learn},
             {"save_on_exit", p.save_on_exit},
             {"learn_min_motion", p.learn_min_motion},
@@ -364,6 +379,8 @@ std::string nodeParamsToJson(const NodeParams& p) {
             {"learn_retrain_growth", p.learn_retrain_growth},
             {"learn_surface_gate", p.learn_surface_gate},
             {"learn_config", p.learn_config},
+            {"diagnostic_period", p.diagnostic_period},
+            {"diagnostics_max_failures", p.diagnostics_max_failures},
             {"relocalizer", json::parse(relocalizer::relocalizerParamsToJson(p.relocalizer))}};
   return j.dump(2);
 }

@@ -56,6 +56,10 @@ struct NodeParams {
   // Pose hints (node_hints.h): seconds an `initialpose` hint holds for the
   // relocalizations after it, until one answers with a pose.
   double hint_timeout = 10.0;
+  // Hand-off of accepted poses (pose_handoff.h).
+  bool forward_initialpose = false;  // publish each accepted pose on initialpose (amcl, rtabmap)
+  std::string set_pose_service;      // call this robot_localization SetPose service ("": none)
+  std::string handoff_frame;         // hand off this frame's pose, not the camera's ("": camera)
   // Online learning beside SLAM (docs/online_learning.md).
   bool learn = false;        // learn the place from frames posed by TF map_frame -> camera
   std::string save_on_exit;  // learn: write the model and its key frames here at shutdown
@@ -66,6 +70,9 @@ struct NodeParams {
   bool learn_surface_gate = false;          // learned models: refuse poses off the learned surface
   std::string
       learn_config;  // training YAML (as `train --config`); empty: config/forest.yaml defaults
+  // /diagnostics (node_diagnostics.h); inputs count as stopped after input_timeout.
+  double diagnostic_period = 1.0;     // seconds between statuses (diagnostic_updater's name)
+  int diagnostics_max_failures = 10;  // relocalized frames in a row without a pose: WARN (0: never)
   // The learn_* settings as the learner takes them, read and checked by
   // readLearningParams (online_learner.h), the one check the tools share.
   relocalizer::LearningParams learning;

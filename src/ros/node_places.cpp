@@ -85,17 +85,22 @@ void NodePlaces::shutdown() {
 void NodePlaces::followLearner() {
   if (!learned_) return;
   std::shared_ptr<const relocalizer::Relocalizer> current = learned_();
-  std::lock_guard<std::mutex> lock(learned_mutex_);
-  if (current == learned_model_) return;
-  learned_model_ = current;
-  if (!current) return;
-  relocalizer::Place place;
-  place.name = learned_name_;
-  place.map_frame = params_.map_frame;
-  place.relocalizer = std::move(current);
-  if (const relocalizer::Status put = places_.put(std::move(place));
-      !put && log_.allow(put.error()))
-    ROS_WARN("relocalizer: the learned model: %s", put.error().c_str());
+  {
+    std::lock_guard<std::mutex> lock(learned_mutex_);
+    if (current == learned_model_) return;
+    learned_model_ = current;
+    if (!current) return;
+    relocalizer::Place place;
+    place.name = learned_name_;
+    place.map_frame = params_.map_frame;
+    place.relocalizer = std::move(current);
+    if (const relocalizer::Status put = places_.put(std::move(place)); !put) {
+      if (log_.allow(put.error()))
+        ROS_WARN("relocalizer: the learned model: %s", put.error().c_str());
+      return;
+    }
+  }
+  if (changed_) changed_();
 }
 
 relocalizer::PlaceAnswer NodePlaces::relocalize(const relocalizer::RgbdFrame& frame,
@@ -142,6 +147,7 @@ bool NodePlaces::onLoad(relocalizer::LoadPlace::Request& request,
         place ? places_.put(*place) : relocalizer::Status(relocalizer::makeError(place.error()));
     response.success = put.ok();
     if (put) {
+      if (changed_) changed_();
       warnLimitations(*place);
       response.message = std::string(replaces ? "replaced" : "loaded") + " place " +
                          placeText(relocalizer::placeFigures(*place));
@@ -163,6 +169,7 @@ bool NodePlaces::onUnload(relocalizer::UnloadPlace::Request& request,
     response.message = "'" + request.name + "' is the learned place; it follows the learner";
   } else {
     response.success = places_.remove(request.name);
+    if (response.success && changed_) changed_();
     response.message = response.success ? "unloaded place '" + request.name + "'"
                                         : "no place named " + request.name;
   }

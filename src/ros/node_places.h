@@ -48,6 +48,11 @@ class NodePlaces {
   std::vector<relocalizer::PlaceFigures> list();
   bool empty();
   bool learning() const { return static_cast<bool>(learned_); }
+  // The places now (the learned one as last put), for those who draw them.
+  std::vector<std::shared_ptr<const relocalizer::Place>> places() const { return places_.places(); }
+  // Called after every change of the places (load, unload, a new learned
+  // model), on the thread that made it. Set before advertise().
+  void onChange(std::function<void()> changed) { changed_ = std::move(changed); }
 
  private:
   NodePlaces(const NodeParams& params, LearnedModel learned);
@@ -67,6 +72,7 @@ class NodePlaces {
   std::shared_ptr<const relocalizer::Relocalizer> learned_model_;  // the one last put
   ThrottledLog log_;
   ros::ServiceServer load_service_, unload_service_, list_service_;
+  std::function<void()> changed_;
 };
 
 // What a listing says of a place, as ~list_places and the start-up log show it.

@@ -55,6 +55,24 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
                   : FrameBuffer<FrameInputPtr>::Policy::Latest),
       output_(nh_, private_nh_, params_, [this](ResultMsg& result) { fillCounters(result); }),
       service_calls_(kServiceThreads) {
+  NodeDiagnostics::Sources watched;
+  watched.places = places_.get();
+  watched.no_place = [this] { return noPlaceReason(); };
+  watched.counters = [this](ResultMsg& result) { fillCounters(result); };
+  watched.inputs = [this] { return inputs_ ? inputs_->activity() : NodeInputs::Activity{}; };
+  diagnostics_ =
+      std::make_unique<NodeDiagnostics>(nh_, private_nh_, params_, std::move(watched), output_);
+
+  visuals_ = std::make_unique<NodeVisuals>(private_nh_, params_.map_frame,
+                                           [this] { return places_->places(); });
+  output_.addListener([this](const NodeOutput::Published& p) { visuals_->onPublished(p); });
+  places_->onChange([this] { visuals_->placesChanged(); });
+  visuals_->placesChanged();
+  if (PoseHandoff::wanted(params_)) {
+    handoff_ = std::make_unique<PoseHandoff>(nh_, params_);
+    output_.addListener(
+        [handoff = handoff_.get()](const NodeOutput::Published& p) { handoff->onPublished(p); });
+  }
   RelocalizeService::Sources sources;
   sources.frames = &frames_;
   hints_ = std::make_unique<NodeHints>(nh_, params_, [this] {
@@ -91,6 +109,7 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
     output_.report(result);
   };
   inputs_ = std::make_unique<NodeInputs>(nh_, private_nh_, params_, std::move(handlers));
+  diagnostics_->start();
   logStartup();
 }
 
@@ -125,7 +144,8 @@ void RelocalizerNode::logStartup() const {
 
 RelocalizerNode::~RelocalizerNode() {
   // No input callback may run past this point (roscpp waits for one in
-  // progress): they feed the frame buffers.
+  // progress): they feed the frame buffers. Diagnostics read the inputs.
+  diagnostics_->stop();
   if (inputs_) inputs_->stop();
   // Wake every waiter first, so neither the worker nor a service call blocks
   // the joins below.
@@ -157,6 +177,10 @@ void RelocalizerNode::fillCounters(ResultMsg& result) const {
   result.time_jumps = saturate(inputs_ ? inputs_->timeJumps() : 0);
   result.messages_dropped = saturate(inputs_ ? inputs_->messagesDropped() : 0);
   if (learning_) learning_->fill(result);
+}
+
+std::string RelocalizerNode::noPlaceReason() const {
+  return learning_ ? learning_->noModelYet() : kNoPlace;
 }
 
 void RelocalizerNode::workerLoop() {
@@ -206,8 +230,7 @@ RelocalizerNode::ResultMsg RelocalizerNode::processChecked(const FrameInput& inp
   auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
   const bool no_place = frame && places_->empty();
   if (!frame || no_place) {
-    ResultMsg result = output_.failure(
-        stamp, frame ? (learning_ ? learning_->noModelYet() : kNoPlace) : frame.error());
+    ResultMsg result = output_.failure(stamp, frame ? noPlaceReason() : frame.error());
     if (!frame && log_.allow(result.message))
       ROS_WARN("relocalizer: unusable frame: %s", result.message.c_str());
     result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();

@@ -15,6 +15,11 @@
 //  - NodePlaces (node_places.h): the places relocalized against, and the
 //    services that load, unload and list them;
 //  - NodeOutput (node_output.h): ~result, and a whole answer (pose, TF) or none.
+//  - NodeDiagnostics (node_diagnostics.h): /diagnostics, from the answers as
+//    published, the inputs' activity, the places and the counters.
+//  - NodeVisuals (node_visuals.h): ~surface and ~inliers, for RViz.
+//  - PoseHandoff (pose_handoff.h, optional): accepted poses to initialpose
+//    and robot_localization's SetPose, each frame once.
 
 #include <ros/ros.h>
 #include <tbb/global_control.h>
@@ -27,10 +32,13 @@
 #include "frame_input.h"
 #include "learning_feed.h"
 #include "node_hints.h"
+#include "node_diagnostics.h"
 #include "node_inputs.h"
 #include "node_output.h"
 #include "node_params.h"
 #include "node_places.h"
+#include "node_visuals.h"
+#include "pose_handoff.h"
 #include "relocalize_service.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
@@ -64,6 +72,8 @@ class RelocalizerNode {
   ResultMsg processChecked(const FrameInput& input, NodeOutput::Clock::time_point start,
                            const relocalizer::PoseHint* hint);
   void fillCounters(ResultMsg& result) const;
+  // Why no frame can be relocalized now: no place loaded, or learning has no model yet.
+  std::string noPlaceReason() const;
   void logStartup() const;
 
   ros::NodeHandle nh_;
@@ -76,6 +86,9 @@ class RelocalizerNode {
   ThrottledLog log_;
   FrameBuffer<FrameInputPtr> frames_;
   NodeOutput output_;
+  std::unique_ptr<NodeDiagnostics> diagnostics_;
+  std::unique_ptr<NodeVisuals> visuals_;  // listens to output_ and places_
+  std::unique_ptr<PoseHandoff> handoff_;  // listens to output_
   // Service calls: a thread each, so none waits behind another.
   ServiceCallQueue service_calls_;
   std::unique_ptr<LearningFeed> learning_;

@@ -39,6 +39,9 @@ COMMANDS = {
     "/usr/bin/nosetests3": "python3-nose",
     "/usr/bin/time": "make:bench",
     "/usr/bin/clang-format": "make:test",  # test/packaging/test_format.py
+    "/usr/bin/rviz": "rviz",               # launch/view.launch
+    "/usr/bin/Xvfb": "make:test",          # scripts/render_rviz.sh, run by the README test
+    "/usr/bin/xwd": "make:test",
 }
 
 

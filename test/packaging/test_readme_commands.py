@@ -20,19 +20,31 @@ fixture's model, lab.model the model of its second room; test.bag is written by
   `roslaunch relocalizer relocalizer.launch` line's node while the fixture frames play: the
   node must log that it took the hint, and the README's relocalize call must then answer
   within 5 cm / 5 degrees and spend the hint;
+- every hand-off line (`forward_initialpose:=true` or `set_pose_service:=...`) is launched
+  verbatim with a static TF to its `handoff_frame`: after the README's service call, the pose
+  of that frame must reach /initialpose or a stand-in robot_localization SetPose service;
 - every `roslaunch relocalizer replay.launch ...` line is run verbatim;
+- every `roslaunch relocalizer view.launch ...` line is launched verbatim on an X display of
+  the test's own (Xvfb): ~surface must come latched in the map frame and RViz must subscribe
+  to it; every `rosrun relocalizer render_rviz.sh ...` line is run verbatim and its PNG must
+  not be blank: the surface's colours in over 5 % of the pixels, the inliers' in some, and
+  many distinct colours (scripts/xwd_to_png.py --stats);
 - every `roslaunch relocalizer relocalizer.launch learn:=true ...` line is launched
   verbatim while the fixture's training frames play with their poses on /tf (the
   rostest fixture's learn.bag), then the test frames play without TF and the README's
   `rosservice call /relocalizer/relocalize` line must place them (retried while the
   model is too young to answer; its first answer must be right), and its `rosservice call /relocalizer/save_model` line must write
   the model and its key frames;
+- the README's `rostopic echo -n 1 /diagnostics` line, run after its on-demand launch
+  line and `rosservice call /relocalizer/relocalize` line answered, must show the node's
+  status OK with the pose's age and the fixture model's place;
 - every tool named by a `rosrun relocalizer <tool>` line answers `--help` through
   rosrun, and `rosrun relocalizer train --help` is run exactly as written.
 
 A private ROS master (ROS_MASTER_URI on a free port) keeps the test away from any
 master that runs on this machine.
 """
+import json
 import math
 import os
 import pathlib
@@ -51,7 +63,8 @@ README = SOURCE / "README.md"
 DEVEL = pathlib.Path(os.environ.get("RELOCALIZER_DEVEL", SOURCE / "devel"))
 FIXTURE = pathlib.Path(os.environ.get("RELOCALIZER_FIXTURE", SOURCE / "build" / "rostest_fixture"))
 COMMAND_PREFIXES = ("rosrun relocalizer ", "roslaunch relocalizer ", "rosservice call /relocalizer",
-                    "rostopic echo /relocalizer", "rostopic pub -1 /initialpose ")
+                    "rostopic echo /relocalizer", "rostopic echo -n 1 /diagnostics",
+                    "rostopic pub -1 /initialpose ")
 
 
 def readme_commands():
@@ -395,6 +408,78 @@ class ReadmeCommandsTest(unittest.TestCase):
                     self.assertTrue((self.shell.work / (path + ".keyframes")).is_file(), save)
                 self.shell.stop_all()
 
+    def test_diagnostics_line_shows_the_node_ok_after_an_answer(self):
+        echo = self.readme_lines("rostopic echo -n 1 /diagnostics")[0]
+        call = self.readme_lines("rosservice call /relocalizer/relocalize")[0]
+        launch = [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
+                  if "mode:=continuous" not in c and "learn:=true" not in c
+                  and "places:=" not in c][0]
+        self.shell.start(launch, "roslaunch.log")
+        odom = re.search(r"odom_frame:=(\S+)", launch)
+        self.play_fixture_frames(odom.group(1) if odom else "")
+        answer = self.call_yaml(call)
+        self.assertTrue(answer["success"], f"`{call}` after `{launch}`: {answer['message']}")
+        # Statuses come every second; the first one after the answer says so.
+        deadline = time.monotonic() + 60
+        while True:
+            result = self.shell.run(echo, timeout=60)
+            self.assertEqual(result.returncode, 0, f"`{echo}`:\n{result.stdout}{result.stderr}")
+            array = yaml.safe_load(result.stdout.split("\n---")[0])
+            node = [s for s in array["status"] if s["name"] == "relocalizer: relocalization"]
+            self.assertEqual(len(node), 1, f"`{echo}`: {result.stdout}")
+            values = {v["key"]: v["value"] for v in node[0]["values"]}
+            if values["last pose age (s)"] != "none yet" or time.monotonic() > deadline:
+                break
+            time.sleep(0.5)
+        self.assertEqual(node[0]["level"], 0, f"`{echo}`: {result.stdout}")
+        self.assertEqual(node[0]["hardware_id"], "relocalizer: /relocalizer")
+        self.assertTrue(node[0]["message"].startswith("last pose "), node[0]["message"])
+        self.assertEqual(values["places"], "model (map)")
+        self.assertGreaterEqual(int(values["frames processed"]), 1)
+    def test_handoff_launch_lines_hand_the_answer_to_amcl_and_robot_localization(self):
+        """The hand-off lines: the answer's pose reaches /initialpose (what amcl reads) or a
+        robot_localization SetPose service (a stand-in serving that very type name), as the
+        pose of handoff_frame, which a static TF puts 0.3 m below the camera."""
+        call = self.readme_lines("rosservice call /relocalizer/relocalize")[0]
+        launches = [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
+                    if "forward_initialpose:=true" in c or "set_pose_service:=" in c]
+        self.assertTrue(launches, "README.md has no hand-off line")
+        for launch in launches:
+            with self.subTest(launch=launch):
+                self.shell.start(launch, "roslaunch.log")
+                self.shell.wait_until("rostopic list", "/relocalizer/result")
+                frame = re.search(r"handoff_frame:=(\S+)", launch)
+                if frame:
+                    self.shell.start(
+                        "rostopic pub -l /tf_static tf2_msgs/TFMessage \"transforms: [{header: "
+                        "{frame_id: camera_rgb_optical_frame}, child_frame_id: "
+                        f"{frame.group(1)}, transform: {{translation: {{y: 0.3}}, "
+                        "rotation: {w: 1.0}}}]\"", "tf_static.log")
+                handed = self.shell.work / "handed.yaml"
+                service = re.search(r"set_pose_service:=(\S+)", launch)
+                if service:
+                    self.shell.start(f"python3 {SOURCE}/test/packaging/fake_set_pose.py "
+                                     f"{service.group(1)} {handed}", "fake_set_pose.log")
+                    self.shell.wait_until("rosservice list", service.group(1))
+                else:
+                    self.shell.start("rostopic echo -n 1 /initialpose", "handed.yaml")
+                    self.shell.wait_until("rostopic info /initialpose", "* /rostopic_")
+                self.shell.start("rosbag play --loop --quiet test.bag", "rosbag_play.log")
+                answer = self.call_yaml(call)
+                self.assertTrue(answer["success"], f"`{call}` after `{launch}`: {answer['message']}")
+                deadline = time.monotonic() + 30
+                while time.monotonic() < deadline and not (
+                        handed.exists() and "position" in handed.read_text()):
+                    time.sleep(0.2)
+                pose = yaml.safe_load(handed.read_text().split("---")[0])
+                self.assertEqual(pose["header"]["frame_id"], "map", self.shell.logs())
+                camera = answer["pose"]["pose"]["pose"]["position"]
+                base = pose["pose"]["pose"]["position"]
+                lever = math.dist([camera["x"], camera["y"], camera["z"]],
+                                  [base["x"], base["y"], base["z"]])
+                self.assertAlmostEqual(lever, 0.3 if frame else 0.0, delta=1e-3, msg=launch)
+                self.shell.stop_all()
+
     def test_replay_launch_line_prints_the_evaluation(self):
         for launch in self.readme_lines("roslaunch relocalizer replay.launch"):
             with self.subTest(launch=launch):
@@ -404,6 +489,40 @@ class ReadmeCommandsTest(unittest.TestCase):
                 output = re.search(r"output:=\$PWD/(\S+)", launch)
                 if output:
                     self.assertTrue((self.shell.work / output.group(1) / "summary.json").is_file())
+
+    def test_view_launch_line_starts_rviz_on_the_latched_surface(self):
+        for launch in self.readme_lines("roslaunch relocalizer view.launch"):
+            with self.subTest(launch=launch):
+                xvfb = subprocess.Popen(["Xvfb", "-displayfd", "1", "-screen", "0", "1000x640x24",
+                                         "-nolisten", "tcp"], stdout=subprocess.PIPE,
+                                        stderr=subprocess.DEVNULL, text=True)
+                try:
+                    self.shell.env["DISPLAY"] = ":" + xvfb.stdout.readline().strip()
+                    self.shell.start(launch, "view.log")
+                    self.shell.wait_until("rostopic echo -n 1 /relocalizer/surface/header",
+                                          'frame_id: "map"', timeout=120)
+                    self.shell.wait_until("rostopic info /relocalizer/surface", "* /rviz",
+                                          timeout=120)
+                finally:
+                    self.shell.stop_all()
+                    xvfb.terminate()
+                    xvfb.wait(timeout=15)
+
+    def test_render_line_saves_a_picture_that_is_not_blank(self):
+        for line in self.readme_lines("rosrun relocalizer render_rviz.sh"):
+            with self.subTest(line=line):
+                started = time.monotonic()
+                result = self.shell.run(line, timeout=600)
+                self.assertEqual(result.returncode, 0, result.stdout[-3000:] + result.stderr[-3000:])
+                picture = self.shell.work / re.search(r"--output (\S+)", line).group(1)
+                stats = json.loads(subprocess.run(
+                    ["/usr/bin/python3", str(SOURCE / "scripts" / "xwd_to_png.py"), "--stats",
+                     str(picture)], capture_output=True, text=True, check=True).stdout)
+                share = stats["share"]
+                print(f"`{line}`: {time.monotonic() - started:.0f} s, {stats}")
+                self.assertGreater(share["surface"], 0.05, f"no surface drawn: {stats}")
+                self.assertGreater(share["points"] + share["lines"], 0.001, f"no inliers: {stats}")
+                self.assertGreater(stats["colours"], 100, f"too few colours: {stats}")
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@
 
 #include "../../src/ros/frame_buffer.h"
 #include "../../src/ros/message_conversion.h"
+#include "../../src/ros/pose_handoff.h"
 
 using namespace relocalizer_ros;
 namespace enc = sensor_msgs::image_encodings;
@@ -434,4 +435,24 @@ TEST(FrameBuffer, CloseWakesEveryWaiter) {
   EXPECT_FALSE(buffer.sleepUntil(Clock::now() + std::chrono::seconds(10)));
   EXPECT_LT(Clock::now() - start, std::chrono::seconds(5));
   closer.join();
+}
+
+// A base 0.5 m beside a camera that is uncertain only about its heading: the
+// base swings on the lever arm, sideways by 0.5 m per radian, and is no less
+// uncertain about its heading; a base at the camera is as uncertain as it.
+TEST(PoseHandoff, CovarianceFollowsTheLeverArm) {
+  Matrix6d covariance = Matrix6d::Zero();
+  covariance(5, 5) = 0.01;  // rotation about map z, rad^2
+  Pose map_T_camera = Pose::Identity();
+  map_T_camera.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).matrix();
+  map_T_camera.translation() = Eigen::Vector3d(1, 2, 0.3);
+  Pose camera_T_base = Pose::Identity();
+  camera_T_base.translation() = Eigen::Vector3d(0.5, 0, 0);  // map +y once rotated
+  const Matrix6d moved = moveCovariance(covariance, map_T_camera, camera_T_base);
+  // The lever points along map y, so the heading moves the base along map -x.
+  EXPECT_NEAR(moved(0, 0), 0.25 * 0.01, 1e-12);
+  EXPECT_NEAR(moved(1, 1), 0.0, 1e-12);
+  EXPECT_NEAR(moved(0, 5), -0.5 * 0.01, 1e-12);
+  EXPECT_NEAR(moved(5, 5), 0.01, 1e-12);
+  EXPECT_TRUE(moveCovariance(covariance, map_T_camera, Pose::Identity()).isApprox(covariance));
 }

@@ -8,6 +8,7 @@
 #include "relocalizer/forest/model_builder.h"
 #include "relocalizer/relocalize/relocalizer.h"
 #include "relocalizer/sim/synthetic_scene.h"
+#include "relocalizer/surface/surface_model.h"
 
 using namespace relocalizer;
 
@@ -178,6 +179,44 @@ TEST_F(SyntheticRoomRelocalization, SameFrameSameAnswer) {
   ASSERT_EQ(a.success, b.success);
   EXPECT_TRUE(a.pose.isApprox(b.pose, 1e-12));
   EXPECT_EQ(a.point_inliers, b.point_inliers);
+}
+
+// What RViz draws of an answer: its inlier samples where the answer puts
+// them. They are exactly the counted inliers, of both kinds, and lie on the
+// room's surface, where the true pose puts them too.
+TEST_F(SyntheticRoomRelocalization, InlierWorldPointsAreTheCountedInliersOnTheSurface) {
+  const SurfaceModel& surface = relocalizer_->model().surface;
+  ASSERT_FALSE(surface.empty());
+  long points = 0, lines = 0, on_surface = 0, near_truth = 0;
+  for (const RgbdFrame& frame : test_frames_) {
+    const Relocalization r = relocalizer_->relocalize(frame);
+    if (!r.success) {
+      EXPECT_TRUE(r.point_inlier_world.empty() && r.line_inlier_world.empty());
+      continue;
+    }
+    ASSERT_EQ(static_cast<int>(r.point_inlier_world.size()), r.point_inliers);
+    ASSERT_EQ(static_cast<int>(r.line_inlier_world.size()), r.line_inliers);
+    // The camera point of each sample, moved by the true pose instead.
+    const Eigen::Isometry3f answer_to_truth =
+        (*frame.ground_truth * r.pose.inverse()).cast<float>();
+    for (const auto* kind : {&r.point_inlier_world, &r.line_inlier_world}) {
+      for (const Eigen::Vector3f& world : *kind) {
+        on_surface += surface.near(world) != nullptr;
+        near_truth += (answer_to_truth * world - world).norm() < 0.02f;
+      }
+    }
+    points += r.point_inliers;
+    lines += r.line_inliers;
+  }
+  ASSERT_GT(points, 1000);
+  EXPECT_GT(lines, 100);
+  const long all = points + lines;
+  std::printf(
+      "inliers: %ld point and %ld line samples; %.1f%% on the surface, %.1f%% within 2 cm "
+      "of where the true pose puts them\n",
+      points, lines, 100.0 * on_surface / all, 100.0 * near_truth / all);
+  EXPECT_GT(on_surface, 0.95 * all);
+  EXPECT_GT(near_truth, 0.95 * all);
 }
 
 TEST_F(SyntheticRoomRelocalization, BadFramesAreExplicitFailures) {

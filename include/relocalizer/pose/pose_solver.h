@@ -70,6 +70,10 @@ struct PoseSolution {
   Matrix6d covariance = Matrix6d::Identity();
   int point_inliers = 0;
   int line_inliers = 0;
+  // The camera points of those inliers (point samples, then line samples), for
+  // those who draw the answer; the counts are their sizes.
+  std::vector<Eigen::Vector3f> point_inlier_cameras;
+  std::vector<Eigen::Vector3f> line_inlier_cameras;
   int samples = 0;
   float score = 0.0f;  // inlier share of all samples
   int valid_hypotheses = 0;

@@ -87,6 +87,9 @@ class PlaceSet {
   std::vector<PlaceFigures> list() const;
   std::vector<std::string> names() const;
   size_t size() const;
+  // The places now, in the order they were added (shared: a later put or
+  // remove does not change them).
+  std::vector<std::shared_ptr<const Place>> places() const { return snapshot(); }
 
   // Thread-safe, also against put/remove from other threads: a call works on
   // the places as they were when it started. A `hint` (pose_hint.h) reaches

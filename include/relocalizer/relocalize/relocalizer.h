@@ -58,6 +58,11 @@ struct Relocalization {
   int line_inliers = 0;
   int point_samples = 0;
   int line_samples = 0;
+  // Where the inlier samples lie in the world at `pose` (their camera points
+  // moved by it), point_inliers and line_inliers of them; set on success only,
+  // for those who draw the answer (RViz).
+  std::vector<Eigen::Vector3f> point_inlier_world;
+  std::vector<Eigen::Vector3f> line_inlier_world;
   float score = 0.0f;  // inlier share of the samples
   // Share of the frame's depth points on the scene surface at the answered pose
   // (surface_fit.h); negative when not measured (no surface in the model, the

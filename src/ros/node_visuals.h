@@ -1,0 +1,64 @@
+#pragma once
+// What RViz shows of the node (rviz/relocalizer.rviz): the places' surfaces on
+// the latched ~surface and each answer's inlier samples on ~inliers.
+//
+// ~surface is one cloud, in the node's map_frame: the surfaces of every place
+// in that frame, merged. One cloud and not one message per place because a
+// latched topic keeps only its last message, so a late subscriber (RViz
+// started after the node) would see one place of many. A place loaded into
+// another frame is not drawn on it. It is published at start and again after
+// every change of the places (~load_place, ~unload_place, a retrained learned
+// model), always from the places as they are when it is built, so the last
+// cloud is never older than the last change. Each point is coloured by its
+// normal (|x|, |y|, |z| as red, green, blue), so walls, floor and furniture
+// tell apart in a flat-shaded view.
+//
+// ~inliers (latched too: RViz started late shows the last answer), for every
+// answer with a pose, in the answering place's frame at the
+// frame's stamp: the inlier samples where the answer puts them (Relocalization's
+// point_inlier_world and line_inlier_world), point_inliers + line_inliers
+// points. Field `kind` is 0 for a point sample and 1 for a line sample, and
+// `rgb` draws them orange and cyan.
+
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "node_output.h"
+#include "relocalizer/relocalize/place_set.h"
+
+namespace relocalizer_ros {
+
+using PlaceList = std::vector<std::shared_ptr<const relocalizer::Place>>;
+
+enum class InlierKind : uint8_t { Point = 0, Line = 1 };
+
+// The clouds, apart from the publishers so that tests can read them.
+sensor_msgs::PointCloud2 surfaceCloud(const PlaceList& places, const std::string& map_frame);
+sensor_msgs::PointCloud2 inlierCloud(const relocalizer::Relocalization& answer,
+                                     const std_msgs::Header& header);
+
+class NodeVisuals {
+ public:
+  // `places` gives the places as they are now.
+  NodeVisuals(ros::NodeHandle private_nh, std::string map_frame, std::function<PlaceList()> places);
+
+  // ~surface again, from the places as they are now.
+  void placesChanged();
+  // The NodeOutput listener: ~inliers of each answer with a pose.
+  void onPublished(const NodeOutput::Published& published);
+
+ private:
+  const std::string map_frame_;
+  const std::function<PlaceList()> places_;
+  std::mutex surface_mutex_;  // one build at a time, in the order of the changes
+  ros::Publisher surface_pub_;
+  ros::Publisher inliers_pub_;
+};
+
+}  // namespace relocalizer_ros
