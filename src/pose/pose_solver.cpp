@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <limits>
 #include <numeric>
+#include <optional>
 
 #include "relocalizer/core/rigid_alignment.h"
 #include "relocalizer/pose/refinement.h"
@@ -374,8 +375,18 @@ void judgeEvidence(size_t samples, const PoseSolverParams& params, PoseSolution&
 
 PoseSolution solvePose(const std::vector<SolverSample>& points,
                        const std::vector<SolverSample>& lines, const PoseSolverParams& params,
-                       std::mt19937& rng, const HintPrior* hint) {
+                       std::mt19937& rng, const PoseHint* pose_hint) {
   PoseSolution solution;
+  std::optional<HintPrior> prior;
+  if (pose_hint) {
+    Expected<HintPrior> made = HintPrior::make(*pose_hint);
+    if (!made) {
+      solution.message = "unusable pose hint: " + made.error();
+      return solution;
+    }
+    prior = *made;
+  }
+  const HintPrior* hint = prior ? &*prior : nullptr;
   const auto ransac_start = Clock::now();
   int point_count = 0;
   const std::vector<const SolverSample*> all = usableSamples(points, lines, point_count);

@@ -8,7 +8,6 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <optional>
 #include <sstream>
 
 #include "relocalizer/core/config.h"
@@ -262,12 +261,6 @@ Relocalization Relocalizer::solve(const RgbdFrame& frame, const FrameSamples& sa
                                   Relocalization result,
                                   std::chrono::steady_clock::time_point start,
                                   const PoseHint* hint) const {
-  std::optional<HintPrior> prior;
-  if (hint) {
-    Expected<HintPrior> made = HintPrior::make(*hint);
-    if (!made) return failed(std::move(result), "unusable pose hint: " + made.error(), start);
-    prior = *made;
-  }
   const bool use_points = usesPoints(model_, params_);
   result.point_samples = static_cast<int>(samples.points.size());
   result.line_samples = static_cast<int>(samples.lines.samples.size());
@@ -283,10 +276,9 @@ Relocalization Relocalizer::solve(const RgbdFrame& frame, const FrameSamples& sa
   // The solver continues the sampling's stream (a copy: the samples may be shared).
   std::mt19937 rng = samples.rng;
   // Without the point forest, line samples seed the hypotheses too.
-  const HintPrior* weigh = prior ? &*prior : nullptr;
   const PoseSolution solution =
-      use_points ? solvePose(point_inputs, line_inputs, params_.solver, rng, weigh)
-                 : solvePose(line_inputs, {}, params_.solver, rng, weigh);
+      use_points ? solvePose(point_inputs, line_inputs, params_.solver, rng, hint)
+                 : solvePose(line_inputs, {}, params_.solver, rng, hint);
   result.timings.ransac = solution.ransac_seconds;
   result.timings.refinement = solution.refinement_seconds;
   result.point_inliers = solution.point_inliers;

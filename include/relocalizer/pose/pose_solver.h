@@ -86,12 +86,13 @@ struct PoseSolution {
 };
 
 // `points` seed hypotheses and are scored; `lines` are scored and used in refinement.
-// With a `hint`, hypotheses are ranked by their inliers times hint->factor
+// With a `hint`, hypotheses are ranked by their inliers times HintPrior::factor
 // (pose_hint.h), and a hint that constrains all six axes is one more
-// hypothesis; without one, nothing differs from a solve that never heard of hints.
+// hypothesis; an unusable hint is the reason for no pose. Without one, nothing
+// differs from a solve that never heard of hints.
 PoseSolution solvePose(const std::vector<SolverSample>& points,
                        const std::vector<SolverSample>& lines, const PoseSolverParams& params,
-                       std::mt19937& rng, const HintPrior* hint = nullptr);
+                       std::mt19937& rng, const PoseHint* hint = nullptr);
 
 // How well the point samples fit one rigid motion, for ranking places at a
 // small share of solvePose's cost: a short preemptive RANSAC of `hypotheses`
