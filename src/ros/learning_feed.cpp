@@ -88,12 +88,13 @@ void LearningFeed::learnLoop() {
     if (!entry) return;
     const FrameInput& input = *entry->value;
     if (!input.error.empty()) continue;
-    const ros::Time stamp = input.colour->header.stamp;
+    const ros::Time stamp = geometryStamp(input);
     const std::string camera_frame = stripLeadingSlashes(input.colour->header.frame_id);
     std::optional<relocalizer::Pose> pose;
     try {
-      // SLAM's pose at the frame's own stamp (interpolated), never a later
-      // one: a frame whose stamp TF cannot cover was not tracked.
+      // SLAM's pose when the depth, whose points become the labels, was taken
+      // (interpolated), never a later one: a frame whose stamp TF cannot
+      // cover was not tracked.
       pose = fromTransformMsg(tf_buffer_
                                   ->lookupTransform(params_.map_frame, camera_frame, stamp,
                                                     ros::Duration(params_.tf_timeout))

@@ -8,11 +8,9 @@
 namespace relocalizer_ros {
 
 ros::Time answerStamp(const FrameInput& input, const relocalizer::Relocalization& solved) {
-  // The pose is solved from the depth's 3D points (and ICP aligns it with
-  // them), so it holds at the depth's time, with or without ICP: a camera
-  // turning between the two stamps is placed where it was for the depth
+  // With or without depth ICP: the solver's points are the depth's too
   // (test_stamps.cpp measures both).
-  return solved.success ? input.depth->header.stamp : input.colour->header.stamp;
+  return solved.success ? geometryStamp(input) : input.colour->header.stamp;
 }
 
 NodeOutput::NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
