@@ -16,6 +16,15 @@ std::vector<int> constrainedAxes(const Matrix6d& covariance) {
   return axes;
 }
 
+// The covariance's block on `axes`.
+Eigen::MatrixXd blockOn(const Matrix6d& covariance, const std::vector<int>& axes) {
+  const int n = static_cast<int>(axes.size());
+  Eigen::MatrixXd block(n, n);
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b) block(a, b) = covariance(axes[a], axes[b]);
+  return block;
+}
+
 // Position difference, then the rotation vector of R_pose * R_hint^T.
 Eigen::Matrix<double, 6, 1> errorOf(const Pose& pose, const Pose& hint) {
   Eigen::Matrix<double, 6, 1> e;
@@ -40,10 +49,7 @@ std::string poseHintError(const PoseHint& hint) {
   if (axes.empty())
     return "the hint's covariance is all zero, so it constrains nothing (give variances for x, "
            "y and yaw at least)";
-  const int n = static_cast<int>(axes.size());
-  Eigen::MatrixXd block(n, n);
-  for (int a = 0; a < n; ++a)
-    for (int b = 0; b < n; ++b) block(a, b) = hint.covariance(axes[a], axes[b]);
+  const Eigen::MatrixXd block = blockOn(hint.covariance, axes);
   if (!block.isApprox(block.transpose(), 1e-9) || block.llt().info() != Eigen::Success)
     return "the hint's covariance on the axes it constrains is not symmetric positive definite";
   return {};
@@ -55,10 +61,8 @@ Expected<HintPrior> HintPrior::make(const PoseHint& hint) {
   prior.pose_ = hint.pose;
   const std::vector<int> axes = constrainedAxes(hint.covariance);
   const int n = static_cast<int>(axes.size());
-  Eigen::MatrixXd block(n, n);
-  for (int a = 0; a < n; ++a)
-    for (int b = 0; b < n; ++b) block(a, b) = hint.covariance(axes[a], axes[b]);
-  const Eigen::MatrixXd information = block.llt().solve(Eigen::MatrixXd::Identity(n, n));
+  const Eigen::MatrixXd information =
+      blockOn(hint.covariance, axes).llt().solve(Eigen::MatrixXd::Identity(n, n));
   for (int a = 0; a < n; ++a)
     for (int b = 0; b < n; ++b) prior.information_(axes[a], axes[b]) = information(a, b);
   prior.free_axes_ = 6 - n;

@@ -277,16 +277,11 @@ class PreemptiveRounds {
                  static_cast<int>(std::min(kLanes, hypotheses.size() - b * kLanes)), batch_,
                  batch_modes_, params_.inlier_chi2);
     });
-    if (hint_) {
-      for (Hypothesis& h : hypotheses)
-        h.rank = h.score * hint_->factor(h.pose, params_.hint_weight);
-      std::sort(hypotheses.begin(), hypotheses.end(), [](const Hypothesis& a, const Hypothesis& b) {
-        return a.rank != b.rank ? a.rank > b.rank : a.index < b.index;
-      });
-      return;
-    }
+    // Without a hint the rank is the score itself (an int, exact as a double).
+    for (Hypothesis& h : hypotheses)
+      h.rank = hint_ ? h.score * hint_->factor(h.pose, params_.hint_weight) : h.score;
     std::sort(hypotheses.begin(), hypotheses.end(), [](const Hypothesis& a, const Hypothesis& b) {
-      return a.score != b.score ? a.score > b.score : a.index < b.index;
+      return a.rank != b.rank ? a.rank > b.rank : a.index < b.index;
     });
   }
 

@@ -333,6 +333,9 @@ Expected<RgbdFrame> frameFromMessages(const sensor_msgs::Image& colour,
 }
 
 namespace {
+// geometry_msgs' covariance layout.
+using RowMajor6d = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
+
 // The pose with its rotation block projected onto the nearest rotation, so a
 // quaternion taken from it is well defined even after drift in composition.
 Pose orthonormalised(const Pose& pose) {
@@ -370,8 +373,12 @@ geometry_msgs::PoseWithCovariance toPoseWithCovarianceMsg(const Pose& pose,
                                                           const Matrix6d& covariance) {
   geometry_msgs::PoseWithCovariance msg;
   msg.pose = toPoseMsg(pose);
-  Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(msg.covariance.data()) = covariance;
+  Eigen::Map<RowMajor6d>(msg.covariance.data()) = covariance;
   return msg;
+}
+
+Matrix6d covarianceFromMsg(const geometry_msgs::PoseWithCovariance& msg) {
+  return Eigen::Map<const RowMajor6d>(msg.covariance.data());
 }
 
 }  // namespace relocalizer_ros

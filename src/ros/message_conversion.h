@@ -86,5 +86,7 @@ Pose fromPoseMsg(const geometry_msgs::Pose& pose);
 // rotations about the fixed world axes), so this only flattens it row-major.
 geometry_msgs::PoseWithCovariance toPoseWithCovarianceMsg(const Pose& pose,
                                                           const Matrix6d& covariance);
+// The other way: a message's row-major covariance as a matrix.
+Matrix6d covarianceFromMsg(const geometry_msgs::PoseWithCovariance& msg);
 
 }  // namespace relocalizer_ros

@@ -118,9 +118,7 @@ relocalizer::Expected<PoseHint> NodeHints::read(const HintMsg& msg) const {
   PoseHint hint;
   hint.frame = target;
   hint.pose = map_from_source * fromPoseMsg(p);
-  const Matrix6d covariance =
-      Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(msg.pose.covariance.data());
-  hint.covariance = rotateCovariance(covariance, map_from_source.linear());
+  hint.covariance = rotateCovariance(covarianceFromMsg(msg.pose), map_from_source.linear());
   if (hint.covariance(3, 3) == 0 && hint.covariance(4, 4) == 0)
     hint.pose.linear() = levelCameraAlong(hint.pose.linear());
   if (std::string why = relocalizer::poseHintError(hint); !why.empty())

@@ -7,12 +7,6 @@
 
 namespace relocalizer_ros {
 
-namespace {
-
-using RowMajor6d = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
-
-}  // namespace
-
 Matrix6d moveCovariance(const Matrix6d& covariance, const Pose& map_T_camera,
                         const Pose& camera_T_frame) {
   // The solver's covariance is for left perturbations R = Exp(w) R0,
@@ -86,7 +80,7 @@ relocalizer::Expected<geometry_msgs::PoseWithCovarianceStamped> PoseHandoff::han
                                   " s (tf_timeout): " + messageExcerpt(e.what(), 256));
   }
   const Pose map_T_camera = fromPoseMsg(pose.pose.pose);
-  const Matrix6d covariance = Eigen::Map<const RowMajor6d>(pose.pose.covariance.data());
+  const Matrix6d covariance = covarianceFromMsg(pose.pose);
   pose.pose = toPoseWithCovarianceMsg(map_T_camera * camera_T_frame,
                                       moveCovariance(covariance, map_T_camera, camera_T_frame));
   return pose;
