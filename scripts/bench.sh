@@ -112,6 +112,13 @@ for round in $(seq "$rounds"); do
       --json "$dir/stages-$round.json" > "$dir/benchmark-$round.log"
   done
 done
+# Many places: the same model as the kitchen among 9 synthetic rooms, one thread with
+# 1, 2 and 10 places (the rooms' models are trained on the first run and kept in
+# BUILD/bench_places). This build only: the previous release had one place.
+echo "bench: now: one-thread latency with 1, 2 and 10 places (scripts/bench_places.sh)"
+PLACES_KITCHEN_MODEL="$(run_dir now)/bench.model" PLACES_JSON="$(run_dir now)/places.json" \
+  PLACES_NODE=0 "$root/scripts/bench_places.sh" "$build_dir" > "$(run_dir now)/places.log" 2>&1 ||
+  echo "bench: now: places benchmark failed (see $(run_dir now)/places.log)"
 if [ "${SWEEP:-0}" = 1 ]; then
   echo "bench: now: speed-accuracy sweep"
   "${tools_of[now]}/benchmark" --model "$(run_dir now)/bench.model" "${test_args[@]}" --threads 1 \

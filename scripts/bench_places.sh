@@ -13,7 +13,10 @@
 #    from /proc once ~list_places lists all of them.
 # Synthesized rooms and trained models are kept in BUILD_DIR/bench_places and
 # reused; figures go to BUILD_DIR/bench_places/places.json and node.json.
-# Environment: PLACES_TRAIN_FRAMES (200), PLACES_TEST_FRAMES (50), BENCH_ROUNDS (2: timed passes).
+# Environment: PLACES_TRAIN_FRAMES (200), PLACES_TEST_FRAMES (50), BENCH_ROUNDS (2: timed passes),
+# PLACES_KITCHEN_MODEL (a kitchen model to use instead of training one: `make bench`
+# passes the model it has just trained), PLACES_JSON (where places.json goes),
+# PLACES_NODE (1; 0 skips the node's memory check).
 set -euo pipefail
 if [ "${1:-}" = "-h" ] || [ "${1:-}" = "--help" ]; then
   sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'
@@ -52,8 +55,9 @@ train() {  # MODEL ARGS...
   "$tools/train" "$@" --output "$model" > "$model.log"
 }
 if [ "$rooms" = 9 ]; then
-  train "$out/kitchen.model" --dataset "$data" --frames 0-99,200-299,400-499
-  add_place kitchen "$out/kitchen.model" "$data@100-199,300-399"
+  kitchen=${PLACES_KITCHEN_MODEL:-$out/kitchen.model}
+  train "$kitchen" --dataset "$data" --frames 0-99,200-299,400-499
+  add_place kitchen "$kitchen" "$data@100-199,300-399"
 else
   echo "bench_places: ../shared/data is absent; room-9 stands in for the kitchen"
   train "$out/room-9.model" --dataset "$building/room-9/train"
@@ -67,8 +71,10 @@ yaml="${yaml%,}]"
 
 echo "bench_places: places_benchmark (1 thread)"
 "$tools/places_benchmark" "${place_args[@]}" "${test_args[@]}" --counts 1,2,10 \
-  --repeat "${BENCH_ROUNDS:-2}" --threads 1 --json "$out/places.json" 2>&1 | tee "$out/places.log" |
+  --repeat "${BENCH_ROUNDS:-2}" --threads 1 --json "${PLACES_JSON:-$out/places.json}" 2>&1 | tee "$out/places.log" |
   grep -v -E '^(places|evaluating) ' || true
+
+[ "${PLACES_NODE:-1}" = 0 ] && exit 0
 
 # --- The node with the 10 places -----------------------------------------------------------
 # shellcheck source=scripts/private_master.sh
