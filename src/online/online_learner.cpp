@@ -19,7 +19,7 @@
 namespace relocalizer {
 
 std::string learningParamsError(const LearningParams& p, const SettingName& name) {
-  const auto n = [&](const std::string& field) { return name ? name(field) : field; };
+  const auto n = [&](const std::string& field) { return settingName(name, field); };
   if (!(p.min_motion.metres >= 0.0 && std::isfinite(p.min_motion.metres) &&
         p.min_motion.degrees >= 0.0 && std::isfinite(p.min_motion.degrees)))
     return n("min_motion") + " must be finite and >= 0 (got " + formatMinMotion(p.min_motion) + ")";
@@ -45,7 +45,7 @@ std::string learningParamsError(const LearningParams& p, const SettingName& name
 Expected<LearningParams> readLearningParams(LearningParams params, const std::string& min_motion,
                                             const std::string& training_config,
                                             const SettingName& name) {
-  const auto n = [&](const std::string& field) { return name ? name(field) : field; };
+  const auto n = [&](const std::string& field) { return settingName(name, field); };
   auto motion = parseMinMotion(min_motion);
   if (!motion) return makeError(n("min_motion") + ": " + motion.error());
   params.min_motion = *motion;

@@ -32,6 +32,7 @@
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/key_frame_rule.h"
 #include "relocalizer/online/keyframe_store.h"
+#include "relocalizer/online/setting_name.h"
 #include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
@@ -68,11 +69,6 @@ struct LearningParams {
   int min_backtracking_leaves = 8;
   TrainingParams training;  // both forests and the surface, as `train` uses them
 };
-
-// How a reader names a learning setting to its user, from its field name
-// ("max_keyframes"): the node says 'learn_max_keyframes' with its namespace,
-// the tools their option. Unset: the field name.
-using SettingName = std::function<std::string(const std::string& field)>;
 
 // Empty when usable, otherwise what is wrong, naming the setting.
 std::string learningParamsError(const LearningParams& params, const SettingName& name = {});
