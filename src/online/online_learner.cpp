@@ -17,6 +17,17 @@
 #include "relocalizer/forest/training_config.h"
 
 namespace relocalizer {
+namespace {
+
+std::vector<KeyFrameStore::Entry> shareKeyFrames(std::vector<StoredKeyFrame> key_frames) {
+  std::vector<KeyFrameStore::Entry> shared;
+  shared.reserve(key_frames.size());
+  for (StoredKeyFrame& k : key_frames)
+    shared.push_back(std::make_shared<const StoredKeyFrame>(std::move(k)));
+  return shared;
+}
+
+}  // namespace
 
 std::string learningParamsError(const LearningParams& p, const SettingName& name) {
   const auto n = [&](const std::string& field) { return settingName(name, field); };
@@ -110,16 +121,25 @@ Status OnlineLearner::resume(Model model, std::vector<StoredKeyFrame> key_frames
     return makeError("cannot resume learning: the saved place has no key frames");
   auto relocalizer = std::make_shared<Relocalizer>(std::move(model), relocalizer_params_);
   if (const std::string why = relocalizer->validationError(); !why.empty()) return makeError(why);
-  return adoptKeyFrames(std::move(key_frames), std::move(relocalizer), {});
+  return adoptKeyFrames(shareKeyFrames(std::move(key_frames)), std::move(relocalizer), {});
 }
 
-Status OnlineLearner::adoptKeyFrames(std::vector<StoredKeyFrame> key_frames,
+Status OnlineLearner::seed(std::vector<KeyFrameStore::Entry> key_frames) {
+  return adoptKeyFrames(std::move(key_frames), nullptr, {});
+}
+
+std::vector<KeyFrameStore::Entry> OnlineLearner::keyFrames() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return store_.entries();
+}
+
+Status OnlineLearner::adoptKeyFrames(std::vector<KeyFrameStore::Entry> key_frames,
                                      std::shared_ptr<const Relocalizer> model, std::string note) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (generation_ != 0) return makeError("resume() must come before the first key frame");
-  for (StoredKeyFrame& k : key_frames) {
-    if (store_.add(std::make_shared<const StoredKeyFrame>(std::move(k))))
-      ++status_.keyframes_evicted;
+  if (generation_ != 0)
+    return makeError("resume() and seed() must come before the first key frame");
+  for (KeyFrameStore::Entry& k : key_frames) {
+    if (store_.add(std::move(k))) ++status_.keyframes_evicted;
     ++generation_;
   }
   status_.keyframes_added = static_cast<int>(generation_);
@@ -153,7 +173,7 @@ Status OnlineLearner::resume(const std::string& model_path) {
       return makeError(key_frames_path + ": the saved place has no key frames");
     const size_t count = saved->key_frames.size();
     return adoptKeyFrames(
-        std::move(saved->key_frames), nullptr,
+        shareKeyFrames(std::move(saved->key_frames)), nullptr,
         key_frames_path + " was saved with another model than " + model_path +
             " (a save was interrupted between the two files): not using that model, "
             "retraining on the " +

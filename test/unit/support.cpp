@@ -28,6 +28,24 @@ RelocalizerParams smallRoomRelocalizer() {
   return params;
 }
 
+LearningParams onlineRoomLearning() {
+  LearningParams p;
+  for (ForestParams* f : {&p.training.points, &p.training.lines}) {
+    f->trees = 3;
+    f->max_depth = 16;
+    f->samples_per_image = 1000;
+  }
+  return p;
+}
+
+RelocalizerParams onlineRoomRelocalizer() {
+  RelocalizerParams r;
+  r.point_samples = 1000;
+  r.line_samples = 500;
+  r.solver.hypotheses = 256;
+  return r;
+}
+
 TempDir::TempDir(const std::string& prefix) {
   static std::atomic<int> counter{0};
   const auto now = std::chrono::steady_clock::now().time_since_epoch().count();

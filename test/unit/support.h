@@ -9,6 +9,7 @@
 #include <string>
 
 #include "relocalizer/forest/training.h"
+#include "relocalizer/online/online_learner.h"
 #include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer::testing {
@@ -17,6 +18,10 @@ namespace relocalizer::testing {
 // model with (320x240 frames, a few dozen training frames; seconds to train).
 TrainingParams smallRoomTraining();
 RelocalizerParams smallRoomRelocalizer();
+// The same for a room learned online from key frames: forests a retrain of 20
+// key frames grows in a few seconds, and a relocalizer to match.
+LearningParams onlineRoomLearning();
+RelocalizerParams onlineRoomRelocalizer();
 
 // A fresh folder under the system temp dir, removed when the object dies.
 class TempDir {

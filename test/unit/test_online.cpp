@@ -38,25 +38,8 @@ void writeBytes(const std::string& path, const std::vector<uint8_t>& bytes) {
              static_cast<std::streamsize>(bytes.size()));
 }
 
-// Small forests: the room needs no more, and a retrain of 20 key frames stays
-// a few seconds.
-LearningParams smallLearning() {
-  LearningParams p;
-  for (ForestParams* f : {&p.training.points, &p.training.lines}) {
-    f->trees = 3;
-    f->max_depth = 16;
-    f->samples_per_image = 1000;
-  }
-  return p;
-}
-
-RelocalizerParams fastRelocalizer() {
-  RelocalizerParams r;
-  r.point_samples = 1000;
-  r.line_samples = 500;
-  r.solver.hypotheses = 256;
-  return r;
-}
+LearningParams smallLearning() { return relocalizer::testing::onlineRoomLearning(); }
+RelocalizerParams fastRelocalizer() { return relocalizer::testing::onlineRoomRelocalizer(); }
 
 class OnlineRoom : public ::testing::Test {
  protected:

@@ -135,6 +135,13 @@ class OnlineLearner {
   // from nothing, and status().last_error says so, naming both files.
   Status resume(const std::string& model_path);
 
+  // Starts from key frames another learner stored (a submap handing its border
+  // to the next, submap_learner.h): shared, not compressed again, and not yet
+  // learned (the next retrain trains on them). Call before the first addKeyFrame.
+  Status seed(std::vector<KeyFrameStore::Entry> key_frames);
+  // The stored key frames, in arrival order.
+  std::vector<KeyFrameStore::Entry> keyFrames() const;
+
   // A key frame with its camera-to-world pose (from SLAM, never from this
   // relocalizer); refused when slamPoseError(pose) says why. Compresses it on the caller's thread
   // (about 20 ms for 640x480) and wakes the worker; never waits for a retrain.
@@ -159,7 +166,7 @@ class OnlineLearner {
  private:
   bool retrainDue() const;  // under mutex_
   // Fills the empty store; the current model (if any) counts as trained on them.
-  Status adoptKeyFrames(std::vector<StoredKeyFrame> key_frames,
+  Status adoptKeyFrames(std::vector<KeyFrameStore::Entry> key_frames,
                         std::shared_ptr<const Relocalizer> model, std::string note);
   Status retrain(std::unique_lock<std::mutex>& lock);
   void workerLoop();

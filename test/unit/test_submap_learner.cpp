@@ -1,0 +1,139 @@
+// The submap learner (online/submap_learner.h) on a generated room with exact
+// ground truth: a walk cut into capped submaps keeps what one capped store
+// thins out, frozen submaps keep their models and drop their key frames, and a
+// walk that fits one submap learns exactly what one learner does.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/submap_learner.h"
+#include "relocalizer/sim/synthetic_scene.h"
+#include "support.h"
+
+using namespace relocalizer;
+
+namespace {
+
+const CameraIntrinsics kCamera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
+
+LearningParams smallLearning(int max_keyframes) {
+  LearningParams p = relocalizer::testing::onlineRoomLearning();
+  p.max_keyframes = max_keyframes;
+  return p;
+}
+
+RelocalizerParams fastRelocalizer() { return relocalizer::testing::onlineRoomRelocalizer(); }
+
+bool correct(const Relocalization& r, const RgbdFrame& frame) {
+  return r.success && translationError(r.pose, *frame.ground_truth) < 0.05 &&
+         rotationErrorDegrees(r.pose, *frame.ground_truth) < 5.0;
+}
+
+class SubmapRoom : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    SyntheticRoom room(7);
+    const SyntheticTrajectories paths = room.trajectories(80, 20);
+    // Every fourth frame of the training loop: what the 5 cm / 5 deg rule keeps.
+    for (size_t i = 0; i < paths.train.size(); i += 4)
+      learn_.push_back(room.render(paths.train[i], kCamera, static_cast<int>(i)));
+    for (size_t i = 0; i < paths.test.size(); ++i)
+      test_.push_back(room.render(paths.test[i], kCamera, static_cast<int>(100 + i)));
+  }
+  static void TearDownTestSuite() {
+    learn_.clear();
+    test_.clear();
+  }
+  static std::vector<RgbdFrame> learn_, test_;
+};
+std::vector<RgbdFrame> SubmapRoom::learn_, SubmapRoom::test_;
+
+}  // namespace
+
+TEST_F(SubmapRoom, CappedSubmapsKeepWhatOneCappedStoreThinsOut) {
+  const int cap = 6;
+  SubmapParams rule;
+  rule.overlap = 2;
+  SubmapLearner submaps(smallLearning(cap), rule, fastRelocalizer());
+  OnlineLearner one_store(smallLearning(cap), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  for (const RgbdFrame& frame : learn_) {
+    auto placed = submaps.addKeyFrame(frame, *frame.ground_truth);
+    ASSERT_TRUE(placed.ok()) << placed.error();
+    ASSERT_TRUE(one_store.addKeyFrame(frame, *frame.ground_truth));
+  }
+  ASSERT_TRUE(submaps.drain());
+  ASSERT_TRUE(one_store.drain());
+
+  // 20 key frames along one arc, 5 cm or more apart: 6 in the first submap,
+  // then 2 seeds + 4 new in each next one. The capped store keeps the two ends
+  // of the arc (it evicts the older of the closest pair), and the test frames
+  // lie in its middle: measured 0 % there against 100 % for the submaps.
+  const SubmapIndex& index = submaps.index();
+  EXPECT_EQ(index.submapCount(), 5);
+  const std::vector<SubmapModel> models = submaps.models();
+  ASSERT_EQ(static_cast<int>(models.size()), index.submapCount());
+  for (const SubmapModel& m : models) {
+    EXPECT_EQ(m.frozen, m.index != index.active()) << "submap " << m.index;
+    EXPECT_LE(m.keyframes, cap);
+    // Each model learned exactly its submap's key frames, seeds included.
+    EXPECT_EQ(m.relocalizer->model().summary.images, m.keyframes) << "submap " << m.index;
+  }
+  // Only the active submap holds key frames in memory.
+  EXPECT_EQ(static_cast<int>(submaps.active()->keyFrames().size()), models.back().keyframes);
+
+  // Each test frame answered by the submap with the most inliers.
+  int right_by_submaps = 0, right_by_one_store = 0;
+  for (const RgbdFrame& frame : test_) {
+    Relocalization best;
+    for (const SubmapModel& m : models) {
+      Relocalization r = m.relocalizer->relocalize(frame);
+      if (r.success && (!best.success ||
+                        r.point_inliers + r.line_inliers > best.point_inliers + best.line_inliers))
+        best = std::move(r);
+    }
+    right_by_submaps += correct(best, frame);
+    right_by_one_store += correct(one_store.current()->relocalize(frame), frame);
+  }
+  const double submap_share = double(right_by_submaps) / test_.size();
+  const double one_store_share = double(right_by_one_store) / test_.size();
+  std::printf("within 5 cm / 5 deg: %d submaps %.0f %%, one store capped at %d %.0f %%\n",
+              index.submapCount(), 100 * submap_share, cap, 100 * one_store_share);
+  EXPECT_GE(submap_share, 0.9);
+  EXPECT_GT(submap_share, one_store_share);
+}
+
+TEST_F(SubmapRoom, AWalkThatFitsOneSubmapLearnsWhatOneLearnerDoes) {
+  SubmapLearner submaps(smallLearning(64), SubmapParams{}, fastRelocalizer());
+  OnlineLearner one(smallLearning(64), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  for (size_t i = 0; i < 8; ++i) {
+    ASSERT_TRUE(submaps.addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
+    ASSERT_TRUE(one.addKeyFrame(learn_[i], *learn_[i].ground_truth));
+  }
+  ASSERT_TRUE(submaps.drain());
+  ASSERT_TRUE(one.drain());
+  const std::vector<SubmapModel> models = submaps.models();
+  ASSERT_EQ(models.size(), 1u);
+  EXPECT_FALSE(models[0].frozen);
+  // The same bytes but for the training's wall time.
+  Model submap_model = models[0].relocalizer->model(), one_model = one.current()->model();
+  submap_model.summary.seconds = one_model.summary.seconds = 0.0;
+  EXPECT_EQ(serializeModel(submap_model), serializeModel(one_model));
+}
+
+TEST_F(SubmapRoom, UnusablePosesAndFramesAreRefusedAndPlacedNowhere) {
+  SubmapLearner submaps(smallLearning(6), SubmapParams{}, fastRelocalizer());
+  Pose broken = *learn_[0].ground_truth;
+  broken.translation().x() = std::nan("");
+  auto refused = submaps.addKeyFrame(learn_[0], broken);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().find("not finite"), std::string::npos) << refused.error();
+  RgbdFrame empty = learn_[0];
+  empty.depth = cv::Mat();
+  EXPECT_FALSE(submaps.addKeyFrame(empty, *learn_[0].ground_truth).ok());
+  EXPECT_EQ(submaps.index().submapCount(), 0);
+  EXPECT_EQ(submaps.active(), nullptr);
+  EXPECT_TRUE(submaps.addKeyFrame(learn_[0], *learn_[0].ground_truth).ok());
+  EXPECT_EQ(submaps.index().submapCount(), 1);
+}
