@@ -8,12 +8,14 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_support.h"
+#include "learning_curve.h"
 #include "place_arguments.h"
 #include "relocalizer/core/version.h"
 #include "relocalizer/eval/frame_evaluation.h"
 #include "relocalizer/eval/plot.h"
 #include "relocalizer/forest/training_config.h"
 #include "relocalizer/online/key_frame_feed.h"
+#include "relocalizer/online/submap_learner.h"
 #include "relocalizer/relocalize/place_set.h"
 #include "relocalizer/relocalize/relocalizer.h"
 #include "source_arguments.h"
@@ -37,6 +39,7 @@ struct LearnOptions {
   std::string learn_frames, learn_min_motion = formatMinMotion(KeyFrameMotion{}), learn_config,
                             save_model;
   int curve_every = 50;
+  bool submaps = false;
   LearningParams learning;
 };
 
@@ -96,6 +99,9 @@ void addOptions(CLI::App& app, Options& o, LearnOptions& l) {
                  ->capture_default_str());
   learn_only(app.add_flag("--learn-surface-gate", l.learning.surface_gate,
                           "Refuse poses off the learned surface (the node's learn_surface_gate)"));
+  learn_only(app.add_flag("--submaps", l.submaps,
+                          "Learn submaps (--max-keyframes each; a full one is frozen and a new "
+                          "one starts) and relocalize across them as places in one map frame"));
   learn_only(app.add_option("--save-model", l.save_model,
                             "Write the learned model and its key frames (MODEL.keyframes) here"));
 }
@@ -127,14 +133,7 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
     if (!model_path.empty())
       if (Status resumed = learner.resume(model_path); !resumed)
         return cli::fail(app, resumed.error());
-    nlohmann::json curve = nlohmann::json::array();
-    Plot plot;
-    plot.title = "learning curve: " + std::filesystem::path(dataset_path).filename().string();
-    plot.x_label = "frames learned";
-    plot.y_label = "% within 5 cm / 5 deg";
-    plot.y_min = 0.0;
-    plot.y_max = 100.0;
-    PlotSeries series = PlotSeries::styled("online model", plotColour(0), true, 1);
+    cli::LearningCurve curve(dataset_path);
     double compress_seconds = 0.0, retrain_seconds = 0.0;
     int without_pose = 0, learned = 0;
     for (size_t i = 0; i < learn.size(); ++i) {
@@ -165,13 +164,10 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
           "after %4d frames: %3d key frames (%d stored), retrain %.1f s, %.1f %% within 5 cm / 5 "
           "deg\n",
           learned, status.keyframes_added, status.keyframes_stored, seconds, 100.0 * accuracy);
-      curve.push_back({{"frames_learned", learned},
-                       {"keyframes", status.keyframes_added},
-                       {"keyframes_stored", status.keyframes_stored},
-                       {"retrain_seconds", seconds},
-                       {"within_5cm_5deg", accuracy}});
-      series.x.push_back(learned);
-      series.y.push_back(100.0 * accuracy);
+      curve.add(learned, accuracy,
+                {{"keyframes", status.keyframes_added},
+                 {"keyframes_stored", status.keyframes_stored},
+                 {"retrain_seconds", seconds}});
     }
     const LearningStatus status = learner.status();
     if (!relocalizer)
@@ -192,7 +188,6 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
         return cli::fail(app, saved.error(), 1);
       std::printf("wrote %s and %s\n", l.save_model.c_str(), keyFramesPath(l.save_model).c_str());
     }
-    plot.series.push_back(series);
     out.json = {{"learn_frames", learn_frames},
                 {"learn_min_motion", learn_min_motion},
                 {"max_keyframes", learning.max_keyframes},
@@ -205,13 +200,80 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
                 {"last_retrain_seconds", retrain_seconds},
                 {"model_bytes", status.model_bytes},
                 {"store_bytes", status.store_bytes},
-                {"curve", curve}};
-    if (!o.output.empty()) {
-      std::filesystem::create_directories(o.output);
-      if (!plot.save(o.output + "/learning_curve.png"))
-        return cli::fail(app, o.output + "/learning_curve.png: cannot write", 1);
-    }
+                {"curve", curve.json()}};
+    if (Status saved = curve.save(o.output); !saved) return cli::fail(app, saved.error(), 1);
   }
+  return -1;
+}
+
+// --learn-frames --submaps: the learn frames cut into submaps of --max-keyframes
+// each (online/submap_learner.h), and `data` relocalized across all of them as
+// places in one map frame at every curve point. Returns -1 to go on (with the
+// last curve point's evaluation in `out`), otherwise the exit code.
+int learnSubmaps(const CLI::App& app, const Options& o, LearnOptions l,
+                 const RelocalizerParams& params, const FrameSource& data, Learned& out) {
+  auto checked = readLearningParams(l.learning, l.learn_min_motion, l.learn_config);
+  if (!checked) return cli::fail(app, "learning: " + checked.error());
+  auto learn_data =
+      cli::DatasetArguments{o.source.path, o.source.format, l.learn_frames, o.source.split}.open();
+  if (!learn_data) return cli::fail(app, learn_data.error());
+  const Dataset& learn = **learn_data;
+  std::printf("learning submaps from %zu frames (%s), key frames at %s m,deg, at most %d each\n",
+              learn.size(), l.learn_frames.c_str(), l.learn_min_motion.c_str(),
+              checked->max_keyframes);
+  SubmapLearner submaps(*checked, SubmapParams{}, params);
+  KeyFrameSelector selector(checked->min_motion);
+  const auto store = [&](const RgbdFrame& frame, const Pose& pose) -> Expected<bool> {
+    auto placed = submaps.addKeyFrame(frame, pose);
+    if (!placed) return makeError(placed.error());
+    return placed->decision != SubmapDecision::Covered;
+  };
+  cli::LearningCurve curve(data.path());
+  int learned = 0, stored = 0, covered = 0;
+  for (size_t i = 0; i < learn.size(); ++i) {
+    const KeyFrameFeed::Result fed = KeyFrameFeed::offerTo(
+        selector, learn.groundTruth(i), [&] { return learn.load(i); }, store);
+    if (!fed.why.empty()) return cli::fail(app, fed.why);
+    stored += fed.outcome == KeyFrameFeed::Result::Outcome::Learned;
+    covered += fed.outcome == KeyFrameFeed::Result::Outcome::Covered;
+    if (++learned % l.curve_every != 0 && i + 1 != learn.size()) continue;
+    if (Status drained = submaps.drain(); !drained) return cli::fail(app, drained.error());
+    PlaceSet places;
+    for (const SubmapModel& m : submaps.models())
+      if (Status put =
+              places.put({"learned/" + std::to_string(m.index), "map", "submap", m.relocalizer});
+          !put)
+        return cli::fail(app, put.error());
+    auto evaluated = evaluateFrames(places, data, "curve " + std::to_string(learned));
+    if (!evaluated) return cli::fail(app, evaluated.error());
+    out.evaluation = std::move(*evaluated);
+    const double accuracy = summarizeEvaluation(out.evaluation.records).accuracy.within_5cm_5deg;
+    std::printf(
+        "after %4d frames: %3d key frames in %d submaps (%d covered), %.1f %% within 5 cm "
+        "/ 5 deg\n",
+        learned, stored, submaps.index().submapCount(), covered, 100.0 * accuracy);
+    curve.add(learned, accuracy,
+              {{"keyframes", stored},
+               {"submaps", submaps.index().submapCount()},
+               {"keyframes_covered", covered}});
+  }
+  if (submaps.models().empty())
+    return cli::fail(app, "learned no model: only " + std::to_string(stored) +
+                              " key frames in --learn-frames " + l.learn_frames);
+  std::vector<int> per_submap;
+  for (int s = 0; s < submaps.index().submapCount(); ++s)
+    per_submap.push_back(static_cast<int>(submaps.index().keyFrames(s).size()));
+  std::printf("%d submaps, key frames per submap (seeds included): %s\n",
+              submaps.index().submapCount(), nlohmann::json(per_submap).dump().c_str());
+  out.json = {{"learn_frames", l.learn_frames},
+              {"learn_min_motion", l.learn_min_motion},
+              {"max_keyframes", checked->max_keyframes},
+              {"submaps", per_submap.size()},
+              {"submap_keyframes", per_submap},
+              {"keyframes_stored", stored},
+              {"keyframes_covered", covered},
+              {"curve", curve.json()}};
+  if (Status saved = curve.save(o.output); !saved) return cli::fail(app, saved.error(), 1);
   return -1;
 }
 
@@ -249,6 +311,11 @@ std::string combinationError(const Options& o, const LearnOptions& learn, bool m
     return "--model is required (or --learn-frames to learn the model online)";
   if (!learn.learn_frames.empty() && !o.source.bag.empty())
     return "--learn-frames learns from a --dataset folder, not from --bag";
+  // Saving and continuing a set of submaps (a folder) is issue 26's next step.
+  if (learn.submaps && (!o.models.empty() || !learn.save_model.empty()))
+    return "--submaps learns from nothing and saves nothing yet: drop --model and --save-model";
+  if (learn.submaps && o.prediction_quality)
+    return "--prediction-quality measures one model's forests, not --submaps";
   return {};
 }
 
@@ -318,7 +385,12 @@ int main(int argc, char** argv) {
 
   Learned learned;
   FrameEvaluation evaluation;
-  if (many_places) {
+  // Answers come from a set of places (places.csv names each frame's).
+  const bool by_places = many_places || learn.submaps;
+  if (learn.submaps) {
+    if (const int code = learnSubmaps(app, o, learn, params, data, learned); code >= 0) return code;
+    evaluation = std::move(learned.evaluation);
+  } else if (many_places) {
     auto evaluated = evaluatePlaces(o, params, data);
     if (!evaluated) return cli::fail(app, evaluated.error());
     evaluation = std::move(*evaluated);
@@ -330,7 +402,7 @@ int main(int argc, char** argv) {
              code >= 0) {
     return code;
   }
-  if (!many_places) {
+  if (!by_places) {
     const Relocalizer& relocalizer = *learned.relocalizer;
     const Model& model = relocalizer.model();
     std::printf("model %s: %zu point trees, %zu line trees, trained on %d images of %s\n",
@@ -363,11 +435,11 @@ int main(int argc, char** argv) {
   out.integer_stamps = data.integerStamps();
   out.title = std::filesystem::path(data.path()).filename().string() + " (" + o.forests + ")";
   out.extra_json = summaryFields(o, data, learned.json, quality.json, thread_count, params);
-  out.places = many_places;
+  out.places = by_places;
   if (const Status written = writeEvaluationOutputs(o.output, records, summary, out); !written)
     return cli::fail(app, written.error(), 1);
   std::printf("wrote poses.txt, %serrors.csv, summary.json, trajectory.png, errors.png%s to %s\n",
-              many_places ? "places.csv, " : "",
+              by_places ? "places.csv, " : "",
               learn.learn_frames.empty() ? "" : ", learning_curve.png", o.output.c_str());
   return 0;
 }

@@ -31,6 +31,7 @@ class KeyFrameFeed {
       Untracked,    // no pose, or an unusable one (`why`): not learned from
       NotKeyFrame,  // too close to the last key frame
       Learned,      // stored; the learner retrains when due
+      Covered,      // a key frame, but what is learned already holds one as good (submaps)
       Failed,       // a key frame that could not be loaded or stored (`why`)
     };
     Outcome outcome = Outcome::NotKeyFrame;
@@ -43,6 +44,14 @@ class KeyFrameFeed {
   // frame costs more than the rule).
   Result offer(const std::optional<Pose>& camera_to_world,
                const std::function<Expected<RgbdFrame>()>& load);
+
+  // Where a key frame goes: true stored, false covered by what is learned
+  // (not stored), or why it failed.
+  using Store = std::function<Expected<bool>(const RgbdFrame& frame, const Pose& camera_to_world)>;
+  // offer()'s steps for a learner the caller holds (submap_learner.h): the
+  // rule in `selector`, the key frame to `store`.
+  static Result offerTo(KeyFrameSelector& selector, const std::optional<Pose>& camera_to_world,
+                        const std::function<Expected<RgbdFrame>()>& load, const Store& store);
 
   OnlineLearner& learner() { return learner_; }
   const OnlineLearner& learner() const { return learner_; }
