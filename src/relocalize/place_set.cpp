@@ -194,9 +194,9 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) c
     PlaceAttempt& attempt = answer.attempts[i];
     attempt.place = places[i]->name;
     if (shared->recipe.sameAs(relocalizer.samplingRecipe())) {
-      attempt.screen_inliers = relocalizer.screen(*shared, params_.screen);
+      attempt.screen_inliers = relocalizer.screen(*shared, params_.screen).inliers;
     } else if (Expected<FrameSamples> own = relocalizer.sample(frame)) {
-      attempt.screen_inliers = relocalizer.screen(*own, params_.screen);
+      attempt.screen_inliers = relocalizer.screen(*own, params_.screen).inliers;
     }
   });
   const double screen_seconds = secondsSince(screen_start);
