@@ -182,6 +182,26 @@ int solvedCount(const PlaceAnswer& answer) {
 
 }  // namespace
 
+TEST_F(Places, TheScreenPoseIsNearTheTruthWithinHalfTheScreenAgreement) {
+  // What the screen skip rests on: two right screens are within
+  // screen_agreement of each other when each is within half of it of the truth.
+  const PlaceSearchParams params;
+  for (const Room& room : rooms_) {
+    int near = 0;
+    for (const RgbdFrame& frame : room.test_frames) {
+      auto samples = room.relocalizer->sample(frame);
+      ASSERT_TRUE(samples.ok()) << samples.error();
+      const ScreenResult screened = room.relocalizer->screen(*samples, params.screen);
+      EXPECT_GT(screened.inliers, 0);
+      near += translationError(screened.pose, *frame.ground_truth) <=
+                  params.screen_agreement_metres / 2 &&
+              rotationErrorDegrees(screened.pose, *frame.ground_truth) <=
+                  params.screen_agreement_degrees / 2;
+    }
+    EXPECT_GE(near, kTestFrames * 3 / 4) << room.name;
+  }
+}
+
 TEST_F(Places, TwinsInTwoFramesStayAmbiguousEvenInGroups) {
   // The same poses in two worlds are two answers, whatever the groups say.
   PlaceSet set;
