@@ -422,11 +422,11 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
   return solution;
 }
 
-int screenPose(const std::vector<SolverSample>& points, const PoseSolverParams& params,
-               int hypotheses, std::mt19937& rng) {
+ScreenResult screenPose(const std::vector<SolverSample>& points, const PoseSolverParams& params,
+                        int hypotheses, std::mt19937& rng) {
   int point_count = 0;
   const std::vector<const SolverSample*> all = usableSamples(points, {}, point_count);
-  if (point_count < 3 || hypotheses < 1) return 0;
+  if (point_count < 3 || hypotheses < 1) return {};
   PoseSolverParams screen = params;
   screen.hypotheses = hypotheses;
   // Every round scores on all samples, and Kabsch refits replace LM throughout.
@@ -434,14 +434,15 @@ int screenPose(const std::vector<SolverSample>& points, const PoseSolverParams& 
   screen.lm_hypotheses = 0;
   const int attempts = hypotheses * std::max(1, params.max_sampling_attempts);
   std::vector<Hypothesis> drawn = drawHypotheses(all, point_count, screen, attempts, rng);
-  if (drawn.empty()) return 0;
+  if (drawn.empty()) return {};
   PreemptiveRounds rounds(all, screen, rng);
   double lm_seconds = 0.0;
   const Pose winner = rounds.run(drawn, lm_seconds);
   std::vector<RefinementTerm> terms;
-  int inliers = 0;
-  collectTerms(all, winner, screen, terms, &inliers, nullptr);
-  return inliers;
+  ScreenResult result;
+  result.pose = winner;
+  collectTerms(all, winner, screen, terms, &result.inliers, nullptr);
+  return result;
 }
 
 }  // namespace relocalizer

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <numeric>
 
@@ -56,6 +58,155 @@ std::string ambiguityMessage(const std::string& a, const Relocalization& answer_
   return buffer;
 }
 
+// One map: answers of the two places are poses in one world, so agreeing
+// ones are one answer. Places of one group share their frame (put refuses
+// otherwise); the frame is checked again so that the rule never compares
+// poses of two worlds.
+bool oneMap(const Place& a, const Place& b) {
+  return !a.group.empty() && a.group == b.group && a.map_frame == b.map_frame;
+}
+
+bool posesAgree(const Pose& a, const Pose& b, double metres, double degrees) {
+  return translationError(a, b) <= metres && rotationErrorDegrees(a, b) <= degrees;
+}
+
+std::string disagreementMessage(const std::string& a, const Relocalization& answer_a,
+                                const std::string& b, const Relocalization& answer_b) {
+  char buffer[160];
+  std::snprintf(buffer, sizeof buffer, "; one map, but their poses are %.2f m and %.1f deg apart",
+                translationError(answer_a.pose, answer_b.pose),
+                rotationErrorDegrees(answer_a.pose, answer_b.pose));
+  return ambiguityMessage(a, answer_a, b, answer_b) + buffer;
+}
+
+// Why a place cannot be put; empty when it can (the group's frame aside).
+std::string placeError(const Place& place) {
+  if (place.name.empty()) return "a place needs a name";
+  if (place.map_frame.empty()) return "place " + place.name + ": no map frame";
+  if (!place.relocalizer) return "place " + place.name + ": no model";
+  if (std::string why = place.relocalizer->validationError(); !why.empty())
+    return "place " + place.name + ": " + why;
+  return {};
+}
+
+std::string groupFrameError(const Place& place, const std::string& frame) {
+  return "place " + place.name + ": in " + place.map_frame + ", but group " + place.group +
+         " is in " + frame + " (a group is one map)";
+}
+
+// The frame screened: every place's screen, the hint's factor it was weighed
+// by, and the order they rank in.
+struct Screened {
+  std::vector<ScreenResult> results;
+  std::vector<float> factors;
+  std::vector<size_t> order;  // best screened first
+  double seconds = 0.0;
+};
+
+// A place that answered: its index among the places and its answer.
+using Answered = std::pair<size_t, Relocalization>;
+
+struct Solves {
+  std::vector<Answered> answered;  // in rank order
+  Relocalization first_failure;    // the best screened place's, when it failed
+  // Per place: the place that answered whose screen it agreed with, when it
+  // was not solved for that reason (SIZE_MAX: none).
+  std::vector<size_t> skipped_for;
+};
+
+// Full solves for the best screened place and the runners-up that screened
+// close to it: a look-alike place must not win by being asked alone. A place
+// that screened far below the best is not asked even when the best fails: its
+// full solve would be the likeliest way to a wrong-place answer. A runner-up
+// of one map with a place that answered, screened at the same pose, is not
+// solved: it could only agree (and then a full solve of it is wasted).
+Solves solveRanked(const std::vector<std::shared_ptr<const Place>>& places,
+                   const Screened& screened, const PlaceSearchParams& params,
+                   const RgbdFrame& frame, const FrameSamples& shared, const PoseHint* hint,
+                   std::vector<PlaceAttempt>& attempts) {
+  Solves solves;
+  solves.skipped_for.assign(places.size(), SIZE_MAX);
+  const size_t best = screened.order.front();
+  const float best_screen = attempts[best].screen_inliers * screened.factors[best];
+  int solved = 0;
+  for (size_t rank = 0; rank < screened.order.size() && solved < params.max_solved; ++rank) {
+    const size_t i = screened.order[rank];
+    PlaceAttempt& attempt = attempts[i];
+    const float weighed = attempt.screen_inliers * screened.factors[i];
+    const bool close =
+        attempt.screen_inliers > 0 && weighed >= params.runner_up_ratio * best_screen;
+    if (rank > 0 && !close) break;
+    const Place& place = *places[i];
+    if (!solves.answered.empty()) {
+      const size_t lead = solves.answered.front().first;
+      if (oneMap(*places[lead], place) &&
+          posesAgree(screened.results[lead].pose, screened.results[i].pose,
+                     params.screen_agreement_metres, params.screen_agreement_degrees)) {
+        solves.skipped_for[i] = lead;
+        continue;
+      }
+    }
+    Relocalization full = place.relocalizer->relocalize(frame, shared, hintFor(place, hint));
+    ++solved;
+    attempt.solved = true;
+    attempt.success = full.success;
+    attempt.message = full.message;
+    if (full.success)
+      solves.answered.emplace_back(i, std::move(full));
+    else if (rank == 0)
+      solves.first_failure = std::move(full);
+  }
+  return solves;
+}
+
+// The answer from the places that answered: the strongest (inliers weighed by
+// the hint: a place in its frame, answering near it, counts up), unless
+// another comes within ambiguity_ratio of it and is a rival: of another map,
+// or of the same map at another pose. Then "no pose".
+void judge(const std::vector<std::shared_ptr<const Place>>& places, Solves& solves,
+           const std::vector<size_t>& order, const PoseHint* hint, const PlaceSearchParams& params,
+           PlaceAnswer& answer) {
+  std::vector<Answered>& answered = solves.answered;
+  if (answered.empty()) {
+    answer.relocalization = std::move(solves.first_failure);
+    const PlaceAttempt& best = answer.attempts[order.front()];
+    answer.relocalization.message = "no place fits; best screened " + best.place + ": " +
+                                    (best.message.empty() ? "not solved" : best.message);
+    return;
+  }
+  auto weighed = [&](const Answered& a) {
+    return inliersOf(a.second) * hintFactor(*places[a.first], hint, &a.second.pose);
+  };
+  std::stable_sort(answered.begin(), answered.end(),
+                   [&](const auto& a, const auto& b) { return weighed(a) > weighed(b); });
+  const auto& [winner, winning] = answered.front();
+  const Place& place = *places[winner];
+  std::string rivalry;
+  for (size_t k = 1; k < answered.size(); ++k) {
+    const auto& [other, answer_other] = answered[k];
+    const bool agrees = oneMap(place, *places[other]) &&
+                        posesAgree(winning.pose, answer_other.pose, params.agreement_metres,
+                                   params.agreement_degrees);
+    answer.attempts[other].agrees = agrees;
+    if (agrees || !rivalry.empty()) continue;
+    if (weighed(answered[k]) < params.ambiguity_ratio * weighed(answered.front())) continue;
+    rivalry = oneMap(place, *places[other])
+                  ? disagreementMessage(place.name, winning, places[other]->name, answer_other)
+                  : ambiguityMessage(place.name, winning, places[other]->name, answer_other);
+  }
+  for (size_t i = 0; i < places.size(); ++i)
+    if (solves.skipped_for[i] == winner) answer.attempts[i].agrees = true;
+  if (!rivalry.empty()) {
+    answer.relocalization = winning;
+    answer.relocalization.success = false;
+    answer.relocalization.message = rivalry;
+    return;
+  }
+  answer.place = place.name;
+  answer.map_frame = place.map_frame;
+  answer.relocalization = std::move(answered.front().second);
+}
+
 }  // namespace
 
 std::string PlaceSearchParams::validationError() const {
@@ -66,6 +217,10 @@ std::string PlaceSearchParams::validationError() const {
     return "runner_up_ratio must be a share between 0 and 1";
   if (!(ambiguity_ratio > 0 && ambiguity_ratio <= 1))
     return "ambiguity_ratio must be a share in (0, 1]";
+  if (!(agreement_metres >= 0 && agreement_degrees >= 0))
+    return "agreement_metres and agreement_degrees must be >= 0";
+  if (std::isnan(screen_agreement_metres) || std::isnan(screen_agreement_degrees))
+    return "screen_agreement_metres and screen_agreement_degrees must be numbers";
   return {};
 }
 
@@ -74,6 +229,7 @@ PlaceFigures placeFigures(const Place& place) {
   figures.name = place.name;
   figures.map_frame = place.map_frame;
   figures.source = place.source;
+  figures.group = place.group;
   if (!place.relocalizer) return figures;
   const Model& model = place.relocalizer->model();
   figures.point_trees = static_cast<int>(model.points.trees.size());
@@ -107,19 +263,56 @@ Expected<Place> PlaceSet::load(const std::string& name, const std::string& model
 }
 
 Status PlaceSet::put(Place place) {
-  if (place.name.empty()) return makeError("a place needs a name");
-  if (place.map_frame.empty()) return makeError("place " + place.name + ": no map frame");
-  if (!place.relocalizer) return makeError("place " + place.name + ": no model");
-  if (std::string why = place.relocalizer->validationError(); !why.empty())
-    return makeError("place " + place.name + ": " + why);
+  if (std::string why = placeError(place); !why.empty()) return makeError(why);
   auto shared = std::make_shared<const Place>(std::move(place));
   std::lock_guard<std::mutex> lock(mutex_);
+  if (!shared->group.empty())
+    for (const auto& existing : places_)
+      if (existing->group == shared->group && existing->name != shared->name &&
+          existing->map_frame != shared->map_frame)
+        return makeError(groupFrameError(*shared, existing->map_frame));
   for (auto& existing : places_)
     if (existing->name == shared->name) {
       existing = std::move(shared);
       return okStatus();
     }
   places_.push_back(std::move(shared));
+  return okStatus();
+}
+
+Status PlaceSet::putGroup(const std::string& group, std::vector<Place> places) {
+  if (group.empty()) return makeError("a group needs a name");
+  std::vector<std::shared_ptr<const Place>> members;
+  for (Place& place : places) {
+    place.group = group;
+    if (std::string why = placeError(place); !why.empty()) return makeError(why);
+    for (const auto& member : members) {
+      if (member->name == place.name)
+        return makeError("place " + place.name + " is given twice in group " + group);
+      if (member->map_frame != place.map_frame)
+        return makeError(groupFrameError(place, member->map_frame));
+    }
+    members.push_back(std::make_shared<const Place>(std::move(place)));
+  }
+  auto memberNamed = [&](const std::string& name) {
+    return std::find_if(members.begin(), members.end(),
+                        [&](const auto& member) { return member->name == name; });
+  };
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& existing : places_)
+    if (existing->group != group && memberNamed(existing->name) != members.end())
+      return makeError("place " + existing->name + " is not of group " + group);
+  std::vector<std::shared_ptr<const Place>> updated;
+  for (const auto& existing : places_) {
+    if (existing->group != group) {
+      updated.push_back(existing);
+    } else if (auto member = memberNamed(existing->name); member != members.end()) {
+      updated.push_back(std::move(*member));
+      members.erase(member);
+    }
+  }
+  for (auto& member : members) updated.push_back(std::move(member));
+  places_ = std::move(updated);
   return okStatus();
 }
 
@@ -163,20 +356,16 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) c
     answer.relocalization.timings.total = secondsSince(start);
     return answer;
   }
-  auto answerWith = [&](const Place& place, Relocalization relocalization) {
-    answer.place = place.name;
-    answer.map_frame = place.map_frame;
-    answer.relocalization = std::move(relocalization);
-  };
   if (places.size() == 1) {
     // Nothing to rank: the one-place path, with its line branch beside the point forest.
     const Place& place = *places.front();
     Relocalization alone = place.relocalizer->relocalize(frame, hintFor(place, hint));
     answer.attempts.push_back({place.name, -1, true, alone.success, alone.message});
-    if (alone.success)
-      answerWith(place, std::move(alone));
-    else
-      answer.relocalization = std::move(alone);
+    if (alone.success) {
+      answer.place = place.name;
+      answer.map_frame = place.map_frame;
+    }
+    answer.relocalization = std::move(alone);
     return answer;
   }
 
@@ -187,79 +376,33 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) c
     answer.relocalization.timings.total = secondsSince(start);
     return answer;
   }
+  Screened screened;
   const auto screen_start = Clock::now();
   answer.attempts.resize(places.size());
+  screened.results.resize(places.size());
   tbb::parallel_for(size_t{0}, places.size(), [&](size_t i) {
     const Relocalizer& relocalizer = *places[i]->relocalizer;
-    PlaceAttempt& attempt = answer.attempts[i];
-    attempt.place = places[i]->name;
+    answer.attempts[i].place = places[i]->name;
     if (shared->recipe.sameAs(relocalizer.samplingRecipe())) {
-      attempt.screen_inliers = relocalizer.screen(*shared, params_.screen);
+      screened.results[i] = relocalizer.screen(*shared, params_.screen);
     } else if (Expected<FrameSamples> own = relocalizer.sample(frame)) {
-      attempt.screen_inliers = relocalizer.screen(*own, params_.screen);
+      screened.results[i] = relocalizer.screen(*own, params_.screen);
     }
+    answer.attempts[i].screen_inliers = screened.results[i].inliers;
   });
-  const double screen_seconds = secondsSince(screen_start);
-  std::vector<float> screen_factors(places.size());
+  screened.seconds = secondsSince(screen_start);
+  screened.factors.resize(places.size());
   for (size_t i = 0; i < places.size(); ++i)
-    screen_factors[i] = hintFactor(*places[i], hint, nullptr);
-  const std::vector<size_t> order = rankByScreen(answer.attempts, screen_factors);
+    screened.factors[i] = hintFactor(*places[i], hint, nullptr);
+  screened.order = rankByScreen(answer.attempts, screened.factors);
 
-  // Full solves for the best screened place and the runners-up that screened
-  // close to it: a look-alike place must not win by being asked alone. A place
-  // that screened far below the best is not asked even when the best fails:
-  // its full solve would be the likeliest way to a wrong-place answer.
-  const float best_screen =
-      answer.attempts[order.front()].screen_inliers * screen_factors[order.front()];
-  std::vector<std::pair<size_t, Relocalization>> answered;
-  Relocalization first_failure;
-  for (size_t rank = 0; rank < order.size() && static_cast<int>(rank) < params_.max_solved;
-       ++rank) {
-    PlaceAttempt& attempt = answer.attempts[order[rank]];
-    const float weighed = attempt.screen_inliers * screen_factors[order[rank]];
-    const bool close =
-        attempt.screen_inliers > 0 && weighed >= params_.runner_up_ratio * best_screen;
-    if (rank > 0 && !close) break;
-    const Place& place = *places[order[rank]];
-    Relocalization full = place.relocalizer->relocalize(frame, *shared, hintFor(place, hint));
-    attempt.solved = true;
-    attempt.success = full.success;
-    attempt.message = full.message;
-    if (full.success)
-      answered.emplace_back(order[rank], std::move(full));
-    else if (rank == 0)
-      first_failure = std::move(full);
-  }
-
-  if (answered.empty()) {
-    answer.relocalization = std::move(first_failure);
-    const PlaceAttempt& best = answer.attempts[order.front()];
-    answer.relocalization.message = "no place fits; best screened " + best.place + ": " +
-                                    (best.message.empty() ? "not solved" : best.message);
-  } else {
-    // Weighed by the hint: a place in its frame, answering near it, counts up.
-    auto weighed = [&](const std::pair<size_t, Relocalization>& a) {
-      return inliersOf(a.second) * hintFactor(*places[a.first], hint, &a.second.pose);
-    };
-    std::stable_sort(answered.begin(), answered.end(),
-                     [&](const auto& a, const auto& b) { return weighed(a) > weighed(b); });
-    const auto& [winner, winning] = answered.front();
-    if (answered.size() > 1 &&
-        weighed(answered[1]) >= params_.ambiguity_ratio * weighed(answered.front())) {
-      const std::string why = ambiguityMessage(places[winner]->name, winning,
-                                               places[answered[1].first]->name, answered[1].second);
-      answer.relocalization = winning;
-      answer.relocalization.success = false;
-      answer.relocalization.message = why;
-    } else {
-      answerWith(*places[winner], std::move(answered.front().second));
-    }
-  }
+  Solves solves = solveRanked(places, screened, params_, frame, *shared, hint, answer.attempts);
+  judge(places, solves, screened.order, hint, params_, answer);
   // Move the attempts into rank order for the reader.
   std::vector<PlaceAttempt> ranked;
-  for (size_t i : order) ranked.push_back(std::move(answer.attempts[i]));
+  for (size_t i : screened.order) ranked.push_back(std::move(answer.attempts[i]));
   answer.attempts = std::move(ranked);
-  answer.relocalization.timings.screening = screen_seconds;
+  answer.relocalization.timings.screening = screened.seconds;
   answer.relocalization.timings.total = secondsSince(start);
   return answer;
 }

@@ -227,8 +227,8 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame, const FrameSample
                hint);
 }
 
-int Relocalizer::screen(const FrameSamples& samples, const ScreenParams& screen) const {
-  if (model_.points.empty() || samples.points.empty()) return 0;
+ScreenResult Relocalizer::screen(const FrameSamples& samples, const ScreenParams& screen) const {
+  if (model_.points.empty() || samples.points.empty()) return {};
   // The point samples are in random order: the first ones are a random subset.
   const size_t count = std::min(samples.points.size(), static_cast<size_t>(screen.samples));
   const std::vector<Sample> subset(samples.points.begin(), samples.points.begin() + count);

@@ -1,5 +1,6 @@
 // Many places in one set: each frame is answered by the room it was taken in,
-// never by another, and a frame that two places explain alike gets no pose.
+// never by another, and a frame that two places explain alike gets no pose,
+// unless they are parts of one map (a group) and answer the same pose.
 
 #include <gtest/gtest.h>
 
@@ -34,30 +35,42 @@ struct Room {
 class Places : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    const CameraIntrinsics camera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
-    const TrainingParams training = relocalizer::testing::smallRoomTraining();
-    const RelocalizerParams params = relocalizer::testing::smallRoomRelocalizer();
     for (const uint64_t seed : {7, 8}) {
       const SyntheticRoom room(seed);
       const SyntheticTrajectories paths = room.trajectories(kTrainFrames, kTestFrames);
-      ModelBuilder builder(training);
-      for (size_t i = 0; i < paths.train.size(); ++i)
-        builder.add(room.render(paths.train[i], camera, static_cast<int>(i)));
-      auto built = builder.build({});
-      ASSERT_TRUE(built.ok()) << built.error();
       Room r;
       r.name = "room" + std::to_string(seed);
-      r.relocalizer = std::make_shared<const Relocalizer>(std::move(*built), params);
+      r.relocalizer = train(room, paths, Pose::Identity());
+      ASSERT_TRUE(r.relocalizer);
       for (size_t i = 0; i < paths.test.size(); ++i)
         r.test_frames.push_back(
-            room.render(paths.test[i], camera, static_cast<int>(kTrainFrames + i)));
+            room.render(paths.test[i], camera(), static_cast<int>(kTrainFrames + i)));
       rooms_.push_back(std::move(r));
     }
   }
   static void TearDownTestSuite() { rooms_.clear(); }
 
+  // A small model of the room trained on its camera path, with every training
+  // pose moved by `world_shift` (the same room, mapped into other coordinates).
+  static std::shared_ptr<const Relocalizer> train(const SyntheticRoom& room,
+                                                  const SyntheticTrajectories& paths,
+                                                  const Pose& world_shift) {
+    ModelBuilder builder(relocalizer::testing::smallRoomTraining());
+    for (size_t i = 0; i < paths.train.size(); ++i) {
+      RgbdFrame frame = room.render(paths.train[i], camera(), static_cast<int>(i));
+      frame.ground_truth = world_shift * *frame.ground_truth;
+      builder.add(std::move(frame));
+    }
+    auto built = builder.build({});
+    EXPECT_TRUE(built.ok()) << built.error();
+    if (!built) return nullptr;
+    return std::make_shared<const Relocalizer>(std::move(*built),
+                                               relocalizer::testing::smallRoomRelocalizer());
+  }
+  static CameraIntrinsics camera() { return CameraIntrinsics::kinectDefault().scaledTo(320, 240); }
+
   static Place placeOf(const Room& room, const std::string& name = {}) {
-    return {name.empty() ? room.name : name, room.name + "_map", "memory", room.relocalizer};
+    return {name.empty() ? room.name : name, room.name + "_map", "memory", room.relocalizer, {}};
   }
   static void putBothRooms(PlaceSet& set) {
     for (const Room& room : rooms_) EXPECT_TRUE(set.put(placeOf(room)).ok());
@@ -140,7 +153,8 @@ TEST_F(Places, AnUnloadedPlaceNeverAnswersAndItsFramesGetNoPose) {
 
 TEST_F(Places, TwoPlacesThatExplainAFrameAlikeGiveNoPose) {
   // The same model under two names: every frame fits both equally well, so
-  // naming either would be a guess.
+  // naming either would be a guess. One frame but no group: only a group says
+  // that two models are parts of one map, so agreeing poses stay two answers.
   PlaceSet set;
   ASSERT_TRUE(set.put(placeOf(rooms_[0], "first")).ok());
   ASSERT_TRUE(set.put(placeOf(rooms_[0], "twin")).ok());
@@ -151,6 +165,194 @@ TEST_F(Places, TwoPlacesThatExplainAFrameAlikeGiveNoPose) {
     ambiguous += answer.relocalization.message.find("ambiguous place") != std::string::npos;
   }
   EXPECT_GE(ambiguous, kTestFrames * 3 / 4);
+}
+
+namespace {
+
+Place groupPlace(const std::shared_ptr<const Relocalizer>& relocalizer, const std::string& name,
+                 const std::string& group, const std::string& frame = "building") {
+  return {name, frame, "memory", relocalizer, group};
+}
+
+int solvedCount(const PlaceAnswer& answer) {
+  int solved = 0;
+  for (const PlaceAttempt& attempt : answer.attempts) solved += attempt.solved ? 1 : 0;
+  return solved;
+}
+
+}  // namespace
+
+TEST_F(Places, TheScreenPoseIsNearTheTruthWithinHalfTheScreenAgreement) {
+  // What the screen skip rests on: two right screens are within
+  // screen_agreement of each other when each is within half of it of the truth.
+  const PlaceSearchParams params;
+  for (const Room& room : rooms_) {
+    int near = 0;
+    for (const RgbdFrame& frame : room.test_frames) {
+      auto samples = room.relocalizer->sample(frame);
+      ASSERT_TRUE(samples.ok()) << samples.error();
+      const ScreenResult screened = room.relocalizer->screen(*samples, params.screen);
+      EXPECT_GT(screened.inliers, 0);
+      near += translationError(screened.pose, *frame.ground_truth) <=
+                  params.screen_agreement_metres / 2 &&
+              rotationErrorDegrees(screened.pose, *frame.ground_truth) <=
+                  params.screen_agreement_degrees / 2;
+    }
+    EXPECT_GE(near, kTestFrames * 3 / 4) << room.name;
+  }
+}
+
+TEST_F(Places, TwinsInTwoFramesStayAmbiguousEvenInGroups) {
+  // The same poses in two worlds are two answers, whatever the groups say.
+  PlaceSet set;
+  ASSERT_TRUE(set.put(groupPlace(rooms_[0].relocalizer, "first", "a", "a_map")).ok());
+  ASSERT_TRUE(set.put(groupPlace(rooms_[0].relocalizer, "twin", "b", "b_map")).ok());
+  int ambiguous = 0;
+  for (const RgbdFrame& frame : rooms_[0].test_frames) {
+    const PlaceAnswer answer = set.relocalize(frame);
+    EXPECT_FALSE(answer.relocalization.success) << "answered by " << answer.place;
+    ambiguous += answer.relocalization.message.find("ambiguous place") != std::string::npos;
+    for (const PlaceAttempt& attempt : answer.attempts) EXPECT_FALSE(attempt.agrees);
+  }
+  EXPECT_GE(ambiguous, kTestFrames * 3 / 4);
+}
+
+TEST_F(Places, TwoPartsOfOneMapThatAgreeGiveThatPose) {
+  // The same model twice in one group: two answers, one pose, so the answer
+  // is that pose (outside a group this is "ambiguous place", above). The
+  // screen skip is off: both places get the full solve.
+  PlaceSearchParams params;
+  params.screen_agreement_metres = -1;
+  PlaceSet set(params);
+  ASSERT_TRUE(set.put(groupPlace(rooms_[0].relocalizer, "kitchen/0", "kitchen")).ok());
+  ASSERT_TRUE(set.put(groupPlace(rooms_[0].relocalizer, "kitchen/1", "kitchen")).ok());
+  int answered = 0, correct_poses = 0;
+  for (const RgbdFrame& frame : rooms_[0].test_frames) {
+    const Relocalization alone = rooms_[0].relocalizer->relocalize(frame);
+    const PlaceAnswer answer = set.relocalize(frame);
+    ASSERT_EQ(answer.attempts.size(), 2u);
+    EXPECT_EQ(solvedCount(answer), 2);
+    ASSERT_EQ(answer.relocalization.success, alone.success)
+        << answer.relocalization.message << " / " << alone.message;
+    if (!alone.success) continue;
+    ++answered;
+    // Equal inliers: the first added, best screened, is the answer.
+    EXPECT_EQ(answer.place, "kitchen/0");
+    EXPECT_EQ(answer.map_frame, "building");
+    EXPECT_TRUE(answer.relocalization.pose.isApprox(alone.pose, 1e-12));
+    EXPECT_FALSE(answer.attempts[0].agrees);
+    EXPECT_TRUE(answer.attempts[1].agrees);
+    EXPECT_TRUE(answer.attempts[1].success);
+    correct_poses += correct(answer, frame) ? 1 : 0;
+  }
+  EXPECT_GE(answered, kTestFrames * 3 / 4);
+  EXPECT_GE(correct_poses, kTestFrames * 3 / 4);
+}
+
+TEST_F(Places, AGroupRunnerUpScreenedAtTheAnswersPoseIsNotSolved) {
+  // The twin screens exactly as the first: its full solve could only agree.
+  PlaceSet set;
+  ASSERT_TRUE(set.put(groupPlace(rooms_[0].relocalizer, "kitchen/0", "kitchen")).ok());
+  ASSERT_TRUE(set.put(groupPlace(rooms_[0].relocalizer, "kitchen/1", "kitchen")).ok());
+  int answered = 0;
+  for (const RgbdFrame& frame : rooms_[0].test_frames) {
+    const Relocalization alone = rooms_[0].relocalizer->relocalize(frame);
+    const PlaceAnswer answer = set.relocalize(frame);
+    ASSERT_EQ(answer.attempts.size(), 2u);
+    ASSERT_EQ(answer.relocalization.success, alone.success) << answer.relocalization.message;
+    if (!alone.success) {
+      // Nothing answered to agree with: the twin gets its own full solve.
+      EXPECT_EQ(solvedCount(answer), 2);
+      continue;
+    }
+    ++answered;
+    EXPECT_EQ(solvedCount(answer), 1);  // the node's places_solved
+    EXPECT_EQ(answer.place, "kitchen/0");
+    EXPECT_TRUE(answer.relocalization.pose.isApprox(alone.pose, 1e-12));
+    EXPECT_FALSE(answer.attempts[1].solved);
+    EXPECT_TRUE(answer.attempts[1].agrees);
+  }
+  EXPECT_GE(answered, kTestFrames * 3 / 4);
+}
+
+TEST_F(Places, TwoPartsOfOneMapThatDisagreeAreAmbiguousAndSayHowFarApart) {
+  // The room learned twice into one map, the second time 1 m off along x: each
+  // answers the frame as well as the other, at poses 1 m apart.
+  const SyntheticRoom room(7);
+  const SyntheticTrajectories paths = room.trajectories(kTrainFrames, kTestFrames);
+  const Pose shift(Eigen::Translation3d(1.0, 0.0, 0.0));
+  const std::shared_ptr<const Relocalizer> shifted = train(room, paths, shift);
+  ASSERT_TRUE(shifted);
+  PlaceSet set;
+  ASSERT_TRUE(set.put(groupPlace(rooms_[0].relocalizer, "kitchen/0", "kitchen")).ok());
+  ASSERT_TRUE(set.put(groupPlace(shifted, "kitchen/1", "kitchen")).ok());
+  int ambiguous = 0;
+  std::string example;
+  for (const RgbdFrame& frame : rooms_[0].test_frames) {
+    const Relocalization near = rooms_[0].relocalizer->relocalize(frame);
+    const Relocalization far = shifted->relocalize(frame);
+    const PlaceAnswer answer = set.relocalize(frame);
+    const std::string& message = answer.relocalization.message;
+    if (message.find("ambiguous place") == std::string::npos) continue;
+    ++ambiguous;
+    example = message;
+    EXPECT_FALSE(answer.relocalization.success);
+    EXPECT_TRUE(answer.place.empty());
+    ASSERT_TRUE(near.success && far.success) << message;
+    EXPECT_NE(message.find("kitchen/0"), std::string::npos) << message;
+    EXPECT_NE(message.find("kitchen/1"), std::string::npos) << message;
+    const double apart = translationError(near.pose, far.pose);
+    EXPECT_NEAR(apart, 1.0, 0.05);
+    char metres[32];
+    std::snprintf(metres, sizeof metres, "%.2f m", apart);
+    EXPECT_NE(message.find(metres), std::string::npos) << message << " (expected " << metres << ")";
+    for (const PlaceAttempt& attempt : answer.attempts) EXPECT_FALSE(attempt.agrees);
+  }
+  std::printf("%d of %d frames ambiguous, the last: %s\n", ambiguous, kTestFrames, example.c_str());
+  EXPECT_GE(ambiguous, kTestFrames * 3 / 4);
+}
+
+TEST_F(Places, PutGroupReplacesTheGroupAtOnce) {
+  const auto& kitchen = rooms_[0].relocalizer;
+  const auto& lab = rooms_[1].relocalizer;
+  PlaceSet set;
+  ASSERT_TRUE(set.put(Place{"lab", "building", "memory", lab, {}}).ok());
+  ASSERT_TRUE(set.putGroup("kitchen", {groupPlace(kitchen, "kitchen/0", ""),
+                                       groupPlace(kitchen, "kitchen/1", "")})
+                  .ok());
+  EXPECT_EQ(set.names(), (std::vector<std::string>{"lab", "kitchen/0", "kitchen/1"}));
+  EXPECT_EQ(set.list()[1].group, "kitchen");
+  EXPECT_EQ(set.list()[0].group, "");
+
+  // kitchen/1 retrained, kitchen/2 new, kitchen/0 gone.
+  ASSERT_TRUE(set.putGroup("kitchen",
+                           {groupPlace(lab, "kitchen/1", ""), groupPlace(kitchen, "kitchen/2", "")})
+                  .ok());
+  EXPECT_EQ(set.names(), (std::vector<std::string>{"lab", "kitchen/1", "kitchen/2"}));
+  EXPECT_EQ(set.places()[1]->relocalizer, lab);
+
+  // Refused, and nothing changes.
+  auto refused = [&](const std::string& group, std::vector<Place> places,
+                     const std::string& reason) {
+    const Status status = set.putGroup(group, std::move(places));
+    ASSERT_FALSE(status.ok()) << reason;
+    EXPECT_NE(status.error().find(reason), std::string::npos) << status.error();
+    EXPECT_EQ(set.names(), (std::vector<std::string>{"lab", "kitchen/1", "kitchen/2"}));
+  };
+  refused("kitchen", {groupPlace(kitchen, "lab", "")}, "not of group kitchen");
+  refused("kitchen",
+          {groupPlace(kitchen, "kitchen/1", ""), groupPlace(kitchen, "kitchen/3", "", "other")},
+          "a group is one map");
+  refused("kitchen", {groupPlace(kitchen, "kitchen/1", ""), groupPlace(kitchen, "kitchen/1", "")},
+          "given twice");
+  refused("", {groupPlace(kitchen, "x", "")}, "a group needs a name");
+  refused("kitchen", {groupPlace(nullptr, "kitchen/1", "")}, "no model");
+  const Status elsewhere = set.put(groupPlace(kitchen, "kitchen/9", "kitchen", "other"));
+  ASSERT_FALSE(elsewhere.ok());
+  EXPECT_NE(elsewhere.error().find("a group is one map"), std::string::npos) << elsewhere.error();
+
+  ASSERT_TRUE(set.putGroup("kitchen", {}).ok());
+  EXPECT_EQ(set.names(), std::vector<std::string>{"lab"});
 }
 
 TEST_F(Places, PutReplacesByNameAndRefusesWhatCannotBeUsed) {

@@ -200,8 +200,8 @@ TEST_F(PoseHints, WithPlacesTheHintFavoursThePlacesInItsFrame) {
   // (no pose); a hint in one frame names that place, and a hint in a frame no
   // place has changes nothing.
   PlaceSet set;
-  ASSERT_TRUE(set.put({"first", "first_map", "memory", room_}).ok());
-  ASSERT_TRUE(set.put({"second", "second_map", "memory", room_}).ok());
+  ASSERT_TRUE(set.put({"first", "first_map", "memory", room_, {}}).ok());
+  ASSERT_TRUE(set.put({"second", "second_map", "memory", room_, {}}).ok());
   int first = 0, second = 0;
   for (const RgbdFrame& frame : frames_) {
     const PlaceAnswer free = set.relocalize(frame);

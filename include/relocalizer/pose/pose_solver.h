@@ -94,11 +94,18 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
                        const std::vector<SolverSample>& lines, const PoseSolverParams& params,
                        std::mt19937& rng, const PoseHint* hint = nullptr);
 
-// How well the point samples fit one rigid motion, for ranking places at a
-// small share of solvePose's cost: a short preemptive RANSAC of `hypotheses`
-// Kabsch hypotheses, refitted by Kabsch only (no LM, no lines), and the point
-// inliers of its winner.
-int screenPose(const std::vector<SolverSample>& points, const PoseSolverParams& params,
-               int hypotheses, std::mt19937& rng);
+// How well the point samples fit one rigid motion: the point inliers of the
+// short RANSAC's winner and its pose (camera-to-world, Kabsch only, so coarse;
+// identity when no hypothesis could be drawn, with 0 inliers).
+struct ScreenResult {
+  int inliers = 0;
+  Pose pose = Pose::Identity();
+};
+
+// For ranking places at a small share of solvePose's cost: a short preemptive
+// RANSAC of `hypotheses` Kabsch hypotheses, refitted by Kabsch only (no LM, no
+// lines).
+ScreenResult screenPose(const std::vector<SolverSample>& points, const PoseSolverParams& params,
+                        int hypotheses, std::mt19937& rng);
 
 }  // namespace relocalizer

@@ -11,6 +11,11 @@
 // get the full solve. A runner-up whose screen comes close to the best is
 // solved too, and when two places both hold up the answer is "no pose":
 // naming the wrong room would be worse than naming none.
+//
+// Unless they are one map: places of one group (the submaps of a map, in its
+// one frame) whose answers agree give one answer, that pose; and a runner-up
+// of the group whose screen already agrees with a place that answered is not
+// solved at all (it could only agree, at the cost of a full solve).
 
 #include <memory>
 #include <mutex>
@@ -28,6 +33,9 @@ struct Place {
   std::string map_frame;  // the frame the model's world coordinates are in
   std::string source;     // where the model came from (its path), for listings
   std::shared_ptr<const Relocalizer> relocalizer;
+  // Places of one group are parts of one map (submaps): one map frame, and
+  // answers that agree are one answer, not rivals. Empty: a place on its own.
+  std::string group;
 };
 
 // What a listing shows of a place.
@@ -35,6 +43,7 @@ struct PlaceFigures {
   std::string name;
   std::string map_frame;
   std::string source;
+  std::string group;
   int point_trees = 0;
   int line_trees = 0;
   long modes = 0;            // leaf modes over both forests
@@ -51,6 +60,19 @@ struct PlaceSearchParams {
   // Two places that both answer: the weaker one is no rival below this share
   // of the stronger's inliers; at or above it the frame is ambiguous.
   float ambiguity_ratio = 0.8f;
+  // Two answers of one group agree within these (core/pose.h's errors): two
+  // right answers are each within ~5 cm / 5 deg of the truth, so of each other
+  // within about twice that.
+  double agreement_metres = 0.10;
+  double agreement_degrees = 10.0;
+  // A runner-up of the group whose screen pose is within these of the screen
+  // pose of a place that answered is not solved; negative: every close
+  // runner-up is solved. Coarse, as screens are (Kabsch on 200 samples), yet
+  // twice the screen's worst error: rk.model on the 200 redkitchen-dev test
+  // frames screens at 2.2 cm / 0.8 deg from the truth (median), 8.0 cm / 3.6
+  // deg (p95), every frame within 0.15 m / 7.5 deg.
+  double screen_agreement_metres = 0.3;
+  double screen_agreement_degrees = 15.0;
 
   std::string validationError() const;  // empty when usable
 };
@@ -62,6 +84,10 @@ struct PlaceAttempt {
   bool solved = false;     // the full solve ran
   bool success = false;    // and answered with a pose
   std::string message;     // its reason when it ran and failed
+  // Same group as the strongest answer and the same pose (solved), or not
+  // solved because its screen pose agreed with that answer's place's: not a
+  // rival. The strongest answer is the answer unless the frame is ambiguous.
+  bool agrees = false;
 };
 
 struct PlaceAnswer {
@@ -80,8 +106,15 @@ class PlaceSet {
                               const std::string& map_frame, const RelocalizerParams& params);
 
   // Adds a place, or replaces the one of the same name (a retrained model).
-  // Refuses an empty name or frame, or a model the parameters cannot use.
+  // Refuses an empty name or frame, a model the parameters cannot use, or a
+  // group place in another frame than its group's.
   Status put(Place place);
+  // Makes `places` the group's places, all at once (a relocalization sees the
+  // group before or after, never half): each gets `group`; the group's places
+  // not among them go; one of the same name is replaced in its position.
+  // Refuses (and changes nothing) an empty group, what put() refuses, two
+  // places of one name or of two frames, or a name held outside the group.
+  Status putGroup(const std::string& group, std::vector<Place> places);
   // False when no place has that name.
   bool remove(const std::string& name);
   std::vector<PlaceFigures> list() const;

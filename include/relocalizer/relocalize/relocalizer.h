@@ -110,8 +110,9 @@ class Relocalizer {
                             const PoseHint* hint = nullptr) const;
   SamplingRecipe samplingRecipe() const;
   // How well the frame fits this place, cheaply: the inliers of a short
-  // RANSAC on a few of the samples (0 when the model has no point forest).
-  int screen(const FrameSamples& samples, const ScreenParams& params) const;
+  // RANSAC on a few of the samples and its winner's pose in the model's world
+  // (0 inliers when the model has no point forest).
+  ScreenResult screen(const FrameSamples& samples, const ScreenParams& params) const;
 
   // Samples the frame as relocalize() does and compares each sample's
   // predictions with its true world coordinate. Needs frame.ground_truth.
