@@ -35,6 +35,8 @@ struct Place {
   std::shared_ptr<const Relocalizer> relocalizer;
   // Places of one group are parts of one map (submaps): one map frame, and
   // answers that agree are one answer, not rivals. Empty: a place on its own.
+  // A shared map_frame alone does not make one map: two models a user loads
+  // into one frame stay rivals, as they were before groups.
   std::string group;
 };
 
@@ -54,7 +56,9 @@ struct PlaceFigures {
 
 struct PlaceSearchParams {
   ScreenParams screen;  // the cheap pass every place gets
-  int max_solved = 3;   // full solves per frame at most (the best and close runners-up)
+  // Full solves per frame at most (the best and close runners-up); a group
+  // runner-up left unsolved for its screen pose does not count.
+  int max_solved = 3;
   // The runner-up is solved too when its screen inliers reach this share of the best's.
   float runner_up_ratio = 0.5f;
   // Two places that both answer: the weaker one is no rival below this share
