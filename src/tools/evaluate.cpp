@@ -240,8 +240,8 @@ int learnSubmaps(const CLI::App& app, const Options& o, LearnOptions l,
     if (Status drained = submaps.drain(); !drained) return cli::fail(app, drained.error());
     PlaceSet places;
     for (const SubmapModel& m : submaps.models())
-      if (Status put =
-              places.put({"learned/" + std::to_string(m.index), "map", "submap", m.relocalizer});
+      if (Status put = places.put(
+              {"learned/" + std::to_string(m.index), "map", "submap", m.relocalizer, "learned"});
           !put)
         return cli::fail(app, put.error());
     auto evaluated = evaluateFrames(places, data, "curve " + std::to_string(learned));

@@ -6,6 +6,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
 
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/submap_learner.h"
@@ -136,4 +140,47 @@ TEST_F(SubmapRoom, UnusablePosesAndFramesAreRefusedAndPlacedNowhere) {
   EXPECT_EQ(submaps.active(), nullptr);
   EXPECT_TRUE(submaps.addKeyFrame(learn_[0], *learn_[0].ground_truth).ok());
   EXPECT_EQ(submaps.index().submapCount(), 1);
+}
+
+TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
+  const relocalizer::testing::TempDir dir;
+  const std::string log = dir.str() + "/tool.log";
+  ASSERT_EQ(relocalizer::testing::runTool(
+                "synthesize",
+                "--seed 7 --train-frames 80 --test-frames 1 --width 320 --height 240 --output '" +
+                    dir.str() + "/scene'",
+                log),
+            0)
+      << relocalizer::testing::readBytes(log);
+  // The small forests of the unit tests, as a training YAML for the retrains.
+  std::ofstream(dir.path() / "small.yaml")
+      << "points: {trees: 3, max_depth: 16, samples_per_image: 1000}\n"
+         "lines: {trees: 3, max_depth: 16, samples_per_image: 1000}\n";
+  // Learn the whole training arc; relocalize frames between its key frames.
+  const std::string arguments = "--dataset '" + dir.str() +
+                                "/scene/train' --learn-frames 0-79 --frames " +
+                                "2,10,18,26,34,42,50,58,66,74 --submaps --max-keyframes 6 "
+                                "--curve-every 1000 --learn-config '" +
+                                dir.str() + "/small.yaml' --output '" + dir.str() + "/out'";
+  ASSERT_EQ(relocalizer::testing::runTool("evaluate", arguments, log, log), 0)
+      << relocalizer::testing::readBytes(log);
+  const nlohmann::json summary =
+      nlohmann::json::parse(relocalizer::testing::readBytes(dir.path() / "out/summary.json"));
+  const nlohmann::json& learning = summary.at("learning");
+  EXPECT_GE(learning.at("submaps").get<int>(), 3) << learning.dump();
+  for (int keyframes : learning.at("submap_keyframes").get<std::vector<int>>())
+    EXPECT_LE(keyframes, 8);
+  EXPECT_GE(summary.at("within_5cm_5deg").get<double>(), 0.9)
+      << relocalizer::testing::readBytes(log);
+  // places.csv names the answering submap of every frame: the one whose area it is in,
+  // so along the arc the answers move from submap to submap.
+  std::istringstream places(relocalizer::testing::readBytes(dir.path() / "out/places.csv"));
+  std::set<std::string> answering;
+  for (std::string line; std::getline(places, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    const std::string place = line.substr(line.find(' ') + 1);
+    EXPECT_EQ(place.rfind("learned/", 0), 0u) << line;
+    answering.insert(place);
+  }
+  EXPECT_GE(answering.size(), 3u);
 }
