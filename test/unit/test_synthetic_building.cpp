@@ -434,10 +434,12 @@ TEST(SyntheticBuildingWalk, GoesRoundEveryRoomInSmallStepsThroughItsDoor) {
   ASSERT_GT(walk.size(), 3u * kSyntheticLoopFrames);
   std::vector<int> rendered(building.size(), 0), loop_poses_seen(building.size(), 0);
   std::vector<std::vector<Pose>> loops;
+  std::vector<SyntheticRoom> built;
   std::vector<Eigen::AlignedBox3d> own_bounds;
   for (const BuildingRoom& room : building) {
-    loops.push_back(SyntheticRoom(room.recipe).trajectories(kSyntheticLoopFrames, 0).train);
-    own_bounds.push_back(SyntheticRoom(room.recipe).bounds());
+    built.emplace_back(room.recipe);
+    loops.push_back(built.back().trajectories(kSyntheticLoopFrames, 0).train);
+    own_bounds.push_back(built.back().bounds());
   }
   for (size_t t = 0; t < walk.size(); ++t) {
     const WalkTick& tick = walk[t];
@@ -456,7 +458,12 @@ TEST(SyntheticBuildingWalk, GoesRoundEveryRoomInSmallStepsThroughItsDoor) {
     const Eigen::AlignedBox3d& own = own_bounds[tick.room];
     // Rendered exactly when well inside its own room; elsewhere in the corridor or a doorway.
     EXPECT_EQ(tick.rendered, insideShrunk(own, in_room, options.render_margin)) << t;
-    if (tick.rendered) ++rendered[tick.room];
+    if (tick.rendered) {
+      ++rendered[tick.room];
+      // Never into the furniture: a camera crossing a surface would pass
+      // within half a step (~1 cm) of it; the door's leaf is the nearest.
+      EXPECT_GT(built[tick.room].surfaceDistance(in_room), 0.2) << t;
+    }
     const bool in_a_room = own.contains(in_room);
     const bool in_corridor = corridor.contains(p);
     const bool in_doorway = std::abs(p.x() - room.door.centre.x()) < room.door.width / 2 &&
