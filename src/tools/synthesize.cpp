@@ -60,12 +60,18 @@ int main(int argc, char** argv) {
                      "all rooms in the building frame (see --no-walk).")
           ->check(CLI::Range(relocalizer::kMinBuildingRooms, relocalizer::kMaxBuildingRooms));
   bool no_walk = false;
+  relocalizer::BuildingWalkOptions walk;
   app.add_flag("--no-walk", no_walk,
-               "With --rooms, do not write OUTPUT/walk: one 7-Scenes folder of a walk at 30 Hz "
-               "in through each room's door, once round its training loop (at least 280 frames "
-               "long) and out along the corridor; rendered frames are frame-<tick> in the "
-               "building frame, room r's test frame i is frame-(500000 + 1000 r + i), "
-               "walk.json says which is which, walk_poses.txt has a pose at every tick")
+               "With --rooms, do not write OUTPUT/walk: one 7-Scenes folder of a walk at " +
+                   std::to_string(static_cast<int>(walk.rate)) +
+                   " Hz in through each room's door, once round its training loop (at least " +
+                   std::to_string(relocalizer::kSyntheticLoopFrames) +
+                   " frames long) and out along the corridor; rendered frames are "
+                   "frame-<tick> in the building frame, room r's test frame i is frame-(" +
+                   std::to_string(relocalizer::kWalkTestFirstId) + " + " +
+                   std::to_string(relocalizer::kWalkTestIdsPerRoom) +
+                   " r + i), walk.json says which is which, walk_poses.txt has a pose at "
+                   "every tick")
       ->needs(rooms_option);
 
   if (const int code = relocalizer::cli::parse(app, argc, argv); code >= 0) return code;
@@ -80,7 +86,6 @@ int main(int argc, char** argv) {
   if (!invalid.empty()) return fail(app, invalid);
 
   const bool building = rooms_option->count() > 0;
-  relocalizer::BuildingWalkOptions walk;
   walk.loop_frames = options.train_frames;
   if (building && !no_walk) {
     if (options.test_frames > relocalizer::kWalkTestIdsPerRoom)
