@@ -170,6 +170,9 @@ void printWritten(const BagSettings& settings, int written, int with_truth, doub
       "wrote %d frames (%d with ground truth, depth %s, stamps %s) to %s (%.1f MB) in %.1f s\n",
       written, with_truth, settings.depth_encoding.c_str(), stamps, settings.output.c_str(),
       ec ? 0.0 : static_cast<double>(bytes) / 1e6, elapsed);
+  if (!settings.trajectory.empty())
+    std::printf("and /tf at each of the %zu poses of %s\n", settings.trajectory.size(),
+                settings.tf_trajectory.c_str());
 }
 
 }  // namespace
