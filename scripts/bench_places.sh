@@ -39,7 +39,7 @@ building="$out/building"
 if [ ! -f "$building/building.json" ]; then
   echo "bench_places: synthesizing $rooms rooms ($train_frames + $test_frames frames each) into $building"
   "$tools/synthesize" --rooms "$rooms" --seed 11 --train-frames "$train_frames" \
-    --test-frames "$test_frames" --output "$building" > "$out/synthesize.log"
+    --test-frames "$test_frames" --no-walk --output "$building" > "$out/synthesize.log"
 fi
 place_args=() test_args=() yaml="["
 add_place() {  # NAME MODEL TEST

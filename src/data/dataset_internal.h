@@ -64,6 +64,9 @@ Expected<DatasetData> readTum(const ReaderInput& input);
 // Lines of a text file, without line terminators ("\r\n" too).
 Expected<std::vector<std::string>> readLines(const fs::path& file);
 
+// True for a line of only blanks or a '#' comment (TUM's lists and trajectories).
+bool isCommentOrBlank(const std::string& line);
+
 // Whitespace-separated numbers of one line; accepts inf and nan so callers
 // decide what they mean. Errors read "<file>: line <n>: '<token>' is not a number".
 Expected<std::vector<double>> parseNumbers(const std::string& line, const fs::path& file,

@@ -9,6 +9,7 @@
 
 #include "dataset_internal.h"
 #include "relocalizer/data/stamp_association.h"
+#include "relocalizer/data/tum_trajectory.h"
 
 namespace relocalizer::detail {
 namespace {
@@ -26,11 +27,6 @@ struct ListEntry {
   std::string file;
   int line = 0;
 };
-
-bool isCommentOrBlank(const std::string& line) {
-  const size_t first = line.find_first_not_of(" \t");
-  return first == std::string::npos || line[first] == '#';
-}
 
 // rgb.txt / depth.txt: "timestamp filename" lines, '#' comments; sorted by stamp.
 Expected<std::vector<ListEntry>> readImageList(const fs::path& file) {
@@ -73,47 +69,11 @@ std::vector<std::pair<size_t, size_t>> associate(const std::vector<ListEntry>& r
   return associateByStamp(stamps(rgb), stamps(depth), std::nextafter(kMaxAssociationGap, 0.0));
 }
 
-struct GroundTruthSample {
-  double stamp;
-  Eigen::Vector3d translation;
-  Eigen::Quaterniond rotation;
-};
-
-// groundtruth.txt: "timestamp tx ty tz qx qy qz qw"; sorted by stamp.
-Expected<std::vector<GroundTruthSample>> readGroundTruth(const fs::path& file) {
-  auto lines = readLines(file);
-  if (!lines) return makeError(lines.error());
-  std::vector<GroundTruthSample> samples;
-  for (size_t i = 0; i < lines->size(); ++i) {
-    if (isCommentOrBlank((*lines)[i])) continue;
-    const int line_number = static_cast<int>(i) + 1;
-    const std::string where = file.string() + ": line " + std::to_string(line_number);
-    auto n = parseNumbers((*lines)[i], file, line_number);
-    if (!n) return makeError(n.error());
-    if (n->size() != 8)
-      return makeError(where + ": expected 8 numbers (timestamp tx ty tz qx qy qz qw), got " +
-                       std::to_string(n->size()));
-    for (double value : *n)
-      if (!std::isfinite(value))
-        return makeError(where + ": ground truth contains " +
-                         (std::isnan(value) ? std::string("NaN") : std::string("Inf")));
-    const auto& v = *n;
-    // Eigen's constructor takes w first; the file has it last.
-    const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
-    if (q.norm() < 1e-6) return makeError(where + ": quaternion has zero length");
-    samples.push_back({v[0], Eigen::Vector3d(v[1], v[2], v[3]), q.normalized()});
-  }
-  std::stable_sort(
-      samples.begin(), samples.end(),
-      [](const GroundTruthSample& a, const GroundTruthSample& b) { return a.stamp < b.stamp; });
-  return samples;
-}
-
-std::optional<Pose> groundTruthAt(const std::vector<GroundTruthSample>& samples, double stamp) {
+std::optional<Pose> groundTruthAt(const std::vector<TrajectorySample>& samples, double stamp) {
   if (samples.empty()) return std::nullopt;
   const auto after =
       std::lower_bound(samples.begin(), samples.end(), stamp,
-                       [](const GroundTruthSample& s, double t) { return s.stamp < t; });
+                       [](const TrajectorySample& s, double t) { return s.stamp < t; });
   if (after != samples.end() && after->stamp == stamp)
     return poseFromTranslationQuaternion(after->translation, after->rotation);
   if (after != samples.begin() && after != samples.end()) {
@@ -125,7 +85,7 @@ std::optional<Pose> groundTruthAt(const std::vector<GroundTruthSample>& samples,
                                            before->rotation.slerp(a, after->rotation));
     }
   }
-  const GroundTruthSample* nearest = nullptr;
+  const TrajectorySample* nearest = nullptr;
   if (after != samples.end()) nearest = &*after;
   if (after != samples.begin()) {
     const auto before = after - 1;
@@ -181,11 +141,11 @@ Expected<DatasetData> readTum(const ReaderInput& input) {
   if (!depth) return makeError(depth.error());
 
   // Some TUM sequences (the validation set) ship without ground truth.
-  std::vector<GroundTruthSample> truth;
+  std::vector<TrajectorySample> truth;
   const fs::path truth_file = input.root / "groundtruth.txt";
   std::error_code ec;
   if (fs::exists(truth_file, ec)) {
-    auto read = readGroundTruth(truth_file);
+    auto read = readTumTrajectory(truth_file.string());
     if (!read) return makeError(read.error());
     truth = std::move(*read);
   }

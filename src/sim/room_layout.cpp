@@ -123,6 +123,11 @@ void RoomBuilder::placeDoor(int k, float start, float end, std::vector<Rect>& bl
   const float s0 = rng_.uniform(start + 0.15, std::max(start + 0.15, end - w - 0.15));
   const float h = rng_.uniform(2.0, 2.1);
   door(k, s0, w, h);
+  const Wall f = wall(k);
+  room_.door.centre = wallPoint(k, s0 + w / 2, 0, h / 2).cast<double>();
+  room_.door.inward = Eigen::Vector3d(f.normal.x(), f.normal.y(), 0);
+  room_.door.width = w;
+  room_.door.height = h;
   blocked.push_back({s0 - 0.1f, s0 + w + 0.1f, 0, h + 0.1f});
   no_furniture.push_back({s0 - 0.12f, s0 + w + 0.12f});
 }

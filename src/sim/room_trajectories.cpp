@@ -88,11 +88,10 @@ SyntheticTrajectories SyntheticRoom::trajectories(int train_frames, int test_fra
                        room.phases[7],
                        2};
   // At most ~1.3 degrees of loop per frame keeps steps at ~1-3 cm and 1-2 degrees.
-  constexpr double kMinFramesPerLoop = 280;
-  const double train_step = 2 * M_PI / std::max<double>(train_frames, kMinFramesPerLoop);
+  const double train_step = 2 * M_PI / std::max(train_frames, kSyntheticLoopFrames);
   const double train_arc = train_step * std::max(train_frames, 0);
   const double theta0 = room.path_phase;
-  double test_step = 2 * M_PI / std::max<double>(test_frames, kMinFramesPerLoop);
+  double test_step = 2 * M_PI / std::max(test_frames, kSyntheticLoopFrames);
   double test_start;
   if (train_arc >= 2 * M_PI - 1e-9) {
     test_start = theta0 + 0.37 * 2 * M_PI;

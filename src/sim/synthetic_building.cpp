@@ -33,6 +33,18 @@ int roomIndex(const std::string& name) {
   return std::stoi(name.substr(kRoomPrefix.size()));
 }
 
+// The quarter turn about z that makes the door's wall face -y (its inward
+// normal +y). Quarter turns have exact entries, so a room turned and placed
+// keeps its coordinates to the bit where the turn is the identity.
+Eigen::Matrix3d doorToMinusY(const RoomDoor& door) {
+  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d quarter;
+  quarter << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  for (int q = 0; q < 4; ++q, turn = quarter * turn)
+    if ((turn * door.inward - Eigen::Vector3d::UnitY()).norm() < 0.5) return turn;
+  return Eigen::Matrix3d::Identity();  // unreachable: the door is on a wall
+}
+
 nlohmann::ordered_json vectorJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
 nlohmann::ordered_json roomJson(const BuildingRoom& room, const std::vector<BuildingRoom>& rooms) {
@@ -49,6 +61,10 @@ nlohmann::ordered_json roomJson(const BuildingRoom& room, const std::vector<Buil
   json["room_to_building"] = matrix;
   json["bounds_in_building"] = {{"min", vectorJson(room.bounds_in_building.min())},
                                 {"max", vectorJson(room.bounds_in_building.max())}};
+  json["door"] = {{"centre", vectorJson(room.door.centre)},
+                  {"inward", vectorJson(room.door.inward)},
+                  {"width", room.door.width},
+                  {"height", room.door.height}};
   return json;
 }
 
@@ -69,13 +85,33 @@ Expected<std::vector<BuildingRoom>> buildingRooms(uint64_t seed, int rooms) {
       room.looks_like = 0;
       result[0].looks_like = i;
     }
-    const Eigen::AlignedBox3d bounds = SyntheticRoom(room.recipe).bounds();
-    room.room_to_building = Eigen::Translation3d(x - bounds.min().x(), 0.0 - bounds.min().y(), 0.0);
-    room.bounds_in_building = {room.room_to_building * bounds.min(),
-                               room.room_to_building * bounds.max()};
-    x += bounds.sizes().x() + kBuildingWallThickness;
+    const SyntheticRoom built(room.recipe);
+    const Eigen::Matrix3d turn = doorToMinusY(built.door());
+    const Eigen::AlignedBox3d own = built.bounds();
+    Eigen::AlignedBox3d turned;
+    for (int c = 0; c < 8; ++c)
+      turned.extend(turn * own.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)));
+    room.room_to_building = Eigen::Isometry3d::Identity();
+    room.room_to_building.linear() = turn;
+    room.room_to_building.translation() =
+        Eigen::Vector3d(x - turned.min().x(), 0.0 - turned.min().y(), 0.0);
+    room.bounds_in_building.setEmpty();
+    for (int c = 0; c < 8; ++c)
+      room.bounds_in_building.extend(room.room_to_building *
+                                     own.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)));
+    room.door = built.door();
+    room.door.centre = room.room_to_building * room.door.centre;
+    room.door.inward = turn * room.door.inward;
+    x += turned.sizes().x() + kBuildingWallThickness;
   }
   return result;
+}
+
+Eigen::AlignedBox3d buildingCorridor(const std::vector<BuildingRoom>& rooms) {
+  Eigen::AlignedBox3d all;
+  for (const BuildingRoom& room : rooms) all.extend(room.bounds_in_building);
+  return {Eigen::Vector3d(all.min().x(), kCorridorFarY, 0.0),
+          Eigen::Vector3d(all.max().x(), kCorridorNearY, all.max().z())};
 }
 
 std::string SyntheticBuildingOptions::validationError() const {
@@ -101,6 +137,7 @@ Status writeSyntheticBuilding(const std::string& folder, const SyntheticBuilding
   for (const auto& entry : fs::directory_iterator(root))
     if (entry.is_directory() && roomIndex(entry.path().filename().string()) >= options.rooms)
       stale.push_back(entry.path());
+  if (fs::exists(root / kWalkFolder)) stale.push_back(root / kWalkFolder);
   for (const fs::path& path : stale) {
     fs::remove_all(path, error);
     if (error) return makeError("cannot remove stale " + path.string() + ": " + error.message());
@@ -121,13 +158,19 @@ Status writeSyntheticBuilding(const std::string& folder, const SyntheticBuilding
 
   nlohmann::ordered_json json;
   json["generator"] = "relocalizer synthetic building";
-  json["format_version"] = 1;
+  // 2 added each room's door and the corridor; format 1's fields are unchanged.
+  json["format_version"] = 2;
   json["seed"] = options.scene.seed;
   json["look_alike_pair"] = pair;
   json["frame"] =
       "room_to_building maps each room's world frame (its scene.json and poses) into the "
-      "building's: metres, z up, floors at z = 0, rooms in a row along x";
+      "building's: metres, z up, floors at z = 0, rooms in a row along x, each turned about z "
+      "so that its door (centre of the leaf on the wall's plane) opens onto the corridor at y = 0";
   json["rooms"] = room_list;
+  const Eigen::AlignedBox3d corridor = buildingCorridor(*rooms);
+  json["corridor"] = {{"min", vectorJson(corridor.min())},
+                      {"max", vectorJson(corridor.max())},
+                      {"rendered", false}};
   const fs::path path = root / "building.json";
   std::ofstream out(path, std::ios::binary);
   out << json.dump(2) << "\n";

@@ -281,6 +281,7 @@ struct SyntheticRoom::Impl {
   std::array<Light, 2> lights{};
   Vec3f ambient{0.4f, 0.4f, 0.4f};
   float light_falloff = 0.1f;  // 1 / (1 + falloff * d^2)
+  RoomDoor door;               // recorded by RoomBuilder::placeDoor; draws nothing
   double path_phase = 0.0;
   std::array<double, 8> phases{};  // of path wobbles and time-varying effects
   int person_material = 0, cart_material = 0;

@@ -224,6 +224,8 @@ Eigen::AlignedBox3d SyntheticRoom::bounds() const {
   return {impl_->lo.cast<double>(), impl_->hi.cast<double>()};
 }
 
+RoomDoor SyntheticRoom::door() const { return impl_->door; }
+
 int SyntheticRoom::boxCount() const { return static_cast<int>(impl_->boxes.size()); }
 
 namespace {

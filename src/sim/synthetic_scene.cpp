@@ -6,52 +6,22 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "dataset_files.h"
 #include "relocalizer/core/progress.h"
 
 namespace relocalizer {
 namespace {
 
 namespace fs = std::filesystem;
+using synthetic::frameStem;
+using synthetic::writeText;
 
 constexpr int kMaxFrames = 1000000;
 constexpr int kMaxImageSide = 4096;
-
-std::string frameStem(int index) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "frame-%06d", index);
-  return buffer;
-}
-
-bool writeText(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-  return static_cast<bool>(out);
-}
-
-std::string poseText(const Pose& pose) {
-  const Eigen::Matrix4d m = pose.matrix();
-  std::string text;
-  char buffer[64];
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) {
-      std::snprintf(buffer, sizeof buffer, c < 3 ? "%.9e\t" : "%.9e\n", m(r, c));
-      text += buffer;
-    }
-  }
-  return text;
-}
-
-std::string intrinsicsText(const CameraIntrinsics& k) {
-  char buffer[256];
-  std::snprintf(buffer, sizeof buffer, "%.9e\t%.9e\t%.9e\n%.9e\t%.9e\t%.9e\n%.9e\t%.9e\t%.9e\n",
-                k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0);
-  return buffer;
-}
 
 // Depth as a colour map over the sensor's range; invalid pixels black.
 cv::Mat colouriseDepth(const cv::Mat& depth) {
@@ -142,12 +112,8 @@ Status writeSyntheticScene(const std::string& output_dir, const SyntheticSceneOp
     std::error_code error;
     fs::create_directories(dir, error);
     if (error) return makeError("cannot create " + dir.string() + ": " + error.message());
-    if (!writeText(dir / "camera-intrinsics.txt", intrinsicsText(options.camera)))
-      return makeError("cannot write " + (dir / "camera-intrinsics.txt").string());
-    // Tells the 7-Scenes reader not to apply the real Kinect's colour-to-depth
-    // registration: the renderer's colour and depth share one camera.
-    if (!writeText(dir / "colour-registration.txt", "registered\n"))
-      return makeError("cannot write " + (dir / "colour-registration.txt").string());
+    const Status written = synthetic::writeCameraFiles(dir, options.camera);
+    if (!written) return written;
   }
 
   const SyntheticRoom room(
@@ -204,16 +170,9 @@ Status writeSyntheticScene(const std::string& output_dir, const SyntheticSceneOp
     // Time runs on from training into test, as if recorded one after the other.
     const int time = job.split == 0 ? job.index : options.train_frames + job.index;
     const RgbdFrame frame = room.render(path[job.index], options.camera, time, effects);
-    const fs::path stem = split_dirs[job.split] / frameStem(job.index);
-    const std::string colour_path = stem.string() + ".color.png";
-    const std::string depth_path = stem.string() + ".depth.png";
-    const std::string pose_path = stem.string() + ".pose.txt";
-    if (!cv::imwrite(colour_path, frame.colour, png_params))
-      errors[j] = "cannot write " + colour_path;
-    else if (!cv::imwrite(depth_path, depthToMillimetres(frame.depth), png_params))
-      errors[j] = "cannot write " + depth_path;
-    else if (!writeText(pose_path, poseText(path[job.index])))
-      errors[j] = "cannot write " + pose_path;
+    const Status written = synthetic::writeFrameFiles(
+        (split_dirs[job.split] / frameStem(job.index)).string(), frame, path[job.index]);
+    if (!written) errors[j] = written.error();
     for (size_t s = 0; s < sheet_keys.size(); ++s)
       if (sheet_keys[s] == std::make_pair(job.split, job.index))
         sheet[s] = {(job.split == 0 ? "train " : "test ") + frameStem(job.index), frame.colour,

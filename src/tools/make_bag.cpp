@@ -12,7 +12,9 @@
 #include <std_msgs/String.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
@@ -20,6 +22,7 @@
 #include "dataset_arguments.h"
 #include "relocalizer/core/progress.h"
 #include "relocalizer/core/version.h"
+#include "relocalizer/data/tum_trajectory.h"
 
 using namespace relocalizer;
 
@@ -76,40 +79,66 @@ struct BagSettings {
   double rate = 0.0;
   bool tf = false;
   bool synthesize = false;  // stamps at `rate` rather than the dataset's
+  // --tf-trajectory: TF from these poses at their own stamps instead of at the frames'.
+  std::string tf_trajectory;
+  std::vector<TrajectorySample> trajectory;
 };
+
+// A frame id, or a trajectory stamp on the dataset's clock (id / rate), as a
+// synthesized stamp: ids count from `origin`, the first id of frames and
+// trajectory together, at kSynthesizedStart.
+ros::Time synthesizedStamp(double id, double origin, double rate) {
+  return ros::Time(kSynthesizedStart + (id - origin) / rate);
+}
+
+// A trajectory stamp as a frame id of the synthesized clock: exactly the
+// frame's where it is one to a thousandth of a frame (synthesize's
+// walk_poses.txt writes tick / rate to microseconds), so TF and images share
+// stamps.
+double trajectoryId(double stamp, double rate) {
+  const double id = stamp * rate;
+  return std::abs(id - std::round(id)) < 1e-3 ? std::round(id) : id;
+}
 
 // /dataset/info: where the frames came from and how they were written.
 nlohmann::json sourceInfo(const cli::DatasetArguments& arguments, const Dataset& data,
                           const BagSettings& settings, bool numbered) {
   const bool synthesize = settings.synthesize;
-  return {{"dataset", arguments.path},
-          {"format", formatName(data.format())},
-          {"frames", arguments.frames},
-          {"split", arguments.split},
-          {"frame_count", data.size()},
-          {"stamps", synthesize ? "synthesized" : "dataset"},
-          {"rate", synthesize ? settings.rate : 0.0},
-          {"integer_stamps", numbered},
-          {"depth_encoding", settings.depth_encoding},
-          {"frame_id", settings.frame_id},
-          {"software_version", kSoftwareVersion}};
+  nlohmann::json info = {{"dataset", arguments.path},
+                         {"format", formatName(data.format())},
+                         {"frames", arguments.frames},
+                         {"split", arguments.split},
+                         {"frame_count", data.size()},
+                         {"stamps", synthesize ? "synthesized" : "dataset"},
+                         {"rate", synthesize ? settings.rate : 0.0},
+                         {"integer_stamps", numbered},
+                         {"depth_encoding", settings.depth_encoding},
+                         {"frame_id", settings.frame_id},
+                         {"software_version", kSoftwareVersion}};
+  if (!settings.tf_trajectory.empty()) info["tf_trajectory"] = settings.tf_trajectory;
+  return info;
+}
+
+// The camera at `pose` in the map on /tf, as a SLAM system with odometry publishes it.
+void writeTf(rosbag::Bag& bag, const Pose& pose, const ros::Time& stamp,
+             const BagSettings& settings) {
+  tf2_msgs::TFMessage message;
+  message.transforms.push_back(transformMsg(mapToOdom(), stamp, "map", "odom"));
+  message.transforms.push_back(
+      transformMsg(mapToOdom().inverse() * pose, stamp, "odom", settings.frame_id));
+  bag.write("/tf", stamp, message);
 }
 
 // One frame's messages under `header` (its stamp, id and frame id): the ground
-// truth (and with --tf its TF), camera_info, depth, colour. True when it had ground truth.
+// truth (and with --tf but no --tf-trajectory its TF), camera_info, depth,
+// colour. True when it had ground truth.
 bool writeFrame(rosbag::Bag& bag, const std_msgs::Header& header, const RgbdFrame& frame,
                 const std::optional<Pose>& truth, const BagSettings& settings) {
   if (truth) {
     std_msgs::Header truth_header = header;
     truth_header.frame_id = "map";
     bag.write("/ground_truth/pose", header.stamp, poseMsg(*truth, truth_header));
-    if (settings.tf) {
-      tf2_msgs::TFMessage message;
-      message.transforms.push_back(transformMsg(mapToOdom(), header.stamp, "map", "odom"));
-      message.transforms.push_back(
-          transformMsg(mapToOdom().inverse() * *truth, header.stamp, "odom", settings.frame_id));
-      bag.write("/tf", header.stamp, message);
-    }
+    if (settings.tf && settings.tf_trajectory.empty()) writeTf(bag, *truth, header.stamp, settings);
   }
   bag.write("/camera/rgb/camera_info", header.stamp, cameraInfoMsg(frame.camera, header));
   // REP 118: 16UC1 millimetres with 0 for no reading, or 32FC1 metres with NaN.
@@ -125,6 +154,10 @@ bool writeFrame(rosbag::Bag& bag, const std_msgs::Header& header, const RgbdFram
   return truth.has_value();
 }
 
+Pose poseOf(const TrajectorySample& sample) {
+  return poseFromTranslationQuaternion(sample.translation, sample.rotation);
+}
+
 void printWritten(const BagSettings& settings, int written, int with_truth, double elapsed) {
   std::error_code ec;
   const auto bytes = std::filesystem::file_size(settings.output, ec);
@@ -137,6 +170,9 @@ void printWritten(const BagSettings& settings, int written, int with_truth, doub
       "wrote %d frames (%d with ground truth, depth %s, stamps %s) to %s (%.1f MB) in %.1f s\n",
       written, with_truth, settings.depth_encoding.c_str(), stamps, settings.output.c_str(),
       ec ? 0.0 : static_cast<double>(bytes) / 1e6, elapsed);
+  if (!settings.trajectory.empty())
+    std::printf("and /tf at each of the %zu poses of %s\n", settings.trajectory.size(),
+                settings.tf_trajectory.c_str());
 }
 
 }  // namespace
@@ -170,6 +206,14 @@ int main(int argc, char** argv) {
   app.add_flag("--tf", settings.tf,
                "Also write the ground truth on /tf as a SLAM system with odometry publishes it: "
                "map -> odom (fixed, not the identity) and odom -> FRAME_ID at each frame's stamp");
+  app.add_option("--tf-trajectory", settings.tf_trajectory,
+                 "With --tf: write /tf at every pose of this TUM trajectory file (timestamp tx "
+                 "ty tz qx qy qz qw), frames or not, instead of at the frames, as SLAM keeps "
+                 "tracking between images (synthesize --rooms writes walk/walk_poses.txt, a "
+                 "pose at every tick of the walk, corridor included). With synthesized stamps "
+                 "the file's stamps are on the dataset's clock, frame id / --rate, and the bag "
+                 "starts at the earlier of the first frame and the first pose")
+      ->check(CLI::ExistingFile);
   app.add_option("--compression", settings.compression, "none | lz4 | bz2")
       ->check(CLI::IsMember({"none", "lz4", "bz2"}))
       ->capture_default_str();
@@ -177,9 +221,19 @@ int main(int argc, char** argv) {
   if (settings.frame_id.empty() || settings.frame_id[0] == '/')
     return cli::fail(app, "--frame-id must be a non-empty tf2 frame id without a leading slash");
 
+  if (!settings.tf_trajectory.empty() && !settings.tf)
+    return cli::fail(app, "--tf-trajectory needs --tf");
+
   auto opened = arguments.open();
   if (!opened) return cli::fail(app, opened.error());
   const Dataset& data = **opened;
+  if (!settings.tf_trajectory.empty()) {
+    auto trajectory = readTumTrajectory(settings.tf_trajectory);
+    if (!trajectory) return cli::fail(app, "--tf-trajectory: " + trajectory.error());
+    if (trajectory->empty())
+      return cli::fail(app, "--tf-trajectory: " + settings.tf_trajectory + " holds no pose");
+    settings.trajectory = std::move(*trajectory);
+  }
 
   // 7-Scenes and 12-Scenes "stamps" are frame numbers; played as seconds they
   // would be a 1 Hz camera.
@@ -187,6 +241,17 @@ int main(int argc, char** argv) {
   settings.synthesize = *rate_option || numbered;
   if (!*rate_option) settings.rate = 30.0;
   std::printf("%s\n", data.summary().c_str());
+  double origin = data.size() > 0 ? data.id(0) : 0.0;
+  if (settings.synthesize && !settings.trajectory.empty())
+    origin = std::min(origin, trajectoryId(settings.trajectory.front().stamp, settings.rate));
+  const auto trajectoryStamp = [&](const TrajectorySample& sample) {
+    return settings.synthesize
+               ? synthesizedStamp(trajectoryId(sample.stamp, settings.rate), origin, settings.rate)
+               : ros::Time(sample.stamp);
+  };
+  if (!settings.synthesize && !settings.trajectory.empty() &&
+      settings.trajectory.front().stamp <= 0)
+    return cli::fail(app, "--tf-trajectory: stamps must be positive with the dataset's stamps");
 
   const auto start = std::chrono::steady_clock::now();
   int written = 0, with_truth = 0;
@@ -198,22 +263,29 @@ int main(int argc, char** argv) {
     std_msgs::String info_msg;
     info_msg.data = sourceInfo(arguments, data, settings, numbered).dump();
     ProgressBar bar("writing", data.size());
+    size_t next_pose = 0;  // of the trajectory: TF written in stamp order among the frames
     for (size_t i = 0; i < data.size(); ++i) {
       bar.advance();
       auto frame = data.load(i);
       if (!frame) return cli::fail(app, frame.error());
       // Ids, not indices, so a selection with gaps keeps its gaps in time.
-      const double seconds = settings.synthesize
-                                 ? kSynthesizedStart + (data.id(i) - data.id(0)) / settings.rate
-                                 : data.stamp(i);
       std_msgs::Header header;
       header.seq = static_cast<uint32_t>(data.id(i));
-      header.stamp = ros::Time(seconds);
+      header.stamp = settings.synthesize ? synthesizedStamp(data.id(i), origin, settings.rate)
+                                         : ros::Time(data.stamp(i));
       header.frame_id = settings.frame_id;
       if (i == 0) bag.write("/dataset/info", header.stamp, info_msg);
+      for (; next_pose < settings.trajectory.size() &&
+             trajectoryStamp(settings.trajectory[next_pose]) <= header.stamp;
+           ++next_pose)
+        writeTf(bag, poseOf(settings.trajectory[next_pose]),
+                trajectoryStamp(settings.trajectory[next_pose]), settings);
       with_truth += writeFrame(bag, header, *frame, data.groundTruth(i), settings);
       ++written;
     }
+    for (; next_pose < settings.trajectory.size(); ++next_pose)
+      writeTf(bag, poseOf(settings.trajectory[next_pose]),
+              trajectoryStamp(settings.trajectory[next_pose]), settings);
     bag.close();
   } catch (const rosbag::BagException& e) {
     return cli::fail(app, settings.output + ": " + e.what(), 1);

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "cli_support.h"
+#include "relocalizer/sim/building_walk.h"
 #include "relocalizer/sim/synthetic_building.h"
 #include "relocalizer/sim/synthetic_scene.h"
 
@@ -55,8 +56,23 @@ int main(int argc, char** argv) {
                      "OUTPUT/building.json (names, seeds, the look-alike pair, placement in one "
                      "building frame). The rooms differ; from 3 rooms on, the last one looks like "
                      "room-0 (the same furniture and textures, placed differently). The other "
-                     "options apply to every room.")
+                     "options apply to every room. Also writes OUTPUT/walk: one walk through "
+                     "all rooms in the building frame (see --no-walk).")
           ->check(CLI::Range(relocalizer::kMinBuildingRooms, relocalizer::kMaxBuildingRooms));
+  bool no_walk = false;
+  relocalizer::BuildingWalkOptions walk;
+  app.add_flag("--no-walk", no_walk,
+               "With --rooms, do not write OUTPUT/walk: one 7-Scenes folder of a walk at " +
+                   std::to_string(static_cast<int>(walk.rate)) +
+                   " Hz in through each room's door, once round its training loop (at least " +
+                   std::to_string(relocalizer::kSyntheticLoopFrames) +
+                   " frames long) and out along the corridor; rendered frames are "
+                   "frame-<tick> in the building frame, room r's test frame i is frame-(" +
+                   std::to_string(relocalizer::kWalkTestFirstId) + " + " +
+                   std::to_string(relocalizer::kWalkTestIdsPerRoom) +
+                   " r + i), walk.json says which is which, walk_poses.txt has a pose at "
+                   "every tick")
+      ->needs(rooms_option);
 
   if (const int code = relocalizer::cli::parse(app, argc, argv); code >= 0) return code;
 
@@ -69,11 +85,28 @@ int main(int argc, char** argv) {
   const std::string invalid = options.validationError();
   if (!invalid.empty()) return fail(app, invalid);
 
+  const bool building = rooms_option->count() > 0;
+  walk.loop_frames = options.train_frames;
+  if (building && !no_walk) {
+    if (options.test_frames > relocalizer::kWalkTestIdsPerRoom)
+      return fail(app, "--test-frames: a walk holds at most " +
+                           std::to_string(relocalizer::kWalkTestIdsPerRoom) +
+                           " test frames per room (or give --no-walk)");
+    const std::string walk_invalid = walk.validationError();
+    if (!walk_invalid.empty())
+      return fail(app, "--train-frames: the walk's " + walk_invalid + " (or give --no-walk)");
+  }
+
   const auto start = std::chrono::steady_clock::now();
-  const relocalizer::Status status =
-      rooms_option->count() > 0 ? relocalizer::writeSyntheticBuilding(
-                                      output, relocalizer::SyntheticBuildingOptions{options, rooms})
-                                : relocalizer::writeSyntheticScene(output, options);
+  relocalizer::Status status =
+      building ? relocalizer::writeSyntheticBuilding(
+                     output, relocalizer::SyntheticBuildingOptions{options, rooms})
+               : relocalizer::writeSyntheticScene(output, options);
+  if (status && building && !no_walk) {
+    const auto placed = relocalizer::buildingRooms(options.seed, rooms);
+    status = placed ? relocalizer::writeBuildingWalk(output, *placed, options, walk)
+                    : relocalizer::Status(relocalizer::makeError(placed.error()));
+  }
   if (!status) return fail(app, status.error(), 1);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -83,5 +116,6 @@ int main(int argc, char** argv) {
               options.train_frames, options.test_frames, what.c_str(), options.camera.width,
               options.camera.height, static_cast<unsigned long long>(options.seed), output.c_str(),
               seconds);
+  if (building && !no_walk) std::printf("and a walk through them to %s/walk\n", output.c_str());
   return 0;
 }

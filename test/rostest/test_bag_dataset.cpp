@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
+#include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/image_encodings.h>
@@ -30,6 +31,7 @@
 #include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/dataset.h"
 #include "relocalizer/data/frame_selection.h"
+#include "relocalizer/data/tum_trajectory.h"
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/key_frame_rule.h"
 
@@ -724,4 +726,75 @@ TEST(BagTools, BenchmarkAndThresholdCurvesReadMakeBagsBag) {
   const auto curves_folder = json(d + "/curves_folder/curves.json");
   EXPECT_EQ(curves_bag["in_scene_frames"], 8);
   EXPECT_EQ(curves_bag["min_inlier_ratio"]["curve"], curves_folder["min_inlier_ratio"]["curve"]);
+}
+
+TEST(BagTools, MakeBagPlaysAWalksTrajectoryAsTfAtEveryTick) {
+  TempDir dir("bag_walk");
+  const std::string d = dir.str();
+  std::string output;
+  ASSERT_EQ(runTool("synthesize --output " + d +
+                        "/b --rooms 2 --seed 5 --train-frames 2 --test-frames 1 --width 80 "
+                        "--height 60",
+                    &output),
+            0)
+      << output;
+  const std::string walk = d + "/b/walk";
+  const std::string make_bag = "make_bag --dataset " + walk + " --frames 0-499999 --rate 30 --tf " +
+                               "--tf-trajectory " + walk + "/walk_poses.txt --output " + d +
+                               "/walk.bag";
+  ASSERT_EQ(runTool(make_bag, &output), 0) << output;
+  const auto trajectory = relocalizer::readTumTrajectory(walk + "/walk_poses.txt");
+  ASSERT_TRUE(trajectory.ok()) << trajectory.error();
+  relocalizer::DatasetOptions rendered;
+  rendered.frames = "0-499999";  // the walk's frames, not the rooms' test frames
+  auto folder = relocalizer::openDataset(walk, rendered);
+  ASSERT_TRUE(folder.ok()) << folder.error();
+  ASSERT_GT((*folder)->size(), 500u) << "two rooms' rendered ticks";
+  ASSERT_GT(trajectory->size(), (*folder)->size() + 200) << "corridor ticks too";
+
+  // TF at every tick, stamped on the frames' clock: the walk starts at tick 0.
+  {
+    rosbag::Bag bag(d + "/walk.bag", rosbag::bagmode::Read);
+    size_t k = 0;
+    for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery("/tf"))) {
+      const auto tf = m.instantiate<tf2_msgs::TFMessage>();
+      ASSERT_TRUE(tf && tf->transforms.size() == 2u);
+      ASSERT_LT(k, trajectory->size());
+      EXPECT_EQ(tf->transforms[1].header.stamp, ros::Time(1.0 + k / 30.0)) << k;
+      const Pose camera = fromTransformMsg(tf->transforms[0].transform) *
+                          fromTransformMsg(tf->transforms[1].transform);
+      const Pose truth = relocalizer::poseFromTranslationQuaternion((*trajectory)[k].translation,
+                                                                    (*trajectory)[k].rotation);
+      EXPECT_LT(relocalizer::translationError(camera, truth), 1e-9) << k;
+      ++k;
+    }
+    EXPECT_EQ(k, trajectory->size());
+    size_t images = 0;
+    for (const rosbag::MessageInstance& m :
+         rosbag::View(bag, rosbag::TopicQuery("/camera/rgb/image_raw"))) {
+      const auto image = m.instantiate<sensor_msgs::Image>();
+      ASSERT_TRUE(image);
+      ASSERT_LT(images, (*folder)->size());
+      EXPECT_EQ(static_cast<int>(image->header.seq), (*folder)->id(images));
+      EXPECT_EQ(image->header.stamp, ros::Time(1.0 + (*folder)->id(images) / 30.0));
+      ++images;
+    }
+    EXPECT_EQ(images, (*folder)->size());
+  }
+  // Read back as a SLAM recording: every frame's pose from the TF chain is the folder's.
+  auto bag = BagDataset::open(d + "/walk.bag", BagOptions{});
+  ASSERT_TRUE(bag.ok()) << bag.error();
+  ASSERT_EQ((*bag)->size(), (*folder)->size());
+  for (size_t i = 0; i < (*bag)->size(); i += 50) {
+    ASSERT_TRUE((*bag)->groundTruth(i).has_value()) << i;
+    EXPECT_LT(relocalizer::translationError(*(*bag)->groundTruth(i), *(*folder)->groundTruth(i)),
+              1e-6)
+        << (*bag)->id(i);
+  }
+
+  EXPECT_EQ(runTool("make_bag --dataset " + walk + " --tf-trajectory " + walk +
+                        "/walk_poses.txt --output " + d + "/no_tf.bag",
+                    &output),
+            2);
+  EXPECT_NE(output.find("--tf-trajectory needs --tf"), std::string::npos) << output;
 }

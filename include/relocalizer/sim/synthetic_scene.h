@@ -106,6 +106,18 @@ struct RoomBox {
   uint64_t appearance = 0;
 };
 
+// The room's one door, on one of its walls: where a walk through a building
+// enters and leaves it (building_walk.h).
+struct RoomDoor {
+  Eigen::Vector3d centre;  // middle of the door leaf, on the wall's plane
+  Eigen::Vector3d inward;  // unit normal of its wall, pointing into the room
+  double width = 0, height = 0;
+};
+
+// trajectories() of at least this many training frames go once all round the
+// loop, and the pose after the last would be the first again.
+constexpr int kSyntheticLoopFrames = 280;
+
 // The room is built once (well under a millisecond) and never changes, so
 // copies are cheap and every const method may run on many threads at once.
 class SyntheticRoom {
@@ -120,6 +132,8 @@ class SyntheticRoom {
   Eigen::AlignedBox3d bounds() const;
   // Static boxes (furniture, books, frames, ...) besides the room shell.
   int boxCount() const;
+  // The door (a look-alike room keeps its original's).
+  RoomDoor door() const;
   // Those boxes, in the order they were built.
   std::vector<RoomBox> boxes() const;
 
@@ -150,7 +164,7 @@ class SyntheticRoom {
 
   // Smooth camera paths through the room's interior, looking outward at the
   // walls and furniture from 1-2.5 m. Training goes round a loop (all headings
-  // once it has >= 280 frames, an arc of it otherwise); the test path is a
+  // once it has >= kSyntheticLoopFrames frames, an arc of it otherwise); the test path is a
   // different loop (smaller radius, higher, different wobble) laid along the
   // part of the room the training path sees, so relocalization is possible.
   // Consecutive frames are ~1-3 cm and ~1-2 degrees apart (closer when there
