@@ -125,6 +125,7 @@ void collectTerms(const std::vector<const SolverSample*>& samples, const Pose& p
                   const PoseSolverParams& params, std::vector<RefinementTerm>& terms,
                   int* point_inliers, int* line_inliers, PoseSolution* solution = nullptr) {
   terms.clear();
+  terms.reserve(samples.size());  // at most one term per sample: no regrowth
   int points = 0, lines = 0;
   const Eigen::Matrix3f r = pose.linear().cast<float>();
   const Eigen::Vector3f t = pose.translation().cast<float>();
@@ -299,10 +300,13 @@ class PreemptiveRounds {
   void refineByLm(std::vector<Hypothesis>& hypotheses) {
     seen_.clear();
     for (const BatchEntry& e : batch_) seen_.push_back(all_[e.sample]);
+    // One term buffer per hypothesis, kept across rounds: each keeps its
+    // capacity, so later rounds allocate nothing.
+    if (lm_terms_.size() < hypotheses.size()) lm_terms_.resize(hypotheses.size());
     std::atomic<int> failed{0};
     tbb::parallel_for(size_t{0}, hypotheses.size(), [&](size_t h) {
       Hypothesis& hyp = hypotheses[h];
-      std::vector<RefinementTerm> terms;
+      std::vector<RefinementTerm>& terms = lm_terms_[h];
       collectTerms(seen_, hyp.pose, params_, terms, nullptr, nullptr);
       if (terms.size() < 3) return;
       const Refinement refined = refinePose(hyp.pose, terms, params_, params_.lm_loop_iterations);
@@ -322,6 +326,7 @@ class PreemptiveRounds {
   std::vector<BatchEntry> batch_;
   std::vector<BatchMode> batch_modes_;
   std::vector<const SolverSample*> seen_;
+  std::vector<std::vector<RefinementTerm>> lm_terms_;
   int failed_refinements_ = 0;
 };
 
