@@ -7,6 +7,7 @@
 #include <random>
 
 #include "relocalizer/core/rigid_alignment.h"
+#include "relocalizer/pose/lane_scoring.h"
 #include "relocalizer/pose/pose_solver.h"
 #include "relocalizer/pose/refinement.h"
 #include "relocalizer/pose/refinement_costs.h"
@@ -323,4 +324,120 @@ TEST(Ransac, TooFewPredictionsIsAnExplicitFailure) {
   const PoseSolution solution = solvePose(s.points, s.lines, PoseSolverParams{}, rng);
   EXPECT_FALSE(solution.success);
   EXPECT_NE(solution.message.find("too few point predictions"), std::string::npos);
+}
+
+namespace {
+
+using LaneKernel = size_t (*)(const LanePoses&, const LaneSample*, size_t, const LaneMode*, float,
+                              LaneMatch*);
+
+// Every build of matchLanes this CPU can run, with its name.
+std::vector<std::pair<const char*, LaneKernel>> laneKernels() {
+  std::vector<std::pair<const char*, LaneKernel>> kernels = {{"portable", matchLanesPortable},
+                                                             {"dispatched", matchLanes}};
+  if (lanesHaveAvx2()) kernels.push_back({"avx2", matchLanesAvx2});
+  return kernels;
+}
+
+void setLane(LanePoses& poses, int lane, const Eigen::Matrix3f& r, const Eigen::Vector3f& t) {
+  for (int k = 0; k < 9; ++k) poses.rotation[k][lane] = r(k / 3, k % 3);
+  for (int k = 0; k < 3; ++k) poses.translation[k][lane] = t(k);
+}
+
+LaneMode laneMode(float x, float y, float z, float xy = 0.0f) {
+  return {{x, y, z}, {1.0f, xy, 0.0f, 1.0f, 0.0f, 1.0f}};
+}
+
+}  // namespace
+
+// Distances chosen exactly representable, so every comparison is exact: lane l
+// sits at x = l / 4 (lane 7 is rotated a quarter turn about z instead), chi2 =
+// 1/4 under unit information.
+TEST(LaneScoring, EachLaneTakesItsNearestModeUnderChi2) {
+  LanePoses poses;
+  for (int l = 0; l < 7; ++l)
+    setLane(poses, l, Eigen::Matrix3f::Identity(), Eigen::Vector3f(0.25f * l, 0, 0));
+  setLane(poses, 7, Eigen::AngleAxisf(M_PI / 2, Eigen::Vector3f::UnitZ()).toRotationMatrix(),
+          Eigen::Vector3f::Zero());
+  const std::vector<LaneSample> samples = {
+      {{0, 0, 1}, 2, 0},     // modes 0 and 1 on the lanes' line
+      {{0.5f, 0, 1}, 1, 1},  // mode 2, reached by lane 7's rotation only
+      {{10, 10, 10}, 1, 2},  // mode 3, far from every lane
+      {{0, 0, 1}, 1, 3}};    // mode 4, whose information couples x and y
+  const std::vector<LaneMode> modes = {laneMode(0.5f, 0, 1), laneMode(1.25f, 0, 1),
+                                       laneMode(0, 0.5f, 1), laneMode(0, 0, 0),
+                                       laneMode(0.375f, 0.375f, 1, -0.5f)};
+  // Lane 0 of sample 0 is exactly chi2 from mode 0 (not an inlier), lane 3 as
+  // near to both modes (the first wins); the coupled information of mode 4
+  // makes lanes 0-2 inliers that unit information would reject for lane 0.
+  const std::vector<std::pair<int, std::array<int, kScoreLanes>>> expected = {
+      {0, {-1, 0, 0, 0, 1, 1, 1, -1}},
+      {1, {-1, -1, -1, -1, -1, -1, -1, 2}},
+      {3, {4, 4, 4, -1, -1, -1, -1, 4}}};
+  for (const auto& [name, kernel] : laneKernels()) {
+    std::vector<LaneMatch> matches(samples.size());
+    const size_t found =
+        kernel(poses, samples.data(), samples.size(), modes.data(), 0.25f, matches.data());
+    ASSERT_EQ(found, expected.size()) << name;
+    for (size_t i = 0; i < found; ++i) {
+      EXPECT_EQ(matches[i].sample, expected[i].first) << name;
+      for (int l = 0; l < kScoreLanes; ++l)
+        EXPECT_EQ(matches[i].mode[l], expected[i].second[l])
+            << name << " match " << i << " lane " << l;
+    }
+  }
+}
+
+// The AVX2 build against the portable one on a random batch like a real
+// round's: the same matches, bit for bit, also where distances are near chi2.
+TEST(LaneScoring, EveryBuildMatchesThePortableOne) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-2.0f, 2.0f), unit(0.0f, 1.0f);
+  LanePoses poses;
+  for (int l = 0; l < kScoreLanes; ++l)
+    setLane(poses, l,
+            Eigen::AngleAxisf(u(rng), Eigen::Vector3f(u(rng), u(rng), u(rng)).normalized())
+                .toRotationMatrix(),
+            Eigen::Vector3f(u(rng), u(rng), u(rng)) * 0.1f);
+  std::vector<LaneSample> samples;
+  std::vector<LaneMode> modes;
+  for (int i = 0; i < 2000; ++i) {
+    const Eigen::Vector3f camera(u(rng), u(rng), 1.0f + unit(rng) * 3.0f);
+    const int count = 1 + static_cast<int>(unit(rng) * 5) % 5;
+    samples.push_back({{camera.x(), camera.y(), camera.z()}, count, i});
+    // Near some lane's image of the camera point, with an anisotropic
+    // information matrix (A A^T + I, positive definite).
+    const int lane = static_cast<int>(unit(rng) * kScoreLanes) % kScoreLanes;
+    Eigen::Matrix3f r;
+    Eigen::Vector3f t;
+    for (int k = 0; k < 9; ++k) r(k / 3, k % 3) = poses.rotation[k][lane];
+    for (int k = 0; k < 3; ++k) t(k) = poses.translation[k][lane];
+    const Eigen::Vector3f world = r * camera + t;
+    for (int c = 0; c < count; ++c) {
+      Eigen::Matrix3f a;
+      for (int k = 0; k < 9; ++k) a(k / 3, k % 3) = u(rng);
+      const Eigen::Matrix3f info = (a * a.transpose() + Eigen::Matrix3f::Identity()) * 25.0f;
+      const Eigen::Vector3f mean = world + Eigen::Vector3f(u(rng), u(rng), u(rng)) * 0.2f;
+      modes.push_back({{mean.x(), mean.y(), mean.z()},
+                       {info(0, 0), info(0, 1), info(0, 2), info(1, 1), info(1, 2), info(2, 2)}});
+    }
+  }
+  std::vector<LaneMatch> reference(samples.size());
+  const size_t expected = matchLanesPortable(poses, samples.data(), samples.size(), modes.data(),
+                                             9.0f, reference.data());
+  // A test that can fail either way: some samples match, not all.
+  ASSERT_GT(expected, 200u);
+  ASSERT_LT(expected, samples.size());
+  if (!lanesHaveAvx2()) GTEST_SKIP() << "this CPU has no AVX2: only the portable build runs";
+  for (const auto& [name, kernel] : laneKernels()) {
+    std::vector<LaneMatch> matches(samples.size());
+    ASSERT_EQ(kernel(poses, samples.data(), samples.size(), modes.data(), 9.0f, matches.data()),
+              expected)
+        << name;
+    for (size_t i = 0; i < expected; ++i) {
+      ASSERT_EQ(matches[i].sample, reference[i].sample) << name;
+      for (int l = 0; l < kScoreLanes; ++l)
+        ASSERT_EQ(matches[i].mode[l], reference[i].mode[l]) << name;
+    }
+  }
 }
