@@ -42,35 +42,35 @@ struct Hypothesis {
   }
 };
 
-// Scores up to kScoreLanes hypotheses at once on a batch (matchLanes, where
+// Scores up to kScoreLanes hypotheses at once on a batch (scoreLanes, where
 // preemptive RANSAC spends its time): a sample is an inlier of a lane when a
 // candidate lies within `chi2`, and the lane's score and Kabsch statistics take
-// the nearest one, in batch order. `matches` is scratch space.
+// the nearest one, in batch order.
 void scoreBlock(Hypothesis* block, int count, const std::vector<LaneSample>& batch,
-                const std::vector<LaneMode>& batch_modes, float chi2,
-                std::vector<LaneMatch>& matches) {
+                const std::vector<LaneMode>& batch_modes, float chi2) {
   LanePoses poses;
+  LaneSums sums;
   for (int l = 0; l < kScoreLanes; ++l) {
     // Unused lanes repeat the first hypothesis; their results are dropped.
     const Hypothesis& h = block[l < count ? l : 0];
     for (int k = 0; k < 9; ++k) poses.rotation[k][l] = h.rotation(k / 3, k % 3);
     for (int k = 0; k < 3; ++k) poses.translation[k][l] = h.translation(k);
+    const AlignmentSums& in = h.inliers;
+    sums.score[l] = h.score;
+    sums.count[l] = in.count;
+    for (int k = 0; k < 3; ++k) sums.source[k][l] = in.source(k);
+    for (int k = 0; k < 3; ++k) sums.target[k][l] = in.target(k);
+    for (int k = 0; k < 9; ++k) sums.cross[k][l] = in.cross(k / 3, k % 3);
   }
-  matches.resize(batch.size());
-  const size_t found =
-      matchLanes(poses, batch.data(), batch.size(), batch_modes.data(), chi2, matches.data());
-  for (size_t i = 0; i < found; ++i) {
-    const LaneMatch& match = matches[i];
-    const Eigen::Vector3d camera =
-        Eigen::Map<const Eigen::Vector3f>(batch[match.sample].camera).cast<double>();
-    for (int l = 0; l < count; ++l) {
-      if (match.mode[l] < 0) continue;
-      Hypothesis& hyp = block[l];
-      const Eigen::Vector3d mean =
-          Eigen::Map<const Eigen::Vector3f>(batch_modes[match.mode[l]].mean).cast<double>();
-      ++hyp.score;
-      hyp.inliers.add(camera, mean);
-    }
+  scoreLanes(poses, batch.data(), batch.size(), batch_modes.data(), chi2, sums);
+  for (int l = 0; l < count; ++l) {
+    Hypothesis& h = block[l];
+    AlignmentSums& out = h.inliers;
+    h.score = sums.score[l];
+    out.count = sums.count[l];
+    for (int k = 0; k < 3; ++k) out.source(k) = sums.source[k][l];
+    for (int k = 0; k < 3; ++k) out.target(k) = sums.target[k][l];
+    for (int k = 0; k < 9; ++k) out.cross(k / 3, k % 3) = sums.cross[k][l];
   }
 }
 
@@ -248,14 +248,13 @@ class PreemptiveRounds {
   // Adds the batch's inliers to every hypothesis and sorts them best first
   // (ties by creation order, so the outcome never depends on threads); with
   // a hint, by their inliers weighed by it.
-  void score(std::vector<Hypothesis>& hypotheses) {
+  void score(std::vector<Hypothesis>& hypotheses) const {
     const size_t lanes = kScoreLanes;
     const size_t blocks = (hypotheses.size() + lanes - 1) / lanes;
-    if (matches_.size() < blocks) matches_.resize(blocks);
     tbb::parallel_for(size_t{0}, blocks, [&](size_t b) {
       scoreBlock(hypotheses.data() + b * lanes,
                  static_cast<int>(std::min(lanes, hypotheses.size() - b * lanes)), batch_,
-                 batch_modes_, params_.inlier_chi2, matches_[b]);
+                 batch_modes_, params_.inlier_chi2);
     });
     // Without a hint the rank is the score itself (an int, exact as a double).
     for (Hypothesis& h : hypotheses)
@@ -304,7 +303,6 @@ class PreemptiveRounds {
   size_t next_sample_ = 0;
   std::vector<LaneSample> batch_;
   std::vector<LaneMode> batch_modes_;
-  std::vector<std::vector<LaneMatch>> matches_;  // scoreBlock's scratch, per block
   std::vector<const SolverSample*> seen_;
   std::vector<std::vector<RefinementTerm>> lm_terms_;
   int failed_refinements_ = 0;

@@ -3,6 +3,7 @@
 #include <ceres/autodiff_cost_function.h>
 
 #include <Eigen/Cholesky>
+#include <cstring>
 #include <limits>
 #include <random>
 
@@ -328,14 +329,14 @@ TEST(Ransac, TooFewPredictionsIsAnExplicitFailure) {
 
 namespace {
 
-using LaneKernel = size_t (*)(const LanePoses&, const LaneSample*, size_t, const LaneMode*, float,
-                              LaneMatch*);
+using LaneKernel = void (*)(const LanePoses&, const LaneSample*, size_t, const LaneMode*, float,
+                            LaneSums&);
 
-// Every build of matchLanes this CPU can run, with its name.
+// Every build of scoreLanes this CPU can run, with its name.
 std::vector<std::pair<const char*, LaneKernel>> laneKernels() {
-  std::vector<std::pair<const char*, LaneKernel>> kernels = {{"portable", matchLanesPortable},
-                                                             {"dispatched", matchLanes}};
-  if (lanesHaveAvx2()) kernels.push_back({"avx2", matchLanesAvx2});
+  std::vector<std::pair<const char*, LaneKernel>> kernels = {{"portable", scoreLanesPortable},
+                                                             {"dispatched", scoreLanes}};
+  if (lanesHaveAvx2()) kernels.push_back({"avx2", scoreLanesAvx2});
   return kernels;
 }
 
@@ -348,12 +349,30 @@ LaneMode laneMode(float x, float y, float z, float xy = 0.0f) {
   return {{x, y, z}, {1.0f, xy, 0.0f, 1.0f, 0.0f, 1.0f}};
 }
 
+LaneSums zeroSums() {
+  LaneSums sums;
+  std::memset(&sums, 0, sizeof sums);
+  return sums;
+}
+
+// Lane `l` of `sums` equals `expected` and `score`, bit for bit.
+void expectLane(const LaneSums& sums, int l, const AlignmentSums& expected, int score,
+                const std::string& what) {
+  EXPECT_EQ(sums.score[l], score) << what;
+  EXPECT_EQ(sums.count[l], expected.count) << what;
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(sums.source[k][l], expected.source(k)) << what;
+    EXPECT_EQ(sums.target[k][l], expected.target(k)) << what;
+  }
+  for (int k = 0; k < 9; ++k) EXPECT_EQ(sums.cross[k][l], expected.cross(k / 3, k % 3)) << what;
+}
+
 }  // namespace
 
 // Distances chosen exactly representable, so every comparison is exact: lane l
 // sits at x = l / 4 (lane 7 is rotated a quarter turn about z instead), chi2 =
 // 1/4 under unit information.
-TEST(LaneScoring, EachLaneTakesItsNearestModeUnderChi2) {
+TEST(LaneScoring, EachLaneAddsItsNearestModeUnderChi2) {
   LanePoses poses;
   for (int l = 0; l < 7; ++l)
     setLane(poses, l, Eigen::Matrix3f::Identity(), Eigen::Vector3f(0.25f * l, 0, 0));
@@ -367,29 +386,43 @@ TEST(LaneScoring, EachLaneTakesItsNearestModeUnderChi2) {
   const std::vector<LaneMode> modes = {laneMode(0.5f, 0, 1), laneMode(1.25f, 0, 1),
                                        laneMode(0, 0.5f, 1), laneMode(0, 0, 0),
                                        laneMode(0.375f, 0.375f, 1, -0.5f)};
-  // Lane 0 of sample 0 is exactly chi2 from mode 0 (not an inlier), lane 3 as
-  // near to both modes (the first wins); the coupled information of mode 4
-  // makes lanes 0-2 inliers that unit information would reject for lane 0.
-  const std::vector<std::pair<int, std::array<int, kScoreLanes>>> expected = {
-      {0, {-1, 0, 0, 0, 1, 1, 1, -1}},
-      {1, {-1, -1, -1, -1, -1, -1, -1, 2}},
-      {3, {4, 4, 4, -1, -1, -1, -1, 4}}};
+  // The mode each lane takes per sample (-1: none). Lane 0 of sample 0 is
+  // exactly chi2 from mode 0 (not an inlier), lane 3 as near to both modes
+  // (the first wins); the coupled information of mode 4 makes lanes 0-2
+  // inliers that unit information would reject for lane 0.
+  const int chosen[4][kScoreLanes] = {{-1, 0, 0, 0, 1, 1, 1, -1},
+                                      {-1, -1, -1, -1, -1, -1, -1, 2},
+                                      {-1, -1, -1, -1, -1, -1, -1, -1},
+                                      {4, 4, 4, -1, -1, -1, -1, 4}};
   for (const auto& [name, kernel] : laneKernels()) {
-    std::vector<LaneMatch> matches(samples.size());
-    const size_t found =
-        kernel(poses, samples.data(), samples.size(), modes.data(), 0.25f, matches.data());
-    ASSERT_EQ(found, expected.size()) << name;
-    for (size_t i = 0; i < found; ++i) {
-      EXPECT_EQ(matches[i].sample, expected[i].first) << name;
-      for (int l = 0; l < kScoreLanes; ++l)
-        EXPECT_EQ(matches[i].mode[l], expected[i].second[l])
-            << name << " match " << i << " lane " << l;
+    LaneSums sums = zeroSums();
+    // Lane 5 starts from earlier rounds' sums, which it must keep adding to.
+    AlignmentSums earlier;
+    earlier.add({1, 2, 3}, {4, 5, 6});
+    sums.score[5] = 7;
+    sums.count[5] = earlier.count;
+    for (int k = 0; k < 3; ++k) sums.source[k][5] = earlier.source(k);
+    for (int k = 0; k < 3; ++k) sums.target[k][5] = earlier.target(k);
+    for (int k = 0; k < 9; ++k) sums.cross[k][5] = earlier.cross(k / 3, k % 3);
+    kernel(poses, samples.data(), samples.size(), modes.data(), 0.25f, sums);
+    for (int l = 0; l < kScoreLanes; ++l) {
+      AlignmentSums expected = l == 5 ? earlier : AlignmentSums{};
+      int score = l == 5 ? 7 : 0;
+      for (int i = 0; i < 4; ++i) {
+        if (chosen[i][l] < 0) continue;
+        const LaneMode& m = modes[chosen[i][l]];
+        const LaneSample& c = samples[i];
+        expected.add(Eigen::Vector3d(c.camera[0], c.camera[1], c.camera[2]),
+                     Eigen::Vector3d(m.mean[0], m.mean[1], m.mean[2]));
+        ++score;
+      }
+      expectLane(sums, l, expected, score, std::string(name) + " lane " + std::to_string(l));
     }
   }
 }
 
 // The AVX2 build against the portable one on a random batch like a real
-// round's: the same matches, bit for bit, also where distances are near chi2.
+// round's: the same sums, bit for bit, also where distances are near chi2.
 TEST(LaneScoring, EveryBuildMatchesThePortableOne) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(-2.0f, 2.0f), unit(0.0f, 1.0f);
@@ -422,22 +455,17 @@ TEST(LaneScoring, EveryBuildMatchesThePortableOne) {
                        {info(0, 0), info(0, 1), info(0, 2), info(1, 1), info(1, 2), info(2, 2)}});
     }
   }
-  std::vector<LaneMatch> reference(samples.size());
-  const size_t expected = matchLanesPortable(poses, samples.data(), samples.size(), modes.data(),
-                                             9.0f, reference.data());
-  // A test that can fail either way: some samples match, not all.
-  ASSERT_GT(expected, 200u);
-  ASSERT_LT(expected, samples.size());
+  LaneSums reference = zeroSums();
+  scoreLanesPortable(poses, samples.data(), samples.size(), modes.data(), 9.0f, reference);
+  // A test that can fail either way: every lane has inliers, none has all.
+  for (int l = 0; l < kScoreLanes; ++l) {
+    EXPECT_GT(reference.score[l], 20) << "lane " << l;
+    EXPECT_LT(reference.score[l], 2000) << "lane " << l;
+  }
   if (!lanesHaveAvx2()) GTEST_SKIP() << "this CPU has no AVX2: only the portable build runs";
   for (const auto& [name, kernel] : laneKernels()) {
-    std::vector<LaneMatch> matches(samples.size());
-    ASSERT_EQ(kernel(poses, samples.data(), samples.size(), modes.data(), 9.0f, matches.data()),
-              expected)
-        << name;
-    for (size_t i = 0; i < expected; ++i) {
-      ASSERT_EQ(matches[i].sample, reference[i].sample) << name;
-      for (int l = 0; l < kScoreLanes; ++l)
-        ASSERT_EQ(matches[i].mode[l], reference[i].mode[l]) << name;
-    }
+    LaneSums sums = zeroSums();
+    kernel(poses, samples.data(), samples.size(), modes.data(), 9.0f, sums);
+    EXPECT_EQ(std::memcmp(&sums, &reference, sizeof sums), 0) << name;
   }
 }

@@ -38,27 +38,33 @@ struct LaneMode {
   float information[6];
 };
 
-// A sample that is an inlier of at least one lane: for each lane, the index
-// (into the batch's mode list) of its nearest candidate under chi2, or -1.
-struct LaneMatch {
-  int sample;  // index into the batch
-  int mode[kScoreLanes];
+// Each lane's inliers: their number and, as AlignmentSums holds them
+// (rigid_alignment.h), the sums of their camera points (source), of their
+// chosen modes' means (target) and of target source^T (cross, row major),
+// in double.
+struct LaneSums {
+  alignas(32) int score[kScoreLanes];
+  alignas(32) double count[kScoreLanes];
+  alignas(32) double source[3][kScoreLanes];
+  alignas(32) double target[3][kScoreLanes];
+  alignas(32) double cross[9][kScoreLanes];
 };
 
 // For each of the `count` samples in order (their modes consecutive in
-// `modes`), the candidate with the smallest squared Mahalanobis distance
-// below `chi2` for every lane, the first of equals; writes one LaneMatch per
-// sample that some lane accepts, in sample order, and returns how many.
-// `matches` holds `count` entries.
-size_t matchLanes(const LanePoses& poses, const LaneSample* samples, size_t count,
-                  const LaneMode* modes, float chi2, LaneMatch* matches);
+// `modes`), every lane takes the candidate with the smallest squared
+// Mahalanobis distance below `chi2`, the first of equals, and adds the sample
+// and that mode's mean to its sums; a lane with no such candidate leaves its
+// sums as they are. The additions per lane are those of AlignmentSums::add,
+// in sample order.
+void scoreLanes(const LanePoses& poses, const LaneSample* samples, size_t count,
+                const LaneMode* modes, float chi2, LaneSums& sums);
 
-// The portable build and the AVX2 build of matchLanes; the AVX2 one only on a
+// The portable build and the AVX2 build of scoreLanes; the AVX2 one only on a
 // CPU that has AVX2 (lanesHaveAvx2).
-size_t matchLanesPortable(const LanePoses& poses, const LaneSample* samples, size_t count,
-                          const LaneMode* modes, float chi2, LaneMatch* matches);
-size_t matchLanesAvx2(const LanePoses& poses, const LaneSample* samples, size_t count,
-                      const LaneMode* modes, float chi2, LaneMatch* matches);
+void scoreLanesPortable(const LanePoses& poses, const LaneSample* samples, size_t count,
+                        const LaneMode* modes, float chi2, LaneSums& sums);
+void scoreLanesAvx2(const LanePoses& poses, const LaneSample* samples, size_t count,
+                    const LaneMode* modes, float chi2, LaneSums& sums);
 bool lanesHaveAvx2();
 
 }  // namespace relocalizer
