@@ -185,11 +185,18 @@ TEST(Residuals, PointOnLineMatchesHandComputedDistance) {
 }
 
 TEST(Residuals, EachTermGetsTheCostOfItsKind) {
-  RefinementTerm term;
+  // Kinds interleaved: each cost stays at its term's index.
+  std::vector<RefinementTerm> terms(5);
+  terms[1].on_line = terms[2].on_line = true;
   SharedPerturbation at(Pose::Identity());
-  EXPECT_NE(dynamic_cast<PointToPointCost*>(makeTermCost(term, at).get()), nullptr);
-  term.on_line = true;
-  EXPECT_NE(dynamic_cast<PointOnLineCost*>(makeTermCost(term, at).get()), nullptr);
+  const TermCosts costs(terms, at);
+  ASSERT_EQ(costs.size(), terms.size());
+  for (size_t i = 0; i < terms.size(); ++i) {
+    if (terms[i].on_line)
+      EXPECT_NE(dynamic_cast<PointOnLineCost*>(&costs[i]), nullptr) << i;
+    else
+      EXPECT_NE(dynamic_cast<PointToPointCost*>(&costs[i]), nullptr) << i;
+  }
 }
 
 TEST(Residuals, HandDerivedJacobiansMatchAutodiff) {
@@ -212,7 +219,7 @@ TEST(Residuals, HandDerivedJacobiansMatchAutodiff) {
                              0.3 * u(rng), 0.3 * u(rng), 0.3 * u(rng)};
     SharedPerturbation at(base);
     Eigen::Matrix<double, 3, 6, Eigen::RowMajor> analytic, autodiff;
-    const Eigen::Vector3d residual = evaluateCost(*makeTermCost(term, at), delta, &analytic);
+    const Eigen::Vector3d residual = evaluateCost(TermCosts({term}, at)[0], delta, &analytic);
     Eigen::Vector3d reference;
     using PointReference = Reference<PointToPointEnergy>;
     using LineReference = Reference<PointOnLineEnergy>;
