@@ -6,9 +6,10 @@
 // the rest of the program: an AVX copy of an Eigen template kept by the linker
 // for every caller would fault on a CPU without AVX.
 //
-// Both builds run the same IEEE single-precision operations in the same order
-// per lane (no fused multiply-add), so they choose the same modes bit for bit;
-// AVX2 does in one instruction what SSE2 does in two.
+// Both builds run the same IEEE operations in the same order per lane (float
+// for the distances, double for the sums, no fused multiply-add), so they
+// choose the same modes and reach the same sums bit for bit; AVX2 does in one
+// instruction what SSE2 does in two.
 
 #include <cstddef>
 
