@@ -44,11 +44,11 @@ size_t Tree::leafCount() const {
 }
 
 LeafRange Tree::descend(const FeatureImage& image, int u, int v, float depth) const {
+  const FeatureSite site = FeatureSite::at(u, v, depth);
   int32_t index = 0;
   while (!nodes[index].isLeaf()) {
     const SplitNode& node = nodes[index];
-    index =
-        node.left + (evaluateFeature(node.feature, image, u, v, depth) < node.threshold ? 0 : 1);
+    index = node.left + (evaluateFeature(node.feature, image, site) < node.threshold ? 0 : 1);
   }
   return nodes[index].leafModes();
 }
@@ -118,14 +118,14 @@ class BranchQueue {
 // One step of a descent at a split node: the child to take, and the sibling
 // queued for backtracking by how narrowly the sample missed it.
 inline int32_t splitStep(const std::vector<SplitNode>& nodes, int32_t index,
-                         const FeatureImage& image, const Sample& sample, int max_leaves,
+                         const FeatureImage& image, const FeatureSite& site, int max_leaves,
                          BranchQueue& queue) {
   const SplitNode& node = nodes[index];
   // Start fetching both children while the feature reads the image: deep
   // nodes are rarely cached, and this overlaps the two memory latencies.
   __builtin_prefetch(&nodes[node.left]);
   __builtin_prefetch(&nodes[node.left + 1]);
-  const float f = evaluateFeature(node.feature, image, sample.u, sample.v, sample.depth);
+  const float f = evaluateFeature(node.feature, image, site);
   const bool go_left = f < node.threshold;
   if (max_leaves > 1) queue.push(std::abs(f - node.threshold), node.left + (go_left ? 1 : 0));
   return node.left + (go_left ? 0 : 1);
@@ -183,6 +183,7 @@ class LockStepDescent {
   struct Lane {
     BranchQueue queue;
     size_t sample = 0;
+    FeatureSite site;
     int32_t node = 0;
     LeafRange range;
     int visited = 0;
@@ -197,6 +198,8 @@ class LockStepDescent {
       return false;
     }
     lane.sample = next_++;
+    const Sample& sample = samples_[lane.sample];
+    lane.site = FeatureSite::at(sample.u, sample.v, sample.depth);
     lane.node = 0;
     lane.visited = 0;
     lane.queue.reset(max_leaves_ - 1);
@@ -212,8 +215,7 @@ class LockStepDescent {
     switch (lane.step) {
       case Step::Descend:
         if (!nodes[lane.node].isLeaf()) {
-          lane.node =
-              splitStep(nodes, lane.node, image_, samples_[lane.sample], max_leaves_, lane.queue);
+          lane.node = splitStep(nodes, lane.node, image_, lane.site, max_leaves_, lane.queue);
         } else {
           lane.range = nodes[lane.node].leafModes();
           const LeafRange& r = lane.range;
@@ -261,11 +263,12 @@ ModeCandidate predictInTree(const Tree& tree, const FeatureImage& image, const S
   ModeCandidate best = noCandidate();
   if (tree.nodes.empty()) return best;
   BranchQueue queue(max_leaves - 1);
+  const FeatureSite site = FeatureSite::at(sample.u, sample.v, sample.depth);
   int32_t start = 0;
   for (int visited = 0; visited < std::max(1, max_leaves); ++visited) {
     int32_t index = start;
     while (!tree.nodes[index].isLeaf())
-      index = splitStep(tree.nodes, index, image, sample, max_leaves, queue);
+      index = splitStep(tree.nodes, index, image, site, max_leaves, queue);
     nearestMode(tree, tree.nodes[index].leafModes(), descriptor, best);
     if (queue.empty()) break;
     start = queue.pop();

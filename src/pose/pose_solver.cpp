@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "relocalizer/core/rigid_alignment.h"
+#include "relocalizer/pose/lane_scoring.h"
 #include "relocalizer/pose/refinement.h"
 
 namespace relocalizer {
@@ -21,17 +22,9 @@ double secondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// Candidate modes of one batch sample, copied contiguously so that scoring
-// hundreds of hypotheses reads a compact block instead of chasing pointers.
-struct BatchEntry {
-  Eigen::Vector3f camera;
-  int count;
-  int sample;  // index into the combined sample list
-};
-struct BatchMode {
-  Eigen::Vector3f mean;
-  std::array<float, 6> information;
-};
+// A batch's samples (LaneSample) and, after each, its candidate modes
+// (LaneMode), copied contiguously so that scoring hundreds of hypotheses reads
+// a compact block instead of chasing pointers.
 
 struct Hypothesis {
   Pose pose;
@@ -49,54 +42,35 @@ struct Hypothesis {
   }
 };
 
-// Scores up to kLanes hypotheses at once on a batch: each sample's transformed
-// camera point and candidate distances are computed for all lanes with packet
-// arithmetic (Eigen arrays), which is where preemptive RANSAC spends its time.
-// Per lane, the best candidate under `chi2` makes the sample an inlier: the
-// score and the Kabsch statistics of the hypothesis are updated.
-constexpr size_t kLanes = 8;
-using Lanes = Eigen::Array<float, kLanes, 1>;
-using LaneIndices = Eigen::Array<int, kLanes, 1>;
-
-void scoreBlock(Hypothesis* block, int count, const std::vector<BatchEntry>& batch,
-                const std::vector<BatchMode>& batch_modes, float chi2) {
-  Lanes r[9], t[3];
-  for (int l = 0; l < static_cast<int>(kLanes); ++l) {
+// Scores up to kScoreLanes hypotheses at once on a batch (scoreLanes, where
+// preemptive RANSAC spends its time): a sample is an inlier of a lane when a
+// candidate lies within `chi2`, and the lane's score and Kabsch statistics take
+// the nearest one, in batch order.
+void scoreBlock(Hypothesis* block, int count, const std::vector<LaneSample>& batch,
+                const std::vector<LaneMode>& batch_modes, float chi2) {
+  LanePoses poses;
+  LaneSums sums;
+  for (int l = 0; l < kScoreLanes; ++l) {
     // Unused lanes repeat the first hypothesis; their results are dropped.
     const Hypothesis& h = block[l < count ? l : 0];
-    for (int k = 0; k < 9; ++k) r[k](l) = h.rotation(k / 3, k % 3);
-    for (int k = 0; k < 3; ++k) t[k](l) = h.translation(k);
+    for (int k = 0; k < 9; ++k) poses.rotation[k][l] = h.rotation(k / 3, k % 3);
+    for (int k = 0; k < 3; ++k) poses.translation[k][l] = h.translation(k);
+    const AlignmentSums& in = h.inliers;
+    sums.score[l] = h.score;
+    sums.count[l] = in.count;
+    for (int k = 0; k < 3; ++k) sums.source[k][l] = in.source(k);
+    for (int k = 0; k < 3; ++k) sums.target[k][l] = in.target(k);
+    for (int k = 0; k < 9; ++k) sums.cross[k][l] = in.cross(k / 3, k % 3);
   }
-  const BatchMode* modes = batch_modes.data();
-  for (const BatchEntry& e : batch) {
-    const float cx = e.camera.x(), cy = e.camera.y(), cz = e.camera.z();
-    const Lanes wx = r[0] * cx + r[1] * cy + r[2] * cz + t[0];
-    const Lanes wy = r[3] * cx + r[4] * cy + r[5] * cz + t[1];
-    const Lanes wz = r[6] * cx + r[7] * cy + r[8] * cz + t[2];
-    Lanes best = Lanes::Constant(chi2);
-    LaneIndices chosen = LaneIndices::Constant(-1);
-    for (int c = 0; c < e.count; ++c) {
-      const BatchMode& m = modes[c];
-      const auto& s = m.information;
-      const Lanes dx = wx - m.mean.x(), dy = wy - m.mean.y(), dz = wz - m.mean.z();
-      const Lanes d = s[0] * dx * dx + s[3] * dy * dy + s[5] * dz * dz +
-                      2.0f * (s[1] * dx * dy + s[2] * dx * dz + s[4] * dy * dz);
-      // Materialised: a lazy (d < best) would be re-read after best changes.
-      const Eigen::Array<bool, kLanes, 1> better = d < best;
-      best = better.select(d, best);
-      chosen = better.select(LaneIndices::Constant(c), chosen);
-    }
-    if ((chosen >= 0).any()) {
-      const Eigen::Vector3d camera = e.camera.cast<double>();
-      for (int l = 0; l < count; ++l) {
-        if (chosen(l) < 0) continue;
-        Hypothesis& hyp = block[l];
-        const Eigen::Vector3d mean = modes[chosen(l)].mean.cast<double>();
-        ++hyp.score;
-        hyp.inliers.add(camera, mean);
-      }
-    }
-    modes += e.count;
+  scoreLanes(poses, batch.data(), batch.size(), batch_modes.data(), chi2, sums);
+  for (int l = 0; l < count; ++l) {
+    Hypothesis& h = block[l];
+    AlignmentSums& out = h.inliers;
+    h.score = sums.score[l];
+    out.count = sums.count[l];
+    for (int k = 0; k < 3; ++k) out.source(k) = sums.source[k][l];
+    for (int k = 0; k < 3; ++k) out.target(k) = sums.target[k][l];
+    for (int k = 0; k < 9; ++k) out.cross(k / 3, k % 3) = sums.cross[k][l];
   }
 }
 
@@ -125,6 +99,7 @@ void collectTerms(const std::vector<const SolverSample*>& samples, const Pose& p
                   const PoseSolverParams& params, std::vector<RefinementTerm>& terms,
                   int* point_inliers, int* line_inliers, PoseSolution* solution = nullptr) {
   terms.clear();
+  terms.reserve(samples.size());  // at most one term per sample: no regrowth
   int points = 0, lines = 0;
   const Eigen::Matrix3f r = pose.linear().cast<float>();
   const Eigen::Vector3f t = pose.translation().cast<float>();
@@ -259,10 +234,13 @@ class PreemptiveRounds {
       if (next_sample_ == order_.size()) next_sample_ = 0;
       const int index = order_[next_sample_++];
       const SolverSample& s = *all_[index];
-      batch_.push_back({s.camera_point, s.prediction->count, index});
+      const Eigen::Vector3f& p = s.camera_point;
+      batch_.push_back({{p.x(), p.y(), p.z()}, s.prediction->count, index});
       for (int c = 0; c < s.prediction->count; ++c) {
         const LeafMode& m = *s.prediction->candidates[c].mode;
-        batch_modes_.push_back({m.mean, m.information});
+        const auto& in = m.information;
+        batch_modes_.push_back(
+            {{m.mean.x(), m.mean.y(), m.mean.z()}, {in[0], in[1], in[2], in[3], in[4], in[5]}});
       }
     }
   }
@@ -271,10 +249,11 @@ class PreemptiveRounds {
   // (ties by creation order, so the outcome never depends on threads); with
   // a hint, by their inliers weighed by it.
   void score(std::vector<Hypothesis>& hypotheses) const {
-    const size_t blocks = (hypotheses.size() + kLanes - 1) / kLanes;
+    const size_t lanes = kScoreLanes;
+    const size_t blocks = (hypotheses.size() + lanes - 1) / lanes;
     tbb::parallel_for(size_t{0}, blocks, [&](size_t b) {
-      scoreBlock(hypotheses.data() + b * kLanes,
-                 static_cast<int>(std::min(kLanes, hypotheses.size() - b * kLanes)), batch_,
+      scoreBlock(hypotheses.data() + b * lanes,
+                 static_cast<int>(std::min(lanes, hypotheses.size() - b * lanes)), batch_,
                  batch_modes_, params_.inlier_chi2);
     });
     // Without a hint the rank is the score itself (an int, exact as a double).
@@ -298,11 +277,14 @@ class PreemptiveRounds {
   // hypothesis whose solve fails keeps its pose.
   void refineByLm(std::vector<Hypothesis>& hypotheses) {
     seen_.clear();
-    for (const BatchEntry& e : batch_) seen_.push_back(all_[e.sample]);
+    for (const LaneSample& e : batch_) seen_.push_back(all_[e.sample]);
+    // One term buffer per hypothesis, kept across rounds: each keeps its
+    // capacity, so later rounds allocate nothing.
+    if (lm_terms_.size() < hypotheses.size()) lm_terms_.resize(hypotheses.size());
     std::atomic<int> failed{0};
     tbb::parallel_for(size_t{0}, hypotheses.size(), [&](size_t h) {
       Hypothesis& hyp = hypotheses[h];
-      std::vector<RefinementTerm> terms;
+      std::vector<RefinementTerm>& terms = lm_terms_[h];
       collectTerms(seen_, hyp.pose, params_, terms, nullptr, nullptr);
       if (terms.size() < 3) return;
       const Refinement refined = refinePose(hyp.pose, terms, params_, params_.lm_loop_iterations);
@@ -319,9 +301,10 @@ class PreemptiveRounds {
   const HintPrior* hint_;
   std::vector<int> order_;
   size_t next_sample_ = 0;
-  std::vector<BatchEntry> batch_;
-  std::vector<BatchMode> batch_modes_;
+  std::vector<LaneSample> batch_;
+  std::vector<LaneMode> batch_modes_;
   std::vector<const SolverSample*> seen_;
+  std::vector<std::vector<RefinementTerm>> lm_terms_;
   int failed_refinements_ = 0;
 };
 

@@ -21,13 +21,11 @@ std::unique_ptr<ceres::LossFunction> robustLoss(const PoseSolverParams& params) 
 // than by the problem: a problem that owns them keeps a reference count per
 // cost function (a map insert per term), which cost more than evaluating the
 // term.
-struct TermCosts {
-  TermCosts(const std::vector<RefinementTerm>& terms, const Pose& base) : pose(base) {
-    costs.reserve(terms.size());
-    for (const RefinementTerm& term : terms) costs.push_back(makeTermCost(term, pose));
-  }
+struct PerturbedCosts {
+  PerturbedCosts(const std::vector<RefinementTerm>& terms, const Pose& base)
+      : pose(base), costs(terms, pose) {}
   SharedPerturbation pose;  // declared first: the costs refer to it
-  std::vector<std::unique_ptr<ceres::SizedCostFunction<3, 6>>> costs;
+  TermCosts costs;
 };
 
 Pose applyDelta(const double* delta, const Pose& base) {
@@ -75,9 +73,10 @@ Refinement refinePose(const Pose& initial, const std::vector<RefinementTerm>& te
 
   std::vector<RefinementTerm> subset;
   double delta[6] = {0, 0, 0, 0, 0, 0};
-  TermCosts costs(solveTerms(terms, params, subset), initial);
+  PerturbedCosts costs(solveTerms(terms, params, subset), initial);
   ceres::Problem problem(problem_options);
-  for (const auto& cost : costs.costs) problem.AddResidualBlock(cost.get(), loss.get(), delta);
+  for (size_t i = 0; i < costs.costs.size(); ++i)
+    problem.AddResidualBlock(&costs.costs[i], loss.get(), delta);
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   options.minimizer_type = ceres::TRUST_REGION;
@@ -110,13 +109,13 @@ Matrix6d refinementCovariance(const Pose& pose, const std::vector<RefinementTerm
   const std::unique_ptr<ceres::LossFunction> loss = robustLoss(params);
   const double zero[6] = {0, 0, 0, 0, 0, 0};
   const double* parameters[1] = {zero};
-  TermCosts at(terms, pose);
+  PerturbedCosts at(terms, pose);
   Eigen::Matrix<double, 3, 6, Eigen::RowMajor> jacobian;
   double* jacobians[1] = {jacobian.data()};
   Eigen::Vector3d residual;
   Matrix6d information = Matrix6d::Zero();
-  for (const auto& cost : at.costs) {
-    cost->Evaluate(parameters, residual.data(), jacobians);
+  for (size_t i = 0; i < at.costs.size(); ++i) {
+    at.costs[i].Evaluate(parameters, residual.data(), jacobians);
     if (loss) {
       double rho[3];
       // Ceres' expression, so the weight is the one it would apply.

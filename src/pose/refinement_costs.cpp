@@ -106,10 +106,19 @@ bool PointOnLineCost::Evaluate(double const* const* parameters, double* residual
   return true;
 }
 
-std::unique_ptr<ceres::SizedCostFunction<3, 6>> makeTermCost(const RefinementTerm& term,
-                                                             SharedPerturbation& pose) {
-  if (term.on_line) return std::make_unique<PointOnLineCost>(term, pose);
-  return std::make_unique<PointToPointCost>(term, pose);
+TermCosts::TermCosts(const std::vector<RefinementTerm>& terms, SharedPerturbation& pose) {
+  size_t lines = 0;
+  for (const RefinementTerm& term : terms) lines += term.on_line ? 1 : 0;
+  points_ = std::make_unique<std::optional<PointToPointCost>[]>(terms.size() - lines);
+  lines_ = std::make_unique<std::optional<PointOnLineCost>[]>(lines);
+  costs_.reserve(terms.size());
+  size_t point = 0, line = 0;
+  for (const RefinementTerm& term : terms) {
+    if (term.on_line)
+      costs_.push_back(&lines_[line++].emplace(term, pose));
+    else
+      costs_.push_back(&points_[point++].emplace(term, pose));
+  }
 }
 
 }  // namespace relocalizer

@@ -14,7 +14,7 @@ checks the ones that look like a path or a C++ name:
   `<placeholder>` stands for any text; paths above the repository
   (`../shared/...`) are not the repository's to check.
 - a C++ name (CamelCase types like `KeyFrameFeed`, lowerCamel functions like
-  `makeTermCost`, `kConstants`, snake_case with parentheses like `main()`, and
+  `refinePose`, `kConstants`, snake_case with parentheses like `main()`, and
   each part of a qualified name like `PoseSolution::failed_refinements`) must
   occur as a word in some file under the source folders below. Names of other
   libraries (`Eigen::umeyama`) are theirs to keep.
@@ -212,7 +212,7 @@ class ArchitectureDocTest(unittest.TestCase):
 
     def test_finds_a_stale_name_of_each_kind(self):
         text = "\n".join([
-            "The costs live in `pose/refinement_costs.h` (`PointToPointCost`, `makeTermCost`);",
+            "The costs live in `pose/refinement_costs.h` (`PointToPointCost`, `refinePose`);",
             "`pose/no_such_header.h` and `NoSuchCostAnywhere`, `noSuchFunction`,",
             "`PoseSolution::no_such_member` and `no_such_call()` do not; `Eigen::umeyama`,",
             "`train`, `--bag` and `map -> odom` are not C++ names of ours.",

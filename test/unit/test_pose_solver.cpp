@@ -3,10 +3,12 @@
 #include <ceres/autodiff_cost_function.h>
 
 #include <Eigen/Cholesky>
+#include <cstring>
 #include <limits>
 #include <random>
 
 #include "relocalizer/core/rigid_alignment.h"
+#include "relocalizer/pose/lane_scoring.h"
 #include "relocalizer/pose/pose_solver.h"
 #include "relocalizer/pose/refinement.h"
 #include "relocalizer/pose/refinement_costs.h"
@@ -183,11 +185,18 @@ TEST(Residuals, PointOnLineMatchesHandComputedDistance) {
 }
 
 TEST(Residuals, EachTermGetsTheCostOfItsKind) {
-  RefinementTerm term;
+  // Kinds interleaved: each cost stays at its term's index.
+  std::vector<RefinementTerm> terms(5);
+  terms[1].on_line = terms[2].on_line = true;
   SharedPerturbation at(Pose::Identity());
-  EXPECT_NE(dynamic_cast<PointToPointCost*>(makeTermCost(term, at).get()), nullptr);
-  term.on_line = true;
-  EXPECT_NE(dynamic_cast<PointOnLineCost*>(makeTermCost(term, at).get()), nullptr);
+  const TermCosts costs(terms, at);
+  ASSERT_EQ(costs.size(), terms.size());
+  for (size_t i = 0; i < terms.size(); ++i) {
+    if (terms[i].on_line)
+      EXPECT_NE(dynamic_cast<PointOnLineCost*>(&costs[i]), nullptr) << i;
+    else
+      EXPECT_NE(dynamic_cast<PointToPointCost*>(&costs[i]), nullptr) << i;
+  }
 }
 
 TEST(Residuals, HandDerivedJacobiansMatchAutodiff) {
@@ -210,7 +219,7 @@ TEST(Residuals, HandDerivedJacobiansMatchAutodiff) {
                              0.3 * u(rng), 0.3 * u(rng), 0.3 * u(rng)};
     SharedPerturbation at(base);
     Eigen::Matrix<double, 3, 6, Eigen::RowMajor> analytic, autodiff;
-    const Eigen::Vector3d residual = evaluateCost(*makeTermCost(term, at), delta, &analytic);
+    const Eigen::Vector3d residual = evaluateCost(TermCosts({term}, at)[0], delta, &analytic);
     Eigen::Vector3d reference;
     using PointReference = Reference<PointToPointEnergy>;
     using LineReference = Reference<PointOnLineEnergy>;
@@ -323,4 +332,147 @@ TEST(Ransac, TooFewPredictionsIsAnExplicitFailure) {
   const PoseSolution solution = solvePose(s.points, s.lines, PoseSolverParams{}, rng);
   EXPECT_FALSE(solution.success);
   EXPECT_NE(solution.message.find("too few point predictions"), std::string::npos);
+}
+
+namespace {
+
+using LaneKernel = void (*)(const LanePoses&, const LaneSample*, size_t, const LaneMode*, float,
+                            LaneSums&);
+
+// Every build of scoreLanes this CPU can run, with its name.
+std::vector<std::pair<const char*, LaneKernel>> laneKernels() {
+  std::vector<std::pair<const char*, LaneKernel>> kernels = {{"portable", scoreLanesPortable},
+                                                             {"dispatched", scoreLanes}};
+  if (lanesHaveAvx2()) kernels.push_back({"avx2", scoreLanesAvx2});
+  return kernels;
+}
+
+void setLane(LanePoses& poses, int lane, const Eigen::Matrix3f& r, const Eigen::Vector3f& t) {
+  for (int k = 0; k < 9; ++k) poses.rotation[k][lane] = r(k / 3, k % 3);
+  for (int k = 0; k < 3; ++k) poses.translation[k][lane] = t(k);
+}
+
+LaneMode laneMode(float x, float y, float z, float xy = 0.0f) {
+  return {{x, y, z}, {1.0f, xy, 0.0f, 1.0f, 0.0f, 1.0f}};
+}
+
+LaneSums zeroSums() {
+  LaneSums sums;
+  std::memset(&sums, 0, sizeof sums);
+  return sums;
+}
+
+// Lane `l` of `sums` equals `expected` and `score`, bit for bit.
+void expectLane(const LaneSums& sums, int l, const AlignmentSums& expected, int score,
+                const std::string& what) {
+  EXPECT_EQ(sums.score[l], score) << what;
+  EXPECT_EQ(sums.count[l], expected.count) << what;
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(sums.source[k][l], expected.source(k)) << what;
+    EXPECT_EQ(sums.target[k][l], expected.target(k)) << what;
+  }
+  for (int k = 0; k < 9; ++k) EXPECT_EQ(sums.cross[k][l], expected.cross(k / 3, k % 3)) << what;
+}
+
+}  // namespace
+
+// Distances chosen exactly representable, so every comparison is exact: lane l
+// sits at x = l / 4 (lane 7 is rotated a quarter turn about z instead), chi2 =
+// 1/4 under unit information.
+TEST(LaneScoring, EachLaneAddsItsNearestModeUnderChi2) {
+  LanePoses poses;
+  for (int l = 0; l < 7; ++l)
+    setLane(poses, l, Eigen::Matrix3f::Identity(), Eigen::Vector3f(0.25f * l, 0, 0));
+  setLane(poses, 7, Eigen::AngleAxisf(M_PI / 2, Eigen::Vector3f::UnitZ()).toRotationMatrix(),
+          Eigen::Vector3f::Zero());
+  const std::vector<LaneSample> samples = {
+      {{0, 0, 1}, 2, 0},     // modes 0 and 1 on the lanes' line
+      {{0.5f, 0, 1}, 1, 1},  // mode 2, reached by lane 7's rotation only
+      {{10, 10, 10}, 1, 2},  // mode 3, far from every lane
+      {{0, 0, 1}, 1, 3}};    // mode 4, whose information couples x and y
+  const std::vector<LaneMode> modes = {laneMode(0.5f, 0, 1), laneMode(1.25f, 0, 1),
+                                       laneMode(0, 0.5f, 1), laneMode(0, 0, 0),
+                                       laneMode(0.375f, 0.375f, 1, -0.5f)};
+  // The mode each lane takes per sample (-1: none). Lane 0 of sample 0 is
+  // exactly chi2 from mode 0 (not an inlier), lane 3 as near to both modes
+  // (the first wins); the coupled information of mode 4 makes lanes 0-2
+  // inliers that unit information would reject for lane 0.
+  const int chosen[4][kScoreLanes] = {{-1, 0, 0, 0, 1, 1, 1, -1},
+                                      {-1, -1, -1, -1, -1, -1, -1, 2},
+                                      {-1, -1, -1, -1, -1, -1, -1, -1},
+                                      {4, 4, 4, -1, -1, -1, -1, 4}};
+  for (const auto& [name, kernel] : laneKernels()) {
+    LaneSums sums = zeroSums();
+    // Lane 5 starts from earlier rounds' sums, which it must keep adding to.
+    AlignmentSums earlier;
+    earlier.add({1, 2, 3}, {4, 5, 6});
+    sums.score[5] = 7;
+    sums.count[5] = earlier.count;
+    for (int k = 0; k < 3; ++k) sums.source[k][5] = earlier.source(k);
+    for (int k = 0; k < 3; ++k) sums.target[k][5] = earlier.target(k);
+    for (int k = 0; k < 9; ++k) sums.cross[k][5] = earlier.cross(k / 3, k % 3);
+    kernel(poses, samples.data(), samples.size(), modes.data(), 0.25f, sums);
+    for (int l = 0; l < kScoreLanes; ++l) {
+      AlignmentSums expected = l == 5 ? earlier : AlignmentSums{};
+      int score = l == 5 ? 7 : 0;
+      for (int i = 0; i < 4; ++i) {
+        if (chosen[i][l] < 0) continue;
+        const LaneMode& m = modes[chosen[i][l]];
+        const LaneSample& c = samples[i];
+        expected.add(Eigen::Vector3d(c.camera[0], c.camera[1], c.camera[2]),
+                     Eigen::Vector3d(m.mean[0], m.mean[1], m.mean[2]));
+        ++score;
+      }
+      expectLane(sums, l, expected, score, std::string(name) + " lane " + std::to_string(l));
+    }
+  }
+}
+
+// The AVX2 build against the portable one on a random batch like a real
+// round's: the same sums, bit for bit, also where distances are near chi2.
+TEST(LaneScoring, EveryBuildMatchesThePortableOne) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-2.0f, 2.0f), unit(0.0f, 1.0f);
+  LanePoses poses;
+  for (int l = 0; l < kScoreLanes; ++l)
+    setLane(poses, l,
+            Eigen::AngleAxisf(u(rng), Eigen::Vector3f(u(rng), u(rng), u(rng)).normalized())
+                .toRotationMatrix(),
+            Eigen::Vector3f(u(rng), u(rng), u(rng)) * 0.1f);
+  std::vector<LaneSample> samples;
+  std::vector<LaneMode> modes;
+  for (int i = 0; i < 2000; ++i) {
+    const Eigen::Vector3f camera(u(rng), u(rng), 1.0f + unit(rng) * 3.0f);
+    const int count = 1 + static_cast<int>(unit(rng) * 5) % 5;
+    samples.push_back({{camera.x(), camera.y(), camera.z()}, count, i});
+    // Near some lane's image of the camera point, with an anisotropic
+    // information matrix (A A^T + I, positive definite).
+    const int lane = static_cast<int>(unit(rng) * kScoreLanes) % kScoreLanes;
+    Eigen::Matrix3f r;
+    Eigen::Vector3f t;
+    for (int k = 0; k < 9; ++k) r(k / 3, k % 3) = poses.rotation[k][lane];
+    for (int k = 0; k < 3; ++k) t(k) = poses.translation[k][lane];
+    const Eigen::Vector3f world = r * camera + t;
+    for (int c = 0; c < count; ++c) {
+      Eigen::Matrix3f a;
+      for (int k = 0; k < 9; ++k) a(k / 3, k % 3) = u(rng);
+      const Eigen::Matrix3f info = (a * a.transpose() + Eigen::Matrix3f::Identity()) * 25.0f;
+      const Eigen::Vector3f mean = world + Eigen::Vector3f(u(rng), u(rng), u(rng)) * 0.2f;
+      modes.push_back({{mean.x(), mean.y(), mean.z()},
+                       {info(0, 0), info(0, 1), info(0, 2), info(1, 1), info(1, 2), info(2, 2)}});
+    }
+  }
+  LaneSums reference = zeroSums();
+  scoreLanesPortable(poses, samples.data(), samples.size(), modes.data(), 9.0f, reference);
+  // A test that can fail either way: every lane has inliers, none has all.
+  for (int l = 0; l < kScoreLanes; ++l) {
+    EXPECT_GT(reference.score[l], 20) << "lane " << l;
+    EXPECT_LT(reference.score[l], 2000) << "lane " << l;
+  }
+  if (!lanesHaveAvx2()) GTEST_SKIP() << "this CPU has no AVX2: only the portable build runs";
+  for (const auto& [name, kernel] : laneKernels()) {
+    LaneSums sums = zeroSums();
+    kernel(poses, samples.data(), samples.size(), modes.data(), 9.0f, sums);
+    EXPECT_EQ(std::memcmp(&sums, &reference, sizeof sums), 0) << name;
+  }
 }

@@ -56,40 +56,65 @@ struct FeatureImage {
   static FeatureImage of(const cv::Mat& colour, const cv::Mat& depth);
 };
 
-// The second pixel q of `feature` for the sample at (u, v) with depth
-// `depth_p` > 0: p + delta / D(p), rounded and clamped to the image.
-inline void secondPixel(const PixelFeature& feature, const FeatureImage& image, int u, int v,
-                        float depth_p, int& qu, int& qv) {
-  const float inverse_depth = 1.0f / depth_p;
-  qu = u +
-       static_cast<int>(feature.offset_u * inverse_depth + (feature.offset_u >= 0 ? 0.5f : -0.5f));
-  qv = v +
-       static_cast<int>(feature.offset_v * inverse_depth + (feature.offset_v >= 0 ? 0.5f : -0.5f));
+// The sample p a feature is evaluated at: integer pixel (u, v) with valid
+// depth > 0, and 1 / D(p), by which every feature scales its offset. A descent
+// evaluates one feature per node on the same sample, so the division is done
+// once per sample here, not once per node (the same float reciprocal, so the
+// same second pixel).
+struct FeatureSite {
+  int u = 0;
+  int v = 0;
+  float depth = 0.0f;
+  float inverse_depth = 0.0f;
+
+  static FeatureSite at(int u, int v, float depth) { return {u, v, depth, 1.0f / depth}; }
+};
+
+// The second pixel q of `feature` at `p`: p + delta / D(p), rounded and
+// clamped to the image.
+inline void secondPixel(const PixelFeature& feature, const FeatureImage& image,
+                        const FeatureSite& p, int& qu, int& qv) {
+  qu = p.u + static_cast<int>(feature.offset_u * p.inverse_depth +
+                              (feature.offset_u >= 0 ? 0.5f : -0.5f));
+  qv = p.v + static_cast<int>(feature.offset_v * p.inverse_depth +
+                              (feature.offset_v >= 0 ? 0.5f : -0.5f));
   qu = qu < 0 ? 0 : (qu >= image.width ? image.width - 1 : qu);
   qv = qv < 0 ? 0 : (qv >= image.height ? image.height - 1 : qv);
 }
 
-// f for the sample at integer pixel (u, v) with valid depth `depth_p` > 0,
-// whose colour (BGR) the caller already holds in `colour_p`: training keeps
-// it with each sample, so a colour feature reads one image pixel, not two.
-inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image, int u, int v,
-                             float depth_p, const uint8_t* colour_p) {
+// f at `p`, whose colour (BGR) the caller already holds in `colour_p`:
+// training keeps it with each sample, so a colour feature reads one image
+// pixel, not two.
+inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image,
+                             const FeatureSite& p, const uint8_t* colour_p) {
   int qu, qv;
-  secondPixel(feature, image, u, v, depth_p, qu, qv);
+  secondPixel(feature, image, p, qu, qv);
   if (feature.type == FeatureType::Colour) {
-    const int p = colour_p[feature.channel_p];
-    const int q = image.colour[qv * image.colour_stride + qu * 3 + feature.channel_q];
-    return static_cast<float>(p - q);
+    const int ip = colour_p[feature.channel_p];
+    const int iq = image.colour[qv * image.colour_stride + qu * 3 + feature.channel_q];
+    return static_cast<float>(ip - iq);
   }
   const float depth_q = image.depth[qv * image.depth_stride + qu];
-  return (depth_q == depth_q ? depth_q : kFarDepth) - depth_p;  // NaN != NaN
+  return (depth_q == depth_q ? depth_q : kFarDepth) - p.depth;  // NaN != NaN
+}
+
+// f at `p`.
+inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image,
+                             const FeatureSite& p) {
+  return evaluateFeature(feature, image, p, image.colour + p.v * image.colour_stride + p.u * 3);
+}
+
+// f for the sample at integer pixel (u, v) with valid depth `depth_p` > 0 and
+// colour `colour_p`, for callers that evaluate one feature per sample.
+inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image, int u, int v,
+                             float depth_p, const uint8_t* colour_p) {
+  return evaluateFeature(feature, image, FeatureSite::at(u, v, depth_p), colour_p);
 }
 
 // f for the sample at integer pixel (u, v) with valid depth `depth_p` > 0.
 inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image, int u, int v,
                              float depth_p) {
-  return evaluateFeature(feature, image, u, v, depth_p,
-                         image.colour + v * image.colour_stride + u * 3);
+  return evaluateFeature(feature, image, FeatureSite::at(u, v, depth_p));
 }
 
 // Starts loading the second pixel q that evaluateFeature will read, for
@@ -99,7 +124,7 @@ inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& im
 inline void prefetchSecondPixel(const PixelFeature& feature, const FeatureImage& image, int u,
                                 int v, float depth_p) {
   int qu, qv;
-  secondPixel(feature, image, u, v, depth_p, qu, qv);
+  secondPixel(feature, image, FeatureSite::at(u, v, depth_p), qu, qv);
   if (feature.type == FeatureType::Colour)
     __builtin_prefetch(image.colour + qv * image.colour_stride + qu * 3);
   else

@@ -18,6 +18,8 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <optional>
+#include <vector>
 
 #include "relocalizer/core/pose.h"
 
@@ -96,9 +98,23 @@ class PointOnLineCost : public ceres::SizedCostFunction<3, 6> {
   SharedPerturbation& pose_;
 };
 
-// The cost function of a term's kind (the one place that tells them apart),
-// evaluated at `pose`, which must outlive it.
-std::unique_ptr<ceres::SizedCostFunction<3, 6>> makeTermCost(const RefinementTerm& term,
-                                                             SharedPerturbation& pose);
+// The cost functions of a set of terms, each of its term's kind (the one place
+// that tells them apart), evaluated at `pose`, which must outlive them. A solve
+// has hundreds of terms: they live in one array per kind, so building and
+// dropping them is a few allocations, not one per term.
+class TermCosts {
+ public:
+  TermCosts(const std::vector<RefinementTerm>& terms, SharedPerturbation& pose);
+  size_t size() const { return costs_.size(); }
+  // The cost of terms[i].
+  ceres::SizedCostFunction<3, 6>& operator[](size_t i) const { return *costs_[i]; }
+
+ private:
+  // Cost functions can be neither copied nor moved: each is built in place in
+  // an empty slot.
+  std::unique_ptr<std::optional<PointToPointCost>[]> points_;
+  std::unique_ptr<std::optional<PointOnLineCost>[]> lines_;
+  std::vector<ceres::SizedCostFunction<3, 6>*> costs_;
+};
 
 }  // namespace relocalizer
