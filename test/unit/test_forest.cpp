@@ -140,15 +140,16 @@ TEST(LineRansac, RejectsInjectedOutliers) {
 }
 
 TEST(LineSampling, LsdScaleKeepsTheMinimumWidthAndNeverUpscales) {
-  const LineSamplingParams defaults;
-  EXPECT_EQ(lsdScaleFor(defaults, 640), 0.25f);  // 160x120
-  EXPECT_EQ(lsdScaleFor(defaults, 320), 0.5f);   // 160x120, not 80x60
-  EXPECT_EQ(lsdScaleFor(defaults, 160), 1.0f);
-  EXPECT_EQ(lsdScaleFor(defaults, 100), 1.0f);  // narrower than the floor: as it is
-  EXPECT_EQ(lsdScaleFor(defaults, 1280), 0.25f);
-  LineSamplingParams old;  // as a model written before the floor reads back
-  old.lsd_scale = 0.5f;
-  old.lsd_min_width_px = 0;
+  LineSamplingParams quarter;  // config/fast_lines.yaml
+  quarter.lsd_scale = 0.25f;
+  quarter.lsd_min_width_px = 160;
+  EXPECT_EQ(lsdScaleFor(quarter, 640), 0.25f);  // 160x120
+  EXPECT_EQ(lsdScaleFor(quarter, 320), 0.5f);   // 160x120, not 80x60
+  EXPECT_EQ(lsdScaleFor(quarter, 160), 1.0f);
+  EXPECT_EQ(lsdScaleFor(quarter, 100), 1.0f);  // narrower than the floor: as it is
+  EXPECT_EQ(lsdScaleFor(quarter, 1280), 0.25f);
+  LineSamplingParams old;  // the default, and a model written before the floor
+  ASSERT_EQ(old.lsd_min_width_px, 0);
   EXPECT_EQ(lsdScaleFor(old, 640), 0.5f);
   EXPECT_EQ(lsdScaleFor(old, 160), 0.5f);
   old.lsd_scale = 0.01f;
@@ -184,8 +185,8 @@ LineSamples linesAt(const RgbdFrame& frame, float lsd_scale, int lsd_min_width_p
 TEST(LineSampling, SmallFramesKeepTheirLsdResolution) {
   const SyntheticRoom room(4);
   const Pose pose = room.trajectories(60, 0).train[30];
-  // 320x240 (the synthetic tests, the rostest fixture, the README's demo):
-  // exactly the line samples of the former default, half size.
+  // The quarter preset on 320x240 (the synthetic tests, the rostest fixture,
+  // the README's demo): exactly the line samples of the default, half size.
   const RgbdFrame small =
       room.render(pose, CameraIntrinsics::kinectDefault().scaledTo(320, 240), 30);
   const LineSamples kept = linesAt(small, 0.25f, 160);
@@ -687,7 +688,8 @@ TEST(Config, ForestYamlMatchesCompiledDefaults) {
 
 TEST(Config, ModelsWithoutTheLsdFloorKeepTheirOwnLsdScale) {
   // A header written before lsd_min_width_px existed (e.g. a 0.5 model):
-  // LSD keeps running at its own scale at every image size.
+  // LSD keeps running at its own scale at every image size, whatever the
+  // default floor becomes.
   TrainingParams old;
   old.line_sampling.lsd_scale = 0.5f;
   nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(old));
@@ -696,11 +698,14 @@ TEST(Config, ModelsWithoutTheLsdFloorKeepTheirOwnLsdScale) {
   ASSERT_TRUE(read.ok()) << read.error();
   EXPECT_EQ(read->line_sampling.lsd_scale, 0.5f);
   EXPECT_EQ(read->line_sampling.lsd_min_width_px, 0);
-  // Today's headers carry the floor and read it back.
-  auto today = trainingParamsFromJson(trainingParamsToJson(TrainingParams{}));
-  ASSERT_TRUE(today.ok()) << today.error();
-  EXPECT_EQ(today->line_sampling.lsd_min_width_px, 160);
-  EXPECT_EQ(today->line_sampling.lsd_scale, 0.25f);
+  // Headers that carry the floor read it back; the preset sets it.
+  auto preset = loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/fast_lines.yaml");
+  ASSERT_TRUE(preset.ok()) << preset.error();
+  EXPECT_EQ(preset->line_sampling.lsd_scale, 0.25f);
+  EXPECT_EQ(preset->line_sampling.lsd_min_width_px, 160);
+  auto read_back = trainingParamsFromJson(trainingParamsToJson(*preset));
+  ASSERT_TRUE(read_back.ok()) << read_back.error();
+  EXPECT_EQ(read_back->line_sampling.lsd_min_width_px, 160);
 }
 
 TEST(Config, OverridesAndRejectsUnknownKeysAndWrongTypes) {

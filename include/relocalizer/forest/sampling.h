@@ -32,14 +32,14 @@ struct LineSamplingParams {
   float min_segment_length_px = 20.0f;  // shorter LSD segments carry little structure
   float spacing_px = 5.0f;              // between samples along a segment
   // LSD on a downscaled image: far faster, and segments shorter than the
-  // minimum length are dropped anyway. 1 = full resolution. A quarter of a
-  // 640x480 frame (LSD on 160x120) keeps the line forest as accurate as half
-  // did, at a third of LSD's time (docs/benchmarks.md, "LSD at quarter size").
-  float lsd_scale = 0.25f;
-  // ... but the image LSD sees is never narrower than this (nor upscaled): a
-  // quarter of a 160-pixel-wide frame leaves LSD too few pixels to find the
-  // segments. 0 = no floor, the behaviour of models trained before it existed.
-  int lsd_min_width_px = 160;
+  // minimum length are dropped anyway. 1 = full resolution. A quarter
+  // (config/fast_lines.yaml) takes a third of LSD's time on 640x480 frames.
+  float lsd_scale = 0.5f;
+  // ... but the image LSD sees is never narrower than this (nor upscaled), so
+  // a scale chosen for 640x480 frames does not starve LSD on small ones (a
+  // quarter of 320 px is 80). 0 = no floor, the behaviour of models trained
+  // before it existed.
+  int lsd_min_width_px = 0;
   // Samples are taken this many pixels off the detected edge, on both sides:
   // an intensity edge is often a depth edge, where depth is mixed or missing.
   float edge_offset_px = 0.0f;
