@@ -81,12 +81,20 @@ bool fitLineRansac(const std::vector<Eigen::Vector3f>& points, float inlier_thre
   return inliers.size() >= 2;
 }
 
+float lsdScaleFor(const LineSamplingParams& params, int image_width) {
+  float scale = std::clamp(params.lsd_scale, 0.1f, 1.0f);
+  if (params.lsd_min_width_px > 0 && image_width > 0 &&
+      scale * static_cast<float>(image_width) < static_cast<float>(params.lsd_min_width_px))
+    scale = std::min(1.0f, static_cast<float>(params.lsd_min_width_px) / image_width);
+  return scale;
+}
+
 LineSamples sampleLines(const RgbdFrame& frame, const LineSamplingParams& params, int max_samples,
                         std::mt19937& rng) {
   LineSamples result;
   cv::Mat gray;
   cv::cvtColor(frame.colour, gray, cv::COLOR_BGR2GRAY);
-  const float scale = std::clamp(params.lsd_scale, 0.1f, 1.0f);
+  const float scale = lsdScaleFor(params, gray.cols);
   cv::Mat lsd_input = gray;
   if (scale < 1.0f) cv::resize(gray, lsd_input, cv::Size(), scale, scale, cv::INTER_AREA);
   // LSD's own internal scaling is disabled (scale 1): we control it above.

@@ -54,6 +54,7 @@ json trainingParamsJson(const TrainingParams& p) {
            {{"min_segment_length_px", l.min_segment_length_px},
             {"spacing_px", l.spacing_px},
             {"lsd_scale", l.lsd_scale},
+            {"lsd_min_width_px", l.lsd_min_width_px},
             {"edge_offset_px", l.edge_offset_px},
             {"ransac_inlier_m", l.ransac_inlier_m},
             {"ransac_iterations", l.ransac_iterations},
@@ -121,6 +122,10 @@ void readTrainingParams(const json& j, TrainingParams& p) {
   readField(l, prefix, "min_segment_length_px", s.min_segment_length_px);
   readField(l, prefix, "spacing_px", s.spacing_px);
   readField(l, prefix, "lsd_scale", s.lsd_scale);
+  // Models written before the floor existed ran LSD at lsd_scale alone: they
+  // keep doing so, whatever today's default.
+  s.lsd_min_width_px = 0;
+  if (l.contains("lsd_min_width_px")) readField(l, prefix, "lsd_min_width_px", s.lsd_min_width_px);
   readField(l, prefix, "edge_offset_px", s.edge_offset_px);
   readField(l, prefix, "ransac_inlier_m", s.ransac_inlier_m);
   readField(l, prefix, "ransac_iterations", s.ransac_iterations);

@@ -19,6 +19,7 @@
 #include "relocalizer/forest/training.h"
 #include "relocalizer/forest/training_config.h"
 #include "relocalizer/relocalize/relocalizer.h"
+#include "relocalizer/sim/synthetic_scene.h"
 #include "support.h"
 
 using namespace relocalizer;
@@ -136,6 +137,66 @@ TEST(LineRansac, RejectsInjectedOutliers) {
   for (int i : inliers) EXPECT_NE(i % 4, 0);
   EXPECT_GT(std::abs(line.direction.dot(direction)), 0.999f);
   EXPECT_LT(line.distance(origin), 0.005f);
+}
+
+TEST(LineSampling, LsdScaleKeepsTheMinimumWidthAndNeverUpscales) {
+  LineSamplingParams quarter;  // config/fast_lines.yaml
+  quarter.lsd_scale = 0.25f;
+  quarter.lsd_min_width_px = 160;
+  EXPECT_EQ(lsdScaleFor(quarter, 640), 0.25f);  // 160x120
+  EXPECT_EQ(lsdScaleFor(quarter, 320), 0.5f);   // 160x120, not 80x60
+  EXPECT_EQ(lsdScaleFor(quarter, 160), 1.0f);
+  EXPECT_EQ(lsdScaleFor(quarter, 100), 1.0f);  // narrower than the floor: as it is
+  EXPECT_EQ(lsdScaleFor(quarter, 1280), 0.25f);
+  LineSamplingParams old;  // the default, and a model written before the floor
+  ASSERT_EQ(old.lsd_min_width_px, 0);
+  EXPECT_EQ(lsdScaleFor(old, 640), 0.5f);
+  EXPECT_EQ(lsdScaleFor(old, 160), 0.5f);
+  old.lsd_scale = 0.01f;
+  EXPECT_EQ(lsdScaleFor(old, 640), 0.1f);
+}
+
+namespace {
+
+bool sameLineSamples(const LineSamples& a, const LineSamples& b) {
+  if (a.segments_detected != b.segments_detected || a.samples.size() != b.samples.size() ||
+      a.lines.size() != b.lines.size())
+    return false;
+  for (size_t i = 0; i < a.samples.size(); ++i)
+    if (a.samples[i].u != b.samples[i].u || a.samples[i].v != b.samples[i].v ||
+        a.samples[i].line != b.samples[i].line)
+      return false;
+  for (size_t i = 0; i < a.lines.size(); ++i)
+    if (a.lines[i].point != b.lines[i].point || a.lines[i].direction != b.lines[i].direction)
+      return false;
+  return true;
+}
+
+LineSamples linesAt(const RgbdFrame& frame, float lsd_scale, int lsd_min_width_px) {
+  LineSamplingParams params;
+  params.lsd_scale = lsd_scale;
+  params.lsd_min_width_px = lsd_min_width_px;
+  std::mt19937 rng(3);
+  return sampleLines(frame, params, 0, rng);
+}
+
+}  // namespace
+
+TEST(LineSampling, SmallFramesKeepTheirLsdResolution) {
+  const SyntheticRoom room(4);
+  const Pose pose = room.trajectories(60, 0).train[30];
+  // The quarter preset on 320x240 (the synthetic tests, the rostest fixture,
+  // the README's demo): exactly the line samples of the default, half size.
+  const RgbdFrame small =
+      room.render(pose, CameraIntrinsics::kinectDefault().scaledTo(320, 240), 30);
+  const LineSamples kept = linesAt(small, 0.25f, 160);
+  EXPECT_TRUE(sameLineSamples(kept, linesAt(small, 0.5f, 0)));
+  EXPECT_FALSE(sameLineSamples(kept, linesAt(small, 0.25f, 0))) << "LSD on 80x60 without the floor";
+  EXPECT_GE(kept.segments_kept, 10);
+  // 160x120: LSD on the whole image.
+  const RgbdFrame tiny =
+      room.render(pose, CameraIntrinsics::kinectDefault().scaledTo(160, 120), 30);
+  EXPECT_TRUE(sameLineSamples(linesAt(tiny, 0.25f, 160), linesAt(tiny, 1.0f, 0)));
 }
 
 TEST(Features, SecondPixelIsClampedAndInvalidDepthReadsFar) {
@@ -623,6 +684,28 @@ TEST(Config, ForestYamlMatchesCompiledDefaults) {
   auto params = loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/forest.yaml");
   ASSERT_TRUE(params.ok()) << params.error();
   EXPECT_EQ(trainingParamsToJson(*params), trainingParamsToJson(TrainingParams{}));
+}
+
+TEST(Config, ModelsWithoutTheLsdFloorKeepTheirOwnLsdScale) {
+  // A header written before lsd_min_width_px existed (e.g. a 0.5 model):
+  // LSD keeps running at its own scale at every image size, whatever the
+  // default floor becomes.
+  TrainingParams old;
+  old.line_sampling.lsd_scale = 0.5f;
+  nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(old));
+  ASSERT_EQ(header["line_sampling"].erase("lsd_min_width_px"), 1u);
+  auto read = trainingParamsFromJson(header.dump());
+  ASSERT_TRUE(read.ok()) << read.error();
+  EXPECT_EQ(read->line_sampling.lsd_scale, 0.5f);
+  EXPECT_EQ(read->line_sampling.lsd_min_width_px, 0);
+  // Headers that carry the floor read it back; the preset sets it.
+  auto preset = loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/fast_lines.yaml");
+  ASSERT_TRUE(preset.ok()) << preset.error();
+  EXPECT_EQ(preset->line_sampling.lsd_scale, 0.25f);
+  EXPECT_EQ(preset->line_sampling.lsd_min_width_px, 160);
+  auto read_back = trainingParamsFromJson(trainingParamsToJson(*preset));
+  ASSERT_TRUE(read_back.ok()) << read_back.error();
+  EXPECT_EQ(read_back->line_sampling.lsd_min_width_px, 160);
 }
 
 TEST(Config, OverridesAndRejectsUnknownKeysAndWrongTypes) {

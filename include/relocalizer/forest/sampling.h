@@ -32,8 +32,14 @@ struct LineSamplingParams {
   float min_segment_length_px = 20.0f;  // shorter LSD segments carry little structure
   float spacing_px = 5.0f;              // between samples along a segment
   // LSD on a downscaled image: far faster, and segments shorter than the
-  // minimum length are dropped anyway. 1 = full resolution.
+  // minimum length are dropped anyway. 1 = full resolution. A quarter
+  // (config/fast_lines.yaml) takes a third of LSD's time on 640x480 frames.
   float lsd_scale = 0.5f;
+  // ... but the image LSD sees is never narrower than this (nor upscaled), so
+  // a scale chosen for 640x480 frames does not starve LSD on small ones (a
+  // quarter of 320 px is 80). 0 = no floor, the behaviour of models trained
+  // before it existed.
+  int lsd_min_width_px = 0;
   // Samples are taken this many pixels off the detected edge, on both sides:
   // an intensity edge is often a depth edge, where depth is mixed or missing.
   float edge_offset_px = 0.0f;
@@ -42,6 +48,10 @@ struct LineSamplingParams {
   int min_inliers = 4;            // per segment, after RANSAC
   float min_inlier_ratio = 0.5f;  // of the segment's samples with depth
 };
+
+// The factor LSD's input is scaled by for an image `image_width` pixels wide:
+// lsd_scale, raised so that the scaled image keeps lsd_min_width_px, at most 1.
+float lsdScaleFor(const LineSamplingParams& params, int image_width);
 
 // Up to `count` distinct pixels with valid depth, uniformly at random. Appends.
 void samplePoints(const RgbdFrame& frame, int count, std::mt19937& rng, std::vector<Sample>& out);
