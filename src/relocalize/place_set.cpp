@@ -117,7 +117,8 @@ struct Solves {
 // Full solves for the best screened place and the runners-up that screened
 // close to it: a look-alike place must not win by being asked alone. A place
 // that screened far below the best is not asked even when the best fails: its
-// full solve would be the likeliest way to a wrong-place answer. A runner-up
+// full solve would be the likeliest way to a wrong-place answer; except a part
+// of the best's own map, which can only answer in the right frame. A runner-up
 // of one map with a place that answered, screened at the same pose, is not
 // solved: it could only agree (and then a full solve of it is wasted).
 Solves solveRanked(const std::vector<std::shared_ptr<const Place>>& places,
@@ -135,8 +136,15 @@ Solves solveRanked(const std::vector<std::shared_ptr<const Place>>& places,
     const float weighed = attempt.screen_inliers * screened.factors[i];
     const bool close =
         attempt.screen_inliers > 0 && weighed >= params.runner_up_ratio * best_screen;
-    if (rank > 0 && !close) break;
     const Place& place = *places[i];
+    // Neighbours as a fallback: while nothing has answered, a place of the
+    // best's map (a neighbouring submap, whose area the frame may be in rather
+    // than the best screened one's) is solved however weakly it screened. It
+    // cannot answer in a wrong frame, and its own evidence thresholds still
+    // gate its pose.
+    const bool neighbour =
+        solves.answered.empty() && attempt.screen_inliers > 0 && oneMap(*places[best], place);
+    if (rank > 0 && !close && !neighbour) continue;
     if (!solves.answered.empty()) {
       const size_t lead = solves.answered.front().first;
       if (oneMap(*places[lead], place) &&

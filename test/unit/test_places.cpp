@@ -249,6 +249,43 @@ TEST_F(Places, TwoPartsOfOneMapThatAgreeGiveThatPose) {
   EXPECT_GE(correct_poses, kTestFrames * 3 / 4);
 }
 
+TEST_F(Places, WhenTheBestPartOfAMapFailsItsNeighbourIsAsked) {
+  // Two parts of one map that screen alike (one model), the first added (so
+  // best screened) unable to answer: its evidence threshold is out of reach.
+  // Runner-ups never count as close here (ratio above 1). Outside a group the
+  // second is then not asked and the frame gets no pose; in one group it is
+  // asked as the failing part's neighbour, and answers as it does alone.
+  RelocalizerParams unreachable = relocalizer::testing::smallRoomRelocalizer();
+  unreachable.solver.min_inliers = 1000000;
+  const auto blind =
+      std::make_shared<const Relocalizer>(rooms_[0].relocalizer->model(), unreachable);
+  PlaceSearchParams params;
+  params.runner_up_ratio = 1.5f;
+  PlaceSet grouped(params), apart(params);
+  ASSERT_TRUE(grouped.put(groupPlace(blind, "kitchen/0", "kitchen")).ok());
+  ASSERT_TRUE(grouped.put(groupPlace(rooms_[0].relocalizer, "kitchen/1", "kitchen")).ok());
+  ASSERT_TRUE(apart.put(groupPlace(blind, "first", "")).ok());
+  ASSERT_TRUE(apart.put(groupPlace(rooms_[0].relocalizer, "second", "")).ok());
+  int answered = 0;
+  for (const RgbdFrame& frame : rooms_[0].test_frames) {
+    const Relocalization alone = rooms_[0].relocalizer->relocalize(frame);
+    const PlaceAnswer without_group = apart.relocalize(frame);
+    EXPECT_FALSE(without_group.relocalization.success);
+    EXPECT_EQ(solvedCount(without_group), 1);
+    const PlaceAnswer answer = grouped.relocalize(frame);
+    ASSERT_EQ(answer.attempts.size(), 2u);
+    EXPECT_EQ(answer.attempts[0].place, "kitchen/0");
+    EXPECT_FALSE(answer.attempts[0].success);
+    EXPECT_EQ(solvedCount(answer), 2);
+    ASSERT_EQ(answer.relocalization.success, alone.success) << answer.relocalization.message;
+    if (!alone.success) continue;
+    ++answered;
+    EXPECT_EQ(answer.place, "kitchen/1");
+    EXPECT_TRUE(answer.relocalization.pose.isApprox(alone.pose, 1e-12));
+  }
+  EXPECT_GE(answered, kTestFrames * 3 / 4);
+}
+
 TEST_F(Places, AGroupRunnerUpScreenedAtTheAnswersPoseIsNotSolved) {
   // The twin screens exactly as the first: its full solve could only agree.
   PlaceSet set;
