@@ -33,13 +33,13 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
   // (also in arrival order, never evicted: a full submap is replaced, not
   // thinned) line up with its key frames.
   const int was_active = index_.active();
-  const std::vector<SubmapKeyFrame> before =
-      was_active >= 0 ? index_.keyFrames(was_active) : std::vector<SubmapKeyFrame>{};
   SubmapPlacement placement = index_.place(next_id_++, camera_to_world);
   if (placement.decision == SubmapDecision::Covered) return placement;
   if (placement.decision != SubmapDecision::Active) {
     std::vector<KeyFrameStore::Entry> seeds;
     if (active_) {
+      // A new submap leaves the old one's key frames in the index as they were.
+      const std::vector<SubmapKeyFrame>& before = index_.keyFrames(was_active);
       const std::vector<KeyFrameStore::Entry> stored = active_->keyFrames();
       for (const SubmapKeyFrame& seed : placement.seeds)
         for (std::size_t k = 0; k < before.size() && k < stored.size(); ++k)

@@ -28,22 +28,6 @@ std::string submapParamsError(const SubmapParams& p, int max_keyframes, const Se
   return {};
 }
 
-const char* toString(SubmapDecision decision) {
-  switch (decision) {
-    case SubmapDecision::Start:
-      return "start";
-    case SubmapDecision::Active:
-      return "active";
-    case SubmapDecision::Covered:
-      return "covered";
-    case SubmapDecision::NewFull:
-      return "new (active full)";
-    case SubmapDecision::NewLeft:
-      return "new (camera left the active's area)";
-  }
-  return "?";
-}
-
 SubmapIndex::SubmapIndex(SubmapParams params, int max_keyframes)
     : params_(params), max_keyframes_(max_keyframes) {
   if (const std::string why = submapParamsError(params_, max_keyframes_); !why.empty())

@@ -30,16 +30,13 @@ RelocalizerParams smallRoomRelocalizer() {
 
 LearningParams onlineRoomLearning() {
   LearningParams p;
-  for (ForestParams* f : {&p.training.points, &p.training.lines}) {
-    f->trees = 3;
-    f->max_depth = 16;
-    f->samples_per_image = 1000;
-  }
+  p.training = smallRoomTraining();
+  for (ForestParams* f : {&p.training.points, &p.training.lines}) f->samples_per_image = 1000;
   return p;
 }
 
 RelocalizerParams onlineRoomRelocalizer() {
-  RelocalizerParams r;
+  RelocalizerParams r = smallRoomRelocalizer();
   r.point_samples = 1000;
   r.line_samples = 500;
   r.solver.hypotheses = 256;

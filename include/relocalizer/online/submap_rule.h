@@ -51,7 +51,6 @@ enum class SubmapDecision {
   NewFull,  // the active is full: freeze it, start the next with `overlap` of its key frames
   NewLeft,  // the camera left the active's area: freeze it, start the next afresh
 };
-const char* toString(SubmapDecision decision);
 
 struct SubmapKeyFrame {
   std::int64_t id = 0;  // the caller's name for the frame (dataset id, stamp, ...)
