@@ -107,4 +107,14 @@ SubmapPlacement SubmapIndex::place(std::int64_t id, const Pose& pose) {
 
 void SubmapIndex::freezeActive() { active_ = -1; }
 
+void SubmapIndex::restore(std::vector<std::vector<SubmapKeyFrame>> submaps, int active) {
+  if (!submaps_.empty())
+    throw std::invalid_argument("a submap index is restored before its first key frame");
+  if (active < -1 || active >= static_cast<int>(submaps.size()))
+    throw std::invalid_argument("restored active submap " + std::to_string(active) +
+                                " is not one of the " + std::to_string(submaps.size()));
+  submaps_ = std::move(submaps);
+  active_ = active;
+}
+
 }  // namespace relocalizer

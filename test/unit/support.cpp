@@ -9,6 +9,9 @@
 #include <fstream>
 #include <iterator>
 
+#include "relocalizer/eval/metrics.h"
+#include "relocalizer/sim/synthetic_scene.h"
+
 namespace relocalizer::testing {
 
 TrainingParams smallRoomTraining() {
@@ -41,6 +44,23 @@ RelocalizerParams onlineRoomRelocalizer() {
   r.line_samples = 500;
   r.solver.hypotheses = 256;
   return r;
+}
+
+RoomWalk submapRoomWalk() {
+  const CameraIntrinsics camera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
+  SyntheticRoom room(7);
+  const SyntheticTrajectories paths = room.trajectories(80, 20);
+  RoomWalk walk;
+  for (size_t i = 0; i < paths.train.size(); i += 4)
+    walk.learn.push_back(room.render(paths.train[i], camera, static_cast<int>(i)));
+  for (size_t i = 0; i < paths.test.size(); ++i)
+    walk.test.push_back(room.render(paths.test[i], camera, static_cast<int>(100 + i)));
+  return walk;
+}
+
+bool correctPose(const Relocalization& answer, const RgbdFrame& frame) {
+  return answer.success &&
+         within(frameError(frame.id, answer.pose, *frame.ground_truth), kCorrectPose);
 }
 
 TempDir::TempDir(const std::string& prefix) {

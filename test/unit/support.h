@@ -7,7 +7,9 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <vector>
 
+#include "relocalizer/core/frame.h"
 #include "relocalizer/forest/training.h"
 #include "relocalizer/online/online_learner.h"
 #include "relocalizer/relocalize/relocalizer.h"
@@ -22,6 +24,18 @@ RelocalizerParams smallRoomRelocalizer();
 // key frames grows in a few seconds, and a relocalizer to match.
 LearningParams onlineRoomLearning();
 RelocalizerParams onlineRoomRelocalizer();
+
+// A generated room (seed 7) at 320x240: every fourth frame of an 80-frame
+// training arc (what the 5 cm / 5 deg key-frame rule keeps: 20 key frames, ids
+// 0, 4, ...) and 20 test frames (ids 100-119) beside the arc. The walk the
+// submap tests learn.
+struct RoomWalk {
+  std::vector<RgbdFrame> learn, test;
+};
+RoomWalk submapRoomWalk();
+
+// An answer within 5 cm / 5 deg of the frame's ground truth (eval/metrics.h's rule).
+bool correctPose(const Relocalization& answer, const RgbdFrame& frame);
 
 // A fresh folder under the system temp dir, removed when the object dies.
 class TempDir {

@@ -159,3 +159,25 @@ TEST(SubmapRule, UnusableSettingsAreNamed) {
   EXPECT_THROW(SubmapIndex(params, 16), std::invalid_argument);
   EXPECT_EQ(SubmapIndex(SubmapParams{}, 16).minSubmapKeyFrames(), 4);
 }
+
+TEST(SubmapRule, ARestoredIndexDecidesAsTheOneItWasSavedFrom) {
+  SubmapIndex saved(smallSubmaps(), 4);
+  for (int i = 0; i < 6; ++i) saved.place(i, walkPose(i));
+  // Submap 0 frozen (0-3), submap 1 active (3-5); restored with submap 0
+  // empty, as a resume does with a submap it could not load.
+  SubmapIndex restored(smallSubmaps(), 4);
+  restored.restore({saved.keyFrames(0), saved.keyFrames(1)}, saved.active());
+  SubmapIndex skipped(smallSubmaps(), 4);
+  skipped.restore({{}, saved.keyFrames(1)}, 1);
+  for (int i = 0; i < 8; ++i)
+    EXPECT_EQ(restored.decide(walkPose(i)), saved.decide(walkPose(i))) << "pose " << i;
+  EXPECT_EQ(restored.decide(walkPose(1)), D::Covered);
+  EXPECT_EQ(skipped.decide(walkPose(1)), D::Active);
+  EXPECT_EQ(restored.place(6, walkPose(6)).submap, 1);
+  EXPECT_EQ(restored.place(7, walkPose(7)).submap, 2);                       // full: the next index
+  EXPECT_EQ(ids(restored.keyFrames(2)), (std::vector<std::int64_t>{6, 7}));  // seeded with 6
+  // Only into a fresh index, and only with an active that exists.
+  EXPECT_THROW(restored.restore({}, -1), std::invalid_argument);
+  SubmapIndex fresh(smallSubmaps(), 4);
+  EXPECT_THROW(fresh.restore({{}}, 1), std::invalid_argument);
+}

@@ -79,6 +79,11 @@ class SubmapIndex {
   // The active submap is frozen (a new key frame then starts a new one): what
   // a save at the end of a run does.
   void freezeActive();
+  // Takes the submaps of a saved run (by index; an empty one stays empty: a
+  // submap that could not be loaded covers nothing) and its active submap (-1:
+  // none), so that the run continues as if never stopped. Throws
+  // std::invalid_argument after the first place() or for an `active` out of range.
+  void restore(std::vector<std::vector<SubmapKeyFrame>> submaps, int active);
 
   int submapCount() const { return static_cast<int>(submaps_.size()); }
   int active() const { return active_; }  // -1 when none

@@ -1,0 +1,66 @@
+#pragma once
+// The folder a set of learned submaps is saved as (issue 26): each submap's
+// model and key frames as the pair OnlineLearner::save writes
+// (`submap-0003.model` + `submap-0003.model.keyframes`), and `manifest.json`,
+// written last, which names them. The manifest also holds every submap's
+// key-frame poses, so a resumed run knows which areas are covered without
+// reading a key-frame file (12 MB a full submap).
+//
+// The manifest is nlohmann's ordered_json dumped with an indent of 2, so it
+// starts with kSubmapManifestMagic: replaceFiles (core/file_io.h) then
+// overwrites only a manifest.json of ours, never a user's file of that name.
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "relocalizer/core/expected.h"
+#include "relocalizer/online/key_frame_rule.h"
+#include "relocalizer/online/keyframe_store.h"
+#include "relocalizer/online/submap_rule.h"
+
+namespace relocalizer {
+
+constexpr std::string_view kSubmapManifestMagic{"{\n  \"format\": \"relocalizer learned submaps\""};
+constexpr const char* kSubmapManifestName = "manifest.json";
+constexpr int kSubmapFormatVersion = 1;
+
+// One submap as the manifest names it.
+struct SubmapEntry {
+  int index = 0;
+  std::string name;  // the place it answers as (`<place_name>/<index>`)
+  bool frozen = true;
+  // File names inside the folder. `model` is empty for an active submap saved
+  // before its first retrain (its key frames alone were written).
+  std::string model;
+  std::string keyframes;
+  ModelFileId model_id;  // of the model file (none when `model` is empty)
+  // The submap's key frames (SubmapIndex ids and camera-to-world poses); the
+  // manifest's keyframe_count is their number.
+  std::vector<SubmapKeyFrame> keyframe_poses;
+};
+
+struct SubmapManifest {
+  std::string place_name = "learned";
+  std::string map_frame = "map";
+  std::string software_version;
+  // The settings the set was learned with (for the reader; a resumed run
+  // learns with its own).
+  KeyFrameMotion min_motion;
+  int max_keyframes = 0;
+  SubmapParams submap_params;
+  int active = -1;                   // the active submap's index; -1 when none
+  std::vector<SubmapEntry> submaps;  // by index, ascending
+};
+
+// `submap-0003.model`: the model file name of submap `index`.
+std::string submapFileName(int index);
+// `<folder>/manifest.json`.
+std::string submapManifestPath(const std::string& folder);
+
+std::string serializeSubmapManifest(const SubmapManifest& manifest);
+// Reads `<folder>/manifest.json`. Errors name the file and, for a bad field,
+// the field (`submaps[2].keyframe_poses[5].pose`).
+Expected<SubmapManifest> readSubmapManifest(const std::string& folder);
+
+}  // namespace relocalizer

@@ -1,0 +1,278 @@
+// A learned set of submaps saved as one folder and continued from it
+// (online/submap_folder.h, SubmapLearner::save and resume), on the generated
+// room the submap learner is tested on: what a resumed set answers is what
+// the saved one answered, bit for bit; a damaged submap file costs that
+// submap only; frozen files are written once; a continued run covers what the
+// saved one learned and numbers its new submaps after the saved ones.
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/submap_folder.h"
+#include "relocalizer/online/submap_learner.h"
+#include "support.h"
+
+using namespace relocalizer;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kCap = 6;
+
+SubmapParams rule() {
+  SubmapParams p;
+  p.overlap = 2;
+  return p;
+}
+
+std::unique_ptr<SubmapLearner> makeLearner() {
+  LearningParams learning = relocalizer::testing::onlineRoomLearning();
+  learning.max_keyframes = kCap;
+  return std::make_unique<SubmapLearner>(learning, rule(),
+                                         relocalizer::testing::onlineRoomRelocalizer());
+}
+
+ino_t inode(const fs::path& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 ? st.st_ino : 0;
+}
+
+bool mentions(const std::vector<std::string>& warnings, const std::string& text) {
+  for (const std::string& w : warnings)
+    if (w.find(text) != std::string::npos) return true;
+  return false;
+}
+
+// The whole walk learned once (20 key frames, cap 6, overlap 2: 5 submaps, the
+// last active) and saved into saved_; each test copies the folder it changes.
+class SubmapFolder : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    relocalizer::testing::RoomWalk walk = relocalizer::testing::submapRoomWalk();
+    learn_ = std::move(walk.learn);
+    test_ = std::move(walk.test);
+    dir_ = new relocalizer::testing::TempDir("submap_folder");
+    learner_ = makeLearner().release();
+    for (const RgbdFrame& frame : learn_)
+      ASSERT_TRUE(learner_->addKeyFrame(frame, *frame.ground_truth).ok());
+    ASSERT_TRUE(learner_->drain());
+    ASSERT_TRUE(learner_->save(saved()));
+  }
+  static void TearDownTestSuite() {
+    delete learner_;
+    delete dir_;
+    learn_.clear();
+    test_.clear();
+  }
+  static std::string saved() { return (dir_->path() / "saved").string(); }
+  // A copy of the saved folder to damage.
+  static std::string copyOfSaved(const std::string& name) {
+    const fs::path copy = dir_->path() / name;
+    fs::copy(saved(), copy, fs::copy_options::recursive);
+    return copy.string();
+  }
+
+  static std::vector<RgbdFrame> learn_, test_;
+  static relocalizer::testing::TempDir* dir_;
+  static SubmapLearner* learner_;
+};
+std::vector<RgbdFrame> SubmapFolder::learn_, SubmapFolder::test_;
+relocalizer::testing::TempDir* SubmapFolder::dir_ = nullptr;
+SubmapLearner* SubmapFolder::learner_ = nullptr;
+
+}  // namespace
+
+TEST_F(SubmapFolder, AResumedSetAnswersBitForBitAsTheSavedOne) {
+  const std::vector<SubmapModel> before = learner_->models();
+  ASSERT_EQ(before.size(), 5u);
+  // The manifest names every submap's pair, the last one active.
+  const nlohmann::json manifest =
+      nlohmann::json::parse(relocalizer::testing::readBytes(submapManifestPath(saved())));
+  EXPECT_EQ(manifest.at("format_version"), 1);
+  EXPECT_EQ(manifest.at("active"), 4);
+  ASSERT_EQ(manifest.at("submaps").size(), 5u);
+  for (int s = 0; s < 5; ++s) {
+    const nlohmann::json& entry = manifest.at("submaps").at(s);
+    EXPECT_EQ(entry.at("name"), "learned/" + std::to_string(s));
+    EXPECT_EQ(entry.at("state"), s == 4 ? "active" : "frozen");
+    EXPECT_EQ(entry.at("model"), submapFileName(s));
+    EXPECT_TRUE(fs::exists(fs::path(saved()) / submapFileName(s)));
+    EXPECT_TRUE(fs::exists(fs::path(saved()) / keyFramesPath(submapFileName(s))));
+  }
+
+  auto resumed = makeLearner();
+  auto warnings = resumed->resume(saved());
+  ASSERT_TRUE(warnings.ok()) << warnings.error();
+  EXPECT_TRUE(warnings->empty()) << warnings->front();
+  const std::vector<SubmapModel> after = resumed->models();
+  ASSERT_EQ(after.size(), before.size());
+  for (size_t s = 0; s < before.size(); ++s) {
+    EXPECT_EQ(after[s].index, before[s].index);
+    EXPECT_EQ(after[s].frozen, before[s].frozen);
+    EXPECT_EQ(serializeModel(after[s].relocalizer->model()),
+              serializeModel(before[s].relocalizer->model()))
+        << "submap " << s;
+    // The coverage index comes back from the manifest alone.
+    const auto& saved_frames = learner_->index().keyFrames(before[s].index);
+    const auto& resumed_frames = resumed->index().keyFrames(after[s].index);
+    ASSERT_EQ(resumed_frames.size(), saved_frames.size());
+    for (size_t k = 0; k < saved_frames.size(); ++k) {
+      EXPECT_EQ(resumed_frames[k].id, saved_frames[k].id);
+      EXPECT_TRUE(resumed_frames[k].pose.matrix() == saved_frames[k].pose.matrix());
+    }
+  }
+  EXPECT_EQ(resumed->index().active(), 4);
+  // Every fourth test frame on every submap: the same answer, bit for bit.
+  int answered = 0;
+  for (size_t f = 0; f < test_.size(); f += 4)
+    for (size_t s = 0; s < before.size(); ++s) {
+      const Relocalization a = before[s].relocalizer->relocalize(test_[f]);
+      const Relocalization b = after[s].relocalizer->relocalize(test_[f]);
+      ASSERT_EQ(a.success, b.success) << "frame " << f << ", submap " << s;
+      EXPECT_TRUE(a.pose.matrix() == b.pose.matrix()) << "frame " << f << ", submap " << s;
+      answered += relocalizer::testing::correctPose(b, test_[f]);
+    }
+  EXPECT_GT(answered, 0);
+}
+
+TEST_F(SubmapFolder, FrozenFilesAreWrittenOnceAndCopiedToAnotherFolder) {
+  // The first save made `saved` the working folder; saving there again
+  // rewrites the active submap and the manifest only.
+  ASSERT_EQ(learner_->workingFolder(), saved());
+  const fs::path folder = saved();
+  const ino_t frozen_model = inode(folder / submapFileName(0));
+  const ino_t frozen_keyframes = inode(folder / keyFramesPath(submapFileName(3)));
+  const ino_t active_model = inode(folder / submapFileName(4));
+  ASSERT_TRUE(learner_->save(saved()));
+  EXPECT_EQ(inode(folder / submapFileName(0)), frozen_model);
+  EXPECT_EQ(inode(folder / keyFramesPath(submapFileName(3))), frozen_keyframes);
+  EXPECT_NE(inode(folder / submapFileName(4)), active_model);
+
+  // Another folder gets every file, the frozen ones copied byte for byte.
+  const std::string other = (dir_->path() / "other").string();
+  ASSERT_TRUE(learner_->save(other));
+  EXPECT_EQ(learner_->workingFolder(), saved());
+  for (int s = 0; s < 4; ++s)
+    for (const std::string& name : {submapFileName(s), keyFramesPath(submapFileName(s))})
+      EXPECT_EQ(relocalizer::testing::readBytes(fs::path(other) / name),
+                relocalizer::testing::readBytes(folder / name))
+          << name;
+  auto resumed = makeLearner();
+  ASSERT_TRUE(resumed->resume(other).ok());
+  EXPECT_EQ(resumed->models().size(), 5u);
+}
+
+TEST_F(SubmapFolder, ADamagedSubmapIsSkippedWithAWarningNamingItAndTheRestAnswers) {
+  const std::string folder = copyOfSaved("damaged");
+  const fs::path model = fs::path(folder) / submapFileName(1);
+  fs::resize_file(model, fs::file_size(model) / 2);
+  // A frozen submap without its key-frame file still answers.
+  fs::remove(fs::path(folder) / keyFramesPath(submapFileName(2)));
+
+  auto resumed = makeLearner();
+  auto warnings = resumed->resume(folder);
+  ASSERT_TRUE(warnings.ok()) << warnings.error();
+  ASSERT_EQ(warnings->size(), 2u);
+  EXPECT_TRUE(mentions(*warnings, submapFileName(1))) << (*warnings)[0];
+  EXPECT_TRUE(mentions(*warnings, "not the model the manifest names")) << (*warnings)[0];
+  EXPECT_TRUE(mentions(*warnings, keyFramesPath(submapFileName(2)) + " is missing"))
+      << (*warnings)[1];
+  EXPECT_EQ(resumed->warnings(), *warnings);
+  std::vector<int> indices;
+  for (const SubmapModel& m : resumed->models()) indices.push_back(m.index);
+  EXPECT_EQ(indices, (std::vector<int>{0, 2, 3, 4}));
+  // Its area is no longer covered: learned again when the camera returns.
+  EXPECT_TRUE(resumed->index().keyFrames(1).empty());
+  int answered = 0;
+  for (const RgbdFrame& frame : test_)
+    for (const SubmapModel& m : resumed->models())
+      if (relocalizer::testing::correctPose(m.relocalizer->relocalize(frame), frame)) {
+        ++answered;
+        break;
+      }
+  EXPECT_GE(answered, static_cast<int>(test_.size()) / 2);
+
+  // Saved again, the skipped submap is no longer named; its number is not reused.
+  ASSERT_TRUE(resumed->save(folder));
+  auto again = makeLearner();
+  auto later = again->resume(folder);
+  ASSERT_TRUE(later.ok()) << later.error();
+  EXPECT_TRUE(mentions(*later, submapFileName(1) + " is not named by manifest.json: ignored"));
+  EXPECT_EQ(again->models().size(), 4u);
+  EXPECT_EQ(again->index().submapCount(), 5);
+}
+
+TEST_F(SubmapFolder, AMissingOrBadManifestIsAnErrorNamingIt) {
+  const std::string folder = copyOfSaved("manifests");
+  const std::string manifest = submapManifestPath(folder);
+  const std::string good = relocalizer::testing::readBytes(manifest);
+
+  std::string bad = good;
+  const std::string count = "\"keyframe_count\": 6";
+  ASSERT_NE(bad.find(count), std::string::npos);
+  bad.replace(bad.find(count), count.size(), "\"keyframe_count\": 7");
+  std::ofstream(manifest) << bad;
+  auto wrong_count = makeLearner()->resume(folder);
+  ASSERT_FALSE(wrong_count.ok());
+  EXPECT_NE(wrong_count.error().find("manifest.json"), std::string::npos) << wrong_count.error();
+  EXPECT_NE(wrong_count.error().find("submaps[0].keyframe_count"), std::string::npos)
+      << wrong_count.error();
+
+  fs::remove(manifest);
+  auto missing = makeLearner()->resume(folder);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().find(manifest), std::string::npos) << missing.error();
+
+  // Someone else's manifest.json is not overwritten, and no submap is written beside it.
+  const std::string foreign = (dir_->path() / "foreign").string();
+  fs::create_directories(foreign);
+  std::ofstream(submapManifestPath(foreign)) << "{\"mine\": true}\n";
+  EXPECT_FALSE(learner_->save(foreign));
+  EXPECT_EQ(relocalizer::testing::readBytes(submapManifestPath(foreign)), "{\"mine\": true}\n");
+  EXPECT_FALSE(fs::exists(fs::path(foreign) / submapFileName(0)));
+}
+
+TEST_F(SubmapFolder, AContinuedRunCoversWhatWasLearnedAndNumbersNewSubmapsAfter) {
+  // The first 10 key frames: submap 0 frozen (6), submap 1 active (2 seeds + 4).
+  const std::string folder = (dir_->path() / "continued").string();
+  {
+    auto first = makeLearner();
+    for (size_t i = 0; i < 10; ++i)
+      ASSERT_TRUE(first->addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
+    ASSERT_TRUE(first->drain());
+    ASSERT_TRUE(first->save(folder));
+    ASSERT_EQ(first->index().submapCount(), 2);
+  }
+  const ino_t frozen_model = inode(fs::path(folder) / submapFileName(0));
+  auto resumed = makeLearner();
+  ASSERT_TRUE(resumed->resume(folder).ok());
+  ASSERT_EQ(resumed->active()->keyFrames().size(), 6u);
+  // The walk again from its start: submap 0's key frames are covered, not stored again.
+  int covered = 0;
+  for (size_t i = 0; i < learn_.size(); ++i) {
+    auto placed = resumed->addKeyFrame(learn_[i], *learn_[i].ground_truth);
+    ASSERT_TRUE(placed.ok()) << placed.error();
+    if (i < 6) {
+      EXPECT_EQ(placed->decision, SubmapDecision::Covered) << "key frame " << i;
+      EXPECT_EQ(placed->submap, -1);
+    }
+    covered += placed->decision == SubmapDecision::Covered;
+  }
+  EXPECT_GE(covered, 6);
+  ASSERT_TRUE(resumed->drain());
+  const int submaps = resumed->index().submapCount();
+  EXPECT_GT(submaps, 2);
+  // The working folder is the resumed one: frozen at the freeze, saved now.
+  ASSERT_TRUE(resumed->save(folder));
+  const SubmapManifest manifest = *readSubmapManifest(folder);
+  ASSERT_EQ(static_cast<int>(manifest.submaps.size()), submaps);
+  EXPECT_EQ(manifest.active, submaps - 1);
+  for (int s = 2; s < submaps; ++s)
+    EXPECT_TRUE(fs::exists(fs::path(folder) / submapFileName(s))) << s;
+  EXPECT_EQ(inode(fs::path(folder) / submapFileName(0)), frozen_model);
+}
