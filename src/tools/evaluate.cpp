@@ -19,6 +19,7 @@
 #include "relocalizer/relocalize/place_set.h"
 #include "relocalizer/relocalize/relocalizer.h"
 #include "source_arguments.h"
+#include "submap_places.h"
 
 using namespace relocalizer;
 
@@ -55,6 +56,8 @@ void addOptions(CLI::App& app, Options& o, LearnOptions& l) {
   app.add_option("-m,--model", o.models,
                  "Model file written by train (required without --learn-frames); with "
                  "--learn-frames a saved online model to continue (needs MODEL.keyframes). "
+                 "A folder of learned submaps (--submaps --save-model) is evaluated as its set "
+                 "of places, or continued with --learn-frames --submaps. "
                  "Many places: repeat it as NAME=PATH; every frame is then relocalized against "
                  "the whole set, and places.csv names each frame's answering place");
   app.add_option("--expect-place", o.expect_place,
@@ -103,7 +106,9 @@ void addOptions(CLI::App& app, Options& o, LearnOptions& l) {
                           "Learn submaps (--max-keyframes each; a full one is frozen and a new "
                           "one starts) and relocalize across them as places in one map frame"));
   learn_only(app.add_option("--save-model", l.save_model,
-                            "Write the learned model and its key frames (MODEL.keyframes) here"));
+                            "Write the learned model and its key frames (MODEL.keyframes) here; "
+                            "with --submaps a folder (manifest.json and each submap's pair), "
+                            "which frozen submaps are written into as they freeze"));
 }
 
 // --learn-frames: learns the model online from the learn frames, evaluating
@@ -222,6 +227,17 @@ int learnSubmaps(const CLI::App& app, const Options& o, LearnOptions l,
               learn.size(), l.learn_frames.c_str(), l.learn_min_motion.c_str(),
               checked->max_keyframes);
   SubmapLearner submaps(*checked, SubmapParams{}, params);
+  if (!o.model_path.empty()) {
+    auto resumed = submaps.resume(o.model_path);
+    if (!resumed) return cli::fail(app, resumed.error());
+    for (const std::string& warning : *resumed) std::printf("warning: %s\n", warning.c_str());
+    std::printf("continuing %d submaps of %s\n", submaps.index().submapCount(),
+                o.model_path.c_str());
+  }
+  // Frozen submaps go to disk as they freeze and leave memory.
+  if (!l.save_model.empty())
+    if (Status used = submaps.useFolder(l.save_model); !used)
+      return cli::fail(app, used.error(), 1);
   KeyFrameSelector selector(checked->min_motion);
   const auto store = [&](const RgbdFrame& frame, const Pose& pose) -> Expected<bool> {
     auto placed = submaps.addKeyFrame(frame, pose);
@@ -239,11 +255,7 @@ int learnSubmaps(const CLI::App& app, const Options& o, LearnOptions l,
     if (++learned % l.curve_every != 0 && i + 1 != learn.size()) continue;
     if (Status drained = submaps.drain(); !drained) return cli::fail(app, drained.error());
     PlaceSet places;
-    for (const SubmapModel& m : submaps.models())
-      if (Status put = places.put(
-              {"learned/" + std::to_string(m.index), "map", "submap", m.relocalizer, "learned"});
-          !put)
-        return cli::fail(app, put.error());
+    if (Status put = cli::putSubmaps(submaps, places); !put) return cli::fail(app, put.error());
     auto evaluated = evaluateFrames(places, data, "curve " + std::to_string(learned));
     if (!evaluated) return cli::fail(app, evaluated.error());
     out.evaluation = std::move(*evaluated);
@@ -265,6 +277,10 @@ int learnSubmaps(const CLI::App& app, const Options& o, LearnOptions l,
     per_submap.push_back(static_cast<int>(submaps.index().keyFrames(s).size()));
   std::printf("%d submaps, key frames per submap (seeds included): %s\n",
               submaps.index().submapCount(), nlohmann::json(per_submap).dump().c_str());
+  if (!l.save_model.empty()) {
+    if (Status saved = submaps.save(l.save_model); !saved) return cli::fail(app, saved.error(), 1);
+    std::printf("wrote %s\n", submapManifestPath(l.save_model).c_str());
+  }
   out.json = {{"learn_frames", l.learn_frames},
               {"learn_min_motion", l.learn_min_motion},
               {"max_keyframes", checked->max_keyframes},
@@ -311,9 +327,18 @@ std::string combinationError(const Options& o, const LearnOptions& learn, bool m
     return "--model is required (or --learn-frames to learn the model online)";
   if (!learn.learn_frames.empty() && !o.source.bag.empty())
     return "--learn-frames learns from a --dataset folder, not from --bag";
-  // Saving and continuing a set of submaps (a folder) is issue 26's next step.
-  if (learn.submaps && (!o.models.empty() || !learn.save_model.empty()))
-    return "--submaps learns from nothing and saves nothing yet: drop --model and --save-model";
+  if (learn.submaps && !o.model_path.empty() && !cli::isFolder(o.model_path))
+    return "--submaps continues a folder of learned submaps: " + o.model_path + " is not a folder";
+  // Frozen submaps are written into the working folder as they freeze: a
+  // continued folder is only changed when asked to.
+  if (learn.submaps && !o.model_path.empty() && learn.save_model.empty())
+    return "continuing " + o.model_path +
+           " with --submaps needs --save-model (the same folder updates it in place)";
+  if (!learn.submaps && !learn.learn_frames.empty() && cli::isFolder(o.model_path))
+    return "--model " + o.model_path +
+           " is a folder of learned submaps: continue it with --submaps";
+  if (o.prediction_quality && cli::isFolder(o.model_path))
+    return "--prediction-quality measures one model's forests, not a folder of submaps";
   if (learn.submaps && o.prediction_quality)
     return "--prediction-quality measures one model's forests, not --submaps";
   return {};
@@ -386,8 +411,13 @@ int main(int argc, char** argv) {
   Learned learned;
   FrameEvaluation evaluation;
   // Answers come from a set of places (places.csv names each frame's).
-  const bool by_places = many_places || learn.submaps;
-  if (learn.submaps) {
+  const bool submap_folder = learn.learn_frames.empty() && cli::isFolder(o.model_path);
+  const bool by_places = many_places || learn.submaps || submap_folder;
+  if (submap_folder) {
+    auto evaluated = cli::evaluateSubmapFolder(o.model_path, params, data);
+    if (!evaluated) return cli::fail(app, evaluated.error());
+    evaluation = std::move(*evaluated);
+  } else if (learn.submaps) {
     if (const int code = learnSubmaps(app, o, learn, params, data, learned); code >= 0) return code;
     evaluation = std::move(learned.evaluation);
   } else if (many_places) {

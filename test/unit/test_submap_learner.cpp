@@ -13,14 +13,11 @@
 
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/submap_learner.h"
-#include "relocalizer/sim/synthetic_scene.h"
 #include "support.h"
 
 using namespace relocalizer;
 
 namespace {
-
-const CameraIntrinsics kCamera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
 
 LearningParams smallLearning(int max_keyframes) {
   LearningParams p = relocalizer::testing::onlineRoomLearning();
@@ -30,21 +27,12 @@ LearningParams smallLearning(int max_keyframes) {
 
 RelocalizerParams fastRelocalizer() { return relocalizer::testing::onlineRoomRelocalizer(); }
 
-bool correct(const Relocalization& r, const RgbdFrame& frame) {
-  return r.success && translationError(r.pose, *frame.ground_truth) < 0.05 &&
-         rotationErrorDegrees(r.pose, *frame.ground_truth) < 5.0;
-}
-
 class SubmapRoom : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    SyntheticRoom room(7);
-    const SyntheticTrajectories paths = room.trajectories(80, 20);
-    // Every fourth frame of the training loop: what the 5 cm / 5 deg rule keeps.
-    for (size_t i = 0; i < paths.train.size(); i += 4)
-      learn_.push_back(room.render(paths.train[i], kCamera, static_cast<int>(i)));
-    for (size_t i = 0; i < paths.test.size(); ++i)
-      test_.push_back(room.render(paths.test[i], kCamera, static_cast<int>(100 + i)));
+    relocalizer::testing::RoomWalk walk = relocalizer::testing::submapRoomWalk();
+    learn_ = std::move(walk.learn);
+    test_ = std::move(walk.test);
   }
   static void TearDownTestSuite() {
     learn_.clear();
@@ -97,8 +85,9 @@ TEST_F(SubmapRoom, CappedSubmapsKeepWhatOneCappedStoreThinsOut) {
                         r.point_inliers + r.line_inliers > best.point_inliers + best.line_inliers))
         best = std::move(r);
     }
-    right_by_submaps += correct(best, frame);
-    right_by_one_store += correct(one_store.current()->relocalize(frame), frame);
+    right_by_submaps += relocalizer::testing::correctPose(best, frame);
+    right_by_one_store +=
+        relocalizer::testing::correctPose(one_store.current()->relocalize(frame), frame);
   }
   const double submap_share = double(right_by_submaps) / test_.size();
   const double one_store_share = double(right_by_one_store) / test_.size();
@@ -161,7 +150,8 @@ TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
                                 "/scene/train' --learn-frames 0-79 --frames " +
                                 "2,10,18,26,34,42,50,58,66,74 --submaps --max-keyframes 6 "
                                 "--curve-every 1000 --learn-config '" +
-                                dir.str() + "/small.yaml' --output '" + dir.str() + "/out'";
+                                dir.str() + "/small.yaml' --output '" + dir.str() +
+                                "/out' --save-model '" + dir.str() + "/learned'";
   ASSERT_EQ(relocalizer::testing::runTool("evaluate", arguments, log, log), 0)
       << relocalizer::testing::readBytes(log);
   const nlohmann::json summary =
@@ -183,4 +173,22 @@ TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
     answering.insert(place);
   }
   EXPECT_GE(answering.size(), 3u);
+
+  // The saved folder, evaluated as a set, answers every frame as the run that learned it.
+  const nlohmann::json manifest =
+      nlohmann::json::parse(relocalizer::testing::readBytes(dir.path() / "learned/manifest.json"));
+  EXPECT_EQ(manifest.at("submaps").size(), learning.at("submaps").get<size_t>());
+  ASSERT_EQ(
+      relocalizer::testing::runTool("evaluate",
+                                    "--dataset '" + dir.str() +
+                                        "/scene/train' --frames 2,10,18,26,34,42,50,58,66,"
+                                        "74 --model '" +
+                                        dir.str() + "/learned' --output '" + dir.str() + "/again'",
+                                    log, log),
+      0)
+      << relocalizer::testing::readBytes(log);
+  EXPECT_EQ(relocalizer::testing::readBytes(dir.path() / "again/poses.txt"),
+            relocalizer::testing::readBytes(dir.path() / "out/poses.txt"));
+  EXPECT_EQ(relocalizer::testing::readBytes(dir.path() / "again/places.csv"),
+            relocalizer::testing::readBytes(dir.path() / "out/places.csv"));
 }
