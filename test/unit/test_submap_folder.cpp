@@ -8,9 +8,11 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/submap_folder.h"
@@ -223,6 +225,20 @@ TEST_F(SubmapFolder, AMissingOrBadManifestIsAnErrorNamingIt) {
   EXPECT_NE(wrong_count.error().find("submaps[0].keyframe_count"), std::string::npos)
       << wrong_count.error();
 
+  // Not JSON, and a pose that is not a pose: each an error naming the file (and the field).
+  std::ofstream(manifest) << good.substr(0, good.size() / 2);
+  auto cut = makeLearner()->resume(folder);
+  ASSERT_FALSE(cut.ok());
+  EXPECT_NE(cut.error().find(manifest), std::string::npos) << cut.error();
+  bad = good;
+  const std::string pose = "\"pose\": [";
+  bad.replace(bad.find(pose), pose.size(), "\"pose\": [\"x\", ");
+  std::ofstream(manifest) << bad;
+  auto not_a_pose = makeLearner()->resume(folder);
+  ASSERT_FALSE(not_a_pose.ok());
+  EXPECT_NE(not_a_pose.error().find("submaps[0].keyframe_poses[0].pose"), std::string::npos)
+      << not_a_pose.error();
+
   fs::remove(manifest);
   auto missing = makeLearner()->resume(folder);
   ASSERT_FALSE(missing.ok());
@@ -245,6 +261,13 @@ TEST_F(SubmapFolder, AContinuedRunCoversWhatWasLearnedAndNumbersNewSubmapsAfter)
     for (size_t i = 0; i < 10; ++i)
       ASSERT_TRUE(first->addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
     ASSERT_TRUE(first->drain());
+    // Naming the working folder writes the frozen submap held so far, and a
+    // manifest that names it alone (the active is written by saves).
+    ASSERT_TRUE(first->useFolder(folder));
+    const SubmapManifest named = *readSubmapManifest(folder);
+    EXPECT_EQ(named.active, -1);
+    ASSERT_EQ(named.submaps.size(), 1u);
+    EXPECT_TRUE(named.submaps[0].frozen);
     ASSERT_TRUE(first->save(folder));
     ASSERT_EQ(first->index().submapCount(), 2);
   }
@@ -267,6 +290,10 @@ TEST_F(SubmapFolder, AContinuedRunCoversWhatWasLearnedAndNumbersNewSubmapsAfter)
   ASSERT_TRUE(resumed->drain());
   const int submaps = resumed->index().submapCount();
   EXPECT_GT(submaps, 2);
+  // Each freeze wrote its submap into the resumed folder at once.
+  const SubmapManifest at_freeze = *readSubmapManifest(folder);
+  EXPECT_EQ(at_freeze.active, -1);
+  EXPECT_EQ(static_cast<int>(at_freeze.submaps.size()), submaps - 1);
   // The working folder is the resumed one: frozen at the freeze, saved now.
   ASSERT_TRUE(resumed->save(folder));
   const SubmapManifest manifest = *readSubmapManifest(folder);
@@ -275,4 +302,38 @@ TEST_F(SubmapFolder, AContinuedRunCoversWhatWasLearnedAndNumbersNewSubmapsAfter)
   for (int s = 2; s < submaps; ++s)
     EXPECT_TRUE(fs::exists(fs::path(folder) / submapFileName(s))) << s;
   EXPECT_EQ(inode(fs::path(folder) / submapFileName(0)), frozen_model);
+}
+
+TEST_F(SubmapFolder, SavesOnAnotherThreadWhileLearningLeaveAResumableFolder) {
+  // As the node does: its save service beside the learning thread.
+  const std::string folder = (dir_->path() / "threads").string();
+  auto learner = makeLearner();
+  ASSERT_TRUE(learner->addKeyFrame(learn_[0], *learn_[0].ground_truth).ok());
+  ASSERT_TRUE(learner->addKeyFrame(learn_[1], *learn_[1].ground_truth).ok());
+  ASSERT_TRUE(learner->drain());
+  std::atomic<bool> done{false};
+  std::atomic<int> saves{0};
+  std::string failure;
+  std::thread saver([&] {
+    while (!done) {
+      if (Status saved = learner->save(folder); !saved) failure = saved.error();
+      ++saves;
+    }
+  });
+  for (size_t i = 2; i < 14; ++i)
+    ASSERT_TRUE(learner->addKeyFrame(learn_[i], *learn_[i].ground_truth).ok());
+  ASSERT_TRUE(learner->drain());
+  done = true;
+  saver.join();
+  EXPECT_EQ(failure, "");
+  EXPECT_GT(saves.load(), 0);
+  ASSERT_TRUE(learner->save(folder));
+  auto resumed = makeLearner();
+  auto warnings = resumed->resume(folder);
+  ASSERT_TRUE(warnings.ok()) << warnings.error();
+  EXPECT_TRUE(warnings->empty()) << warnings->front();
+  ASSERT_EQ(resumed->models().size(), learner->models().size());
+  for (size_t s = 0; s < learner->models().size(); ++s)
+    EXPECT_EQ(serializeModel(resumed->models()[s].relocalizer->model()),
+              serializeModel(learner->models()[s].relocalizer->model()));
 }
