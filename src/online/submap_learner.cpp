@@ -220,7 +220,8 @@ Status SubmapLearner::save(const std::string& folder) {
 
 Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& folder) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (next_id_ != 0) return makeError("resume() must come before the first key frame");
+  if (next_id_ != 0 || index_.submapCount() != 0)
+    return makeError("resume() must come before the first key frame, and only once");
   auto manifest = readSubmapManifest(folder);
   if (!manifest) return makeError(manifest.error());
   std::vector<std::string> warnings;
@@ -301,12 +302,16 @@ Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& fold
   // that index replaces them.
   std::set<std::string> named;
   for (const SubmapEntry& e : manifest->submaps) named.insert(e.model);
-  std::error_code ec;
   std::vector<std::string> orphans;
-  for (const fs::directory_entry& file : fs::directory_iterator(folder, ec)) {
-    const std::string name = file.path().filename().string();
-    if (name.rfind("submap-", 0) == 0 && file.path().extension() == ".model" && !named.count(name))
-      orphans.push_back(name);
+  try {
+    for (const fs::directory_entry& file : fs::directory_iterator(folder)) {
+      const std::string name = file.path().filename().string();
+      if (name.rfind("submap-", 0) == 0 && file.path().extension() == ".model" &&
+          !named.count(name))
+        orphans.push_back(name);
+    }
+  } catch (const fs::filesystem_error& e) {
+    warnings.push_back(folder + ": cannot list the folder's other files: " + e.what());
   }
   std::sort(orphans.begin(), orphans.end());
   for (const std::string& name : orphans)

@@ -129,6 +129,7 @@ TEST_F(SubmapFolder, AResumedSetAnswersBitForBitAsTheSavedOne) {
     }
   }
   EXPECT_EQ(resumed->index().active(), 4);
+  EXPECT_FALSE(resumed->resume(saved()).ok());  // once, before any key frame
   // Every fourth test frame on every submap: the same answer, bit for bit.
   int answered = 0;
   for (size_t f = 0; f < test_.size(); f += 4)
