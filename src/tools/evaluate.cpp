@@ -278,8 +278,11 @@ int learnSubmaps(const CLI::App& app, const Options& o, LearnOptions l,
   std::printf("%d submaps, key frames per submap (seeds included): %s\n",
               submaps.index().submapCount(), nlohmann::json(per_submap).dump().c_str());
   if (!l.save_model.empty()) {
+    const auto start = std::chrono::steady_clock::now();
     if (Status saved = submaps.save(l.save_model); !saved) return cli::fail(app, saved.error(), 1);
-    std::printf("wrote %s\n", submapManifestPath(l.save_model).c_str());
+    std::printf("wrote %s (the active submap and the manifest in %.2f s)\n",
+                submapManifestPath(l.save_model).c_str(),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   }
   out.json = {{"learn_frames", l.learn_frames},
               {"learn_min_motion", l.learn_min_motion},
