@@ -140,16 +140,17 @@ TEST(LineRansac, RejectsInjectedOutliers) {
 }
 
 TEST(LineSampling, LsdScaleKeepsTheMinimumWidthAndNeverUpscales) {
-  LineSamplingParams quarter;  // config/fast_lines.yaml
-  quarter.lsd_scale = 0.25f;
-  quarter.lsd_min_width_px = 160;
+  LineSamplingParams quarter;  // the default
+  ASSERT_EQ(quarter.lsd_scale, 0.25f);
+  ASSERT_EQ(quarter.lsd_min_width_px, 160);
   EXPECT_EQ(lsdScaleFor(quarter, 640), 0.25f);  // 160x120
   EXPECT_EQ(lsdScaleFor(quarter, 320), 0.5f);   // 160x120, not 80x60
   EXPECT_EQ(lsdScaleFor(quarter, 160), 1.0f);
   EXPECT_EQ(lsdScaleFor(quarter, 100), 1.0f);  // narrower than the floor: as it is
   EXPECT_EQ(lsdScaleFor(quarter, 1280), 0.25f);
-  LineSamplingParams old;  // the default, and a model written before the floor
-  ASSERT_EQ(old.lsd_min_width_px, 0);
+  LineSamplingParams old;  // config/lsd_half.yaml, and models written before the floor
+  old.lsd_scale = 0.5f;
+  old.lsd_min_width_px = 0;
   EXPECT_EQ(lsdScaleFor(old, 640), 0.5f);
   EXPECT_EQ(lsdScaleFor(old, 160), 0.5f);
   old.lsd_scale = 0.01f;
@@ -185,8 +186,9 @@ LineSamples linesAt(const RgbdFrame& frame, float lsd_scale, int lsd_min_width_p
 TEST(LineSampling, SmallFramesKeepTheirLsdResolution) {
   const SyntheticRoom room(4);
   const Pose pose = room.trajectories(60, 0).train[30];
-  // The quarter preset on 320x240 (the synthetic tests, the rostest fixture,
-  // the README's demo): exactly the line samples of the default, half size.
+  // The default quarter on 320x240 (the synthetic tests, the rostest fixture,
+  // the README's demo): exactly the line samples of half-size LSD, the
+  // default before issue 28.
   const RgbdFrame small =
       room.render(pose, CameraIntrinsics::kinectDefault().scaledTo(320, 240), 30);
   const LineSamples kept = linesAt(small, 0.25f, 160);
@@ -698,14 +700,19 @@ TEST(Config, ModelsWithoutTheLsdFloorKeepTheirOwnLsdScale) {
   ASSERT_TRUE(read.ok()) << read.error();
   EXPECT_EQ(read->line_sampling.lsd_scale, 0.5f);
   EXPECT_EQ(read->line_sampling.lsd_min_width_px, 0);
-  // Headers that carry the floor read it back; the preset sets it.
-  auto preset = loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/fast_lines.yaml");
-  ASSERT_TRUE(preset.ok()) << preset.error();
-  EXPECT_EQ(preset->line_sampling.lsd_scale, 0.25f);
-  EXPECT_EQ(preset->line_sampling.lsd_min_width_px, 160);
-  auto read_back = trainingParamsFromJson(trainingParamsToJson(*preset));
+  // Headers that carry the floor read it back: the default's, and the
+  // half-size preset's explicit 0 (the same LSD as those old models).
+  const TrainingParams quarter;
+  auto read_back = trainingParamsFromJson(trainingParamsToJson(quarter));
   ASSERT_TRUE(read_back.ok()) << read_back.error();
+  EXPECT_EQ(read_back->line_sampling.lsd_scale, 0.25f);
   EXPECT_EQ(read_back->line_sampling.lsd_min_width_px, 160);
+  auto half = loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/lsd_half.yaml");
+  ASSERT_TRUE(half.ok()) << half.error();
+  read_back = trainingParamsFromJson(trainingParamsToJson(*half));
+  ASSERT_TRUE(read_back.ok()) << read_back.error();
+  EXPECT_EQ(read_back->line_sampling.lsd_scale, 0.5f);
+  EXPECT_EQ(read_back->line_sampling.lsd_min_width_px, 0);
 }
 
 TEST(Config, OverridesAndRejectsUnknownKeysAndWrongTypes) {

@@ -32,14 +32,16 @@ struct LineSamplingParams {
   float min_segment_length_px = 20.0f;  // shorter LSD segments carry little structure
   float spacing_px = 5.0f;              // between samples along a segment
   // LSD on a downscaled image: far faster, and segments shorter than the
-  // minimum length are dropped anyway. 1 = full resolution. A quarter
-  // (config/fast_lines.yaml) takes a third of LSD's time on 640x480 frames.
-  float lsd_scale = 0.5f;
+  // minimum length are dropped anyway. 1 = full resolution. A quarter takes a
+  // third of half-size LSD's time on 640x480 frames at the same accuracy of
+  // both forests over five training seeds (docs/benchmarks.md); models
+  // trained at another scale keep theirs (it is stored in the model).
+  float lsd_scale = 0.25f;
   // ... but the image LSD sees is never narrower than this (nor upscaled), so
   // a scale chosen for 640x480 frames does not starve LSD on small ones (a
   // quarter of 320 px is 80). 0 = no floor, the behaviour of models trained
   // before it existed.
-  int lsd_min_width_px = 0;
+  int lsd_min_width_px = 160;
   // Samples are taken this many pixels off the detected edge, on both sides:
   // an intensity edge is often a depth edge, where depth is mixed or missing.
   float edge_offset_px = 0.0f;
