@@ -2,23 +2,32 @@
 
 #include <stdexcept>
 
+#include "relocalizer/forest/model_io.h"
+
 namespace relocalizer {
 
 SubmapLearner::SubmapLearner(LearningParams learning, SubmapParams submaps,
-                             RelocalizerParams relocalizer_params)
+                             RelocalizerParams relocalizer_params, OnlineLearner::Mode mode)
     : learning_(std::move(learning)),
       relocalizer_params_(std::move(relocalizer_params)),
+      mode_(mode),
       index_(submaps, learning_.max_keyframes) {
   if (const std::string why = learningParamsError(learning_); !why.empty())
     throw std::invalid_argument(why);
 }
 
-Status SubmapLearner::freezeActive(int frozen) {
-  Status drained = active_->drain();
-  frozen_.resize(static_cast<std::size_t>(index_.submapCount()));
-  frozen_[static_cast<std::size_t>(frozen)] = active_->current();
-  active_.reset();
-  return drained;
+Status SubmapLearner::resume(const std::string& model_path) {
+  auto learner = std::make_shared<OnlineLearner>(learning_, relocalizer_params_, mode_);
+  if (Status resumed = learner->resume(model_path); !resumed) return resumed;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (index_.submapCount() != 0) return makeError("resume() must come before the first key frame");
+  std::vector<SubmapKeyFrame> key_frames;
+  for (const KeyFrameStore::Entry& k : learner->keyFrames())
+    key_frames.push_back({next_id_++, k->pose});
+  added_ = static_cast<int>(key_frames.size());
+  index_.startActive(std::move(key_frames));
+  active_ = std::move(learner);
+  return okStatus();
 }
 
 Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
@@ -29,37 +38,72 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
   // placed (only an encoder failure is left, which the store reports).
   if (const std::string why = frameValidationError(frame); !why.empty())
     return makeError("key frame " + std::to_string(frame.id) + ": " + why);
-  // The index names key frames by arrival, so that the active's store entries
-  // (also in arrival order, never evicted: a full submap is replaced, not
-  // thinned) line up with its key frames.
-  const int was_active = index_.active();
-  SubmapPlacement placement = index_.place(next_id_++, camera_to_world);
-  if (placement.decision == SubmapDecision::Covered) return placement;
-  if (placement.decision != SubmapDecision::Active) {
-    std::vector<KeyFrameStore::Entry> seeds;
-    if (active_) {
-      // A new submap leaves the old one's key frames in the index as they were.
-      const std::vector<SubmapKeyFrame>& before = index_.keyFrames(was_active);
-      const std::vector<KeyFrameStore::Entry> stored = active_->keyFrames();
-      for (const SubmapKeyFrame& seed : placement.seeds)
-        for (std::size_t k = 0; k < before.size() && k < stored.size(); ++k)
-          if (before[k].id == seed.id) seeds.push_back(stored[k]);
-      // A submap that fails its last retrain keeps the model it had: the
-      // failure is the caller's to report, the run goes on.
-      if (Status frozen = freezeActive(was_active); !frozen) return makeError(frozen.error());
+  SubmapPlacement placement;
+  std::shared_ptr<OnlineLearner> active, freezing;
+  int was_active = -1;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // The index names key frames by arrival, so that the active's store
+    // entries (also in arrival order, never evicted: a full submap is
+    // replaced, not thinned) line up with its key frames.
+    was_active = index_.active();
+    placement = index_.place(next_id_++, camera_to_world);
+    if (placement.decision == SubmapDecision::Covered) {
+      ++covered_;
+      return placement;
     }
-    active_ = std::make_unique<OnlineLearner>(learning_, relocalizer_params_,
-                                              OnlineLearner::Mode::Inline);
-    if (Status seeded = active_->seed(std::move(seeds)); !seeded) return makeError(seeded.error());
+    ++added_;
+    if (placement.decision != SubmapDecision::Active) {
+      std::vector<KeyFrameStore::Entry> seeds;
+      if (active_) {
+        // A new submap leaves the old one's key frames in the index as they were.
+        const std::vector<SubmapKeyFrame>& before = index_.keyFrames(was_active);
+        const std::vector<KeyFrameStore::Entry> stored = active_->keyFrames();
+        for (const SubmapKeyFrame& seed : placement.seeds)
+          for (std::size_t k = 0; k < before.size() && k < stored.size(); ++k)
+            if (before[k].id == seed.id) seeds.push_back(stored[k]);
+        // Until its last retrain ends the frozen submap answers with the model it has.
+        frozen_.resize(static_cast<std::size_t>(index_.submapCount()));
+        frozen_[static_cast<std::size_t>(was_active)] = active_->current();
+        freezing = std::move(active_);
+      }
+      active_ = std::make_shared<OnlineLearner>(learning_, relocalizer_params_, mode_);
+      if (Status seeded = active_->seed(std::move(seeds)); !seeded)
+        return makeError(seeded.error());
+    }
+    active = active_;
   }
-  if (Status added = active_->addKeyFrame(frame, camera_to_world); !added)
+  // Outside the lock: a retrain takes seconds, and the places read models()
+  // meanwhile.
+  Status frozen = okStatus();
+  if (freezing) {
+    frozen = freezing->drain();
+    std::lock_guard<std::mutex> lock(mutex_);
+    // A submap that fails its last retrain keeps the model it had.
+    if (std::shared_ptr<const Relocalizer> last = freezing->current())
+      frozen_[static_cast<std::size_t>(was_active)] = std::move(last);
+    if (!frozen)
+      freeze_error_ = "submap " + std::to_string(was_active) + "'s last retrain: " + frozen.error();
+  }
+  freezing.reset();  // its store and worker go
+  if (Status added = active->addKeyFrame(frame, camera_to_world); !added)
     return makeError(added.error());
+  // The key frame is stored; the failed freeze is still the caller's to report.
+  if (!frozen) return makeError(freeze_error_);
   return placement;
 }
 
-Status SubmapLearner::drain() { return active_ ? active_->drain() : okStatus(); }
+Status SubmapLearner::drain() {
+  std::shared_ptr<OnlineLearner> active;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    active = active_;
+  }
+  return active ? active->drain() : okStatus();
+}
 
 std::vector<SubmapModel> SubmapLearner::models() const {
+  std::lock_guard<std::mutex> lock(mutex_);
   std::vector<SubmapModel> out;
   for (int s = 0; s < index_.submapCount(); ++s) {
     SubmapModel model;
@@ -73,6 +117,35 @@ std::vector<SubmapModel> SubmapLearner::models() const {
     if (model.relocalizer) out.push_back(std::move(model));
   }
   return out;
+}
+
+SubmapStatus SubmapLearner::status() const {
+  SubmapStatus status;
+  std::shared_ptr<const OnlineLearner> active;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status.submaps = index_.submapCount();
+    for (int s = 0; s < status.submaps; ++s)
+      status.submap_keyframes.push_back(static_cast<int>(index_.keyFrames(s).size()));
+    status.keyframes_added = added_;
+    status.keyframes_covered = covered_;
+    status.last_error = freeze_error_;
+    for (const auto& model : frozen_)
+      if (model) status.model_bytes += modelBytes(model->model());
+    active = active_;
+  }
+  if (active) {
+    status.active = active->status();
+    status.model_bytes += status.active.model_bytes;
+    if (!status.active.last_error.empty()) status.last_error = status.active.last_error;
+  }
+  return status;
+}
+
+std::shared_ptr<const OnlineLearner> SubmapLearner::activeLearner(int* submaps) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (submaps) *submaps = index_.submapCount();
+  return active_;
 }
 
 }  // namespace relocalizer

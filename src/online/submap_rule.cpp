@@ -107,4 +107,9 @@ SubmapPlacement SubmapIndex::place(std::int64_t id, const Pose& pose) {
 
 void SubmapIndex::freezeActive() { active_ = -1; }
 
+void SubmapIndex::startActive(std::vector<SubmapKeyFrame> key_frames) {
+  submaps_.push_back(std::move(key_frames));
+  active_ = submapCount() - 1;
+}
+
 }  // namespace relocalizer

@@ -8,29 +8,31 @@
 
 namespace relocalizer_ros {
 
-relocalizer::Expected<std::unique_ptr<relocalizer::KeyFrameFeed>> LearningFeed::makeFeed(
+relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> LearningFeed::makeLearner(
     const NodeParams& params) {
-  auto feed = std::make_unique<relocalizer::KeyFrameFeed>(
-      params.learning, params.relocalizer, relocalizer::OnlineLearner::Mode::Background);
+  auto learner = std::make_unique<relocalizer::SubmapLearner>(
+      params.learning, params.submaps, params.relocalizer,
+      relocalizer::OnlineLearner::Mode::Background);
   if (!params.model.empty()) {
     relocalizer::Status resumed = relocalizer::makeError("not loaded");
     try {
-      resumed = feed->learner().resume(params.model);
+      resumed = learner->resume(params.model);
     } catch (const std::exception& e) {
       resumed = relocalizer::makeError(params.model + ": cannot be loaded: " + e.what());
     }
     if (!resumed) return relocalizer::makeError(resumed.error());
     // A pair left by an interrupted save resumes from its key frames alone;
     // the log says so as well as ~result's learning_error.
-    if (const std::string why = feed->learner().status().last_error; !why.empty())
+    if (const std::string why = learner->status().last_error; !why.empty())
       ROS_WARN("relocalizer: %s", why.c_str());
   }
-  return feed;
+  return learner;
 }
 
 LearningFeed::LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-                           std::unique_ptr<relocalizer::KeyFrameFeed> feed, ServiceCallQueue& calls)
-    : params_(params), feed_(std::move(feed)) {
+                           std::unique_ptr<relocalizer::SubmapLearner> learner,
+                           ServiceCallQueue& calls)
+    : params_(params), learner_(std::move(learner)), selector_(params.learning.min_motion) {
   auto save_options = ros::AdvertiseServiceOptions::create<relocalizer::SaveModel>(
       "save_model",
       boost::bind(&LearningFeed::onSaveModel, this, boost::placeholders::_1,
@@ -53,7 +55,7 @@ LearningFeed::~LearningFeed() {
   if (params_.save_on_exit.empty()) return;
   // The current model, not a final retrain: shutdown must stay quick, and
   // the key frames saved with it let the next run retrain on all of them.
-  const relocalizer::Status saved = feed_->learner().save(params_.save_on_exit);
+  const relocalizer::Status saved = saveLearned(params_.save_on_exit);
   if (saved)
     ROS_INFO("relocalizer: saved the learned model to %s", params_.save_on_exit.c_str());
   else
@@ -61,23 +63,26 @@ LearningFeed::~LearningFeed() {
 }
 
 void LearningFeed::fill(relocalizer::RelocalizationResult& result) const {
-  const relocalizer::LearningStatus status = feed_->learner().status();
+  const relocalizer::SubmapStatus status = learner_->status();
   result.learning = true;
   result.keyframes_added = saturate(static_cast<uint64_t>(status.keyframes_added));
-  result.keyframes_stored = saturate(static_cast<uint64_t>(status.keyframes_stored));
-  result.keyframes_learned = saturate(static_cast<uint64_t>(status.keyframes_learned));
-  result.learning_backlog = saturate(static_cast<uint64_t>(status.backlog));
+  result.keyframes_stored = saturate(static_cast<uint64_t>(status.active.keyframes_stored));
+  result.keyframes_learned = saturate(static_cast<uint64_t>(status.active.keyframes_learned));
+  result.learning_backlog = saturate(static_cast<uint64_t>(status.active.backlog));
   result.model_bytes = status.model_bytes;
-  result.keyframe_bytes = status.store_bytes;
+  result.keyframe_bytes = status.active.store_bytes;
   result.frames_untracked = saturate(frames_untracked_);
+  result.learning_frames_skipped = saturate(frames_.dropped());
+  result.submaps = saturate(static_cast<uint64_t>(status.submaps));
+  result.keyframes_covered = saturate(static_cast<uint64_t>(status.keyframes_covered));
   result.learning_error = status.last_error;
 }
 
 std::string LearningFeed::noModelYet() const {
-  const relocalizer::LearningStatus status = feed_->learner().status();
-  return "no model yet: learning has " + std::to_string(status.keyframes_stored) +
+  const relocalizer::SubmapStatus status = learner_->status();
+  return "no model yet: learning has " + std::to_string(status.active.keyframes_stored) +
          " key frames, the first model needs " + std::to_string(params_.learning.first_retrain) +
-         (status.retraining ? " (being trained now)" : "") + "; is SLAM publishing " +
+         (status.active.retraining ? " (being trained now)" : "") + "; is SLAM publishing " +
          params_.map_frame + " -> camera on TF?";
 }
 
@@ -106,11 +111,19 @@ void LearningFeed::learnLoop() {
             stamp.toSec(), params_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(),
             messageExcerpt(e.what(), 256).c_str());
     }
-    const relocalizer::KeyFrameFeed::Result fed = feed_->offer(pose, [&] {
-      auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
-      if (frame) frame->id = static_cast<int>(entry->seq);
-      return frame;
-    });
+    const relocalizer::KeyFrameFeed::Result fed = relocalizer::KeyFrameFeed::offerTo(
+        selector_, pose,
+        [&] {
+          auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
+          if (frame) frame->id = static_cast<int>(entry->seq);
+          return frame;
+        },
+        [&](const relocalizer::RgbdFrame& frame,
+            const relocalizer::Pose& camera_to_world) -> relocalizer::Expected<bool> {
+          auto placed = learner_->addKeyFrame(frame, camera_to_world);
+          if (!placed) return relocalizer::makeError(placed.error());
+          return placed->decision != relocalizer::SubmapDecision::Covered;
+        });
     if (fed.outcome == Outcome::Untracked) {
       ++frames_untracked_;  // no pose, or one SLAM got wrong (fed.why)
       if (!fed.why.empty() && log_.allow("learn: bad SLAM pose"))
@@ -120,6 +133,18 @@ void LearningFeed::learnLoop() {
       ROS_WARN("relocalizer: not learning from a key frame: %s", fed.why.c_str());
     }
   }
+}
+
+relocalizer::Status LearningFeed::saveLearned(const std::string& path) const {
+  int submaps = 0;
+  const std::shared_ptr<const relocalizer::OnlineLearner> active =
+      learner_->activeLearner(&submaps);
+  if (submaps > 1)
+    return relocalizer::makeError("saving " + std::to_string(submaps) +
+                                  " submaps needs the folder format: not yet (" + path +
+                                  " not written)");
+  if (!active) return relocalizer::makeError("nothing learned yet: " + path + " not written");
+  return active->save(path);
 }
 
 bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
@@ -135,13 +160,13 @@ bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
   const std::string path =
       std::filesystem::absolute(request.path, ignored).lexically_normal().string();
   std::lock_guard<std::mutex> lock(save_mutex_);
-  const relocalizer::Status saved = feed_->learner().save(path);
+  const relocalizer::Status saved = saveLearned(path);
   response.success = saved.ok();
-  const relocalizer::LearningStatus status = feed_->learner().status();
+  const relocalizer::SubmapStatus status = learner_->status();
   response.message = saved ? "wrote " + path + " (trained on " +
-                                 std::to_string(status.keyframes_learned) + " key frames) and " +
-                                 relocalizer::keyFramesPath(path) + " (" +
-                                 std::to_string(status.keyframes_stored) + " key frames)"
+                                 std::to_string(status.active.keyframes_learned) +
+                                 " key frames) and " + relocalizer::keyFramesPath(path) + " (" +
+                                 std::to_string(status.active.keyframes_stored) + " key frames)"
                            : saved.error();
   ROS_INFO("relocalizer: ~save_model: %s", response.message.c_str());
   return true;

@@ -2,11 +2,21 @@
 // Learn mode's feed from SLAM into the online learner: the newest synchronised
 // frame is posed by TF map_frame -> camera at its own stamp (never a later
 // one: a frame TF cannot cover was not tracked), checked, filtered by the
-// key-frame rule and handed to the learner, whose own low-priority worker
-// retrains (online_learner.h). Also ~save_model and save_on_exit.
+// key-frame rule and handed to the submap learner (submap_learner.h): the
+// active submap's own low-priority worker retrains, and a full submap is
+// frozen. Also ~save_model and save_on_exit.
 //
 // Threads: push() from the input callbacks (O(1)); one learning thread; the
 // save service on the node's service calls queue.
+//
+// A freeze (the full submap's last retrain, seconds) runs on the learning
+// thread, never on a relocalization's: the relocalizations go on meanwhile
+// with the frozen submap's last model. Frames that arrive during it replace
+// one another in the Latest buffer and are counted in ~result's
+// learning_frames_skipped; a camera that moves on is learned again from the
+// next frame, and the key-frame rule measures from the last key frame, so
+// what is lost is at most the path walked during one retrain. A freeze thread
+// of its own is the proposal's next step (docs/proposals/issue-26-submaps.md).
 
 #include <relocalizer/RelocalizationResult.h>
 #include <relocalizer/SaveModel.h>
@@ -24,6 +34,7 @@
 #include "node_params.h"
 #include "relocalizer/core/expected.h"
 #include "relocalizer/online/key_frame_feed.h"
+#include "relocalizer/online/submap_learner.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
 
@@ -31,13 +42,13 @@ namespace relocalizer_ros {
 
 class LearningFeed {
  public:
-  // The feed (key-frame rule, store, learner) the parameters describe,
-  // resumed from `model` when set; the error names the file at fault.
-  static relocalizer::Expected<std::unique_ptr<relocalizer::KeyFrameFeed>> makeFeed(
+  // The learner the parameters describe, resumed from `model` when set; the
+  // error names the file at fault.
+  static relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> makeLearner(
       const NodeParams& params);
 
   LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-               std::unique_ptr<relocalizer::KeyFrameFeed> feed, ServiceCallQueue& calls);
+               std::unique_ptr<relocalizer::SubmapLearner> learner, ServiceCallQueue& calls);
   // Stops the learning thread, then writes save_on_exit if set.
   ~LearningFeed();
   LearningFeed(const LearningFeed&) = delete;
@@ -47,10 +58,7 @@ class LearningFeed {
   // Ends the learning thread's wait and the save service; the destructor does the rest.
   void close();
 
-  std::shared_ptr<const relocalizer::Relocalizer> current() const {
-    return feed_->learner().current();
-  }
-  relocalizer::LearningStatus status() const { return feed_->learner().status(); }
+  relocalizer::SubmapStatus status() const { return learner_->status(); }
   // Learn mode's fields of ~result.
   void fill(relocalizer::RelocalizationResult& result) const;
   // "no model yet" with what learning has so far, for frames that come too early.
@@ -58,11 +66,16 @@ class LearningFeed {
 
  private:
   void learnLoop();
+  // ~save_model and save_on_exit: today's one model file and its key frames,
+  // while the run has one submap. More need the folder format (issue 26),
+  // which replaces this function.
+  relocalizer::Status saveLearned(const std::string& path) const;
   bool onSaveModel(relocalizer::SaveModel::Request& request,
                    relocalizer::SaveModel::Response& response);
 
   const NodeParams& params_;
-  const std::unique_ptr<relocalizer::KeyFrameFeed> feed_;
+  const std::unique_ptr<relocalizer::SubmapLearner> learner_;
+  relocalizer::KeyFrameSelector selector_;  // the learning thread's
   // The newest frame only: key frames are chosen by motion, so a skipped
   // frame is covered by the next.
   FrameBuffer<FrameInputPtr> frames_{FrameBuffer<FrameInputPtr>::Policy::Latest};

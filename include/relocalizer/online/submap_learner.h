@@ -7,12 +7,20 @@
 // store, however far the camera walks. Every submap answers in the same map
 // frame, so a frame is searched across them as across places (place_set.h).
 //
-// This step freezes on the caller's thread (what evaluate and the tests need:
-// deterministic); the node's background freeze, saving the set as a folder and
+// A freeze runs on the caller's thread, in either mode: Inline (evaluate, the
+// tests: deterministic) or Background (the node: the active submap retrains on
+// its worker as one OnlineLearner does, and the freeze waits for that worker's
+// last retrain). Until the freeze ends, the frozen submap answers with the
+// model it had. A freeze thread of its own, saving the set as a folder and
 // bounding the resident frozen models follow (docs/proposals/issue-26-submaps.md).
+//
+// Threads: addKeyFrame, resume and drain from one thread (the learning loop);
+// models(), status() and activeLearner() from any, at any time.
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
+#include <string>
 #include <vector>
 
 #include "relocalizer/core/expected.h"
@@ -30,12 +38,31 @@ struct SubmapModel {
   std::shared_ptr<const Relocalizer> relocalizer;
 };
 
+// What a run of submaps holds now.
+struct SubmapStatus {
+  int submaps = 0;  // started (frozen ones and the active)
+  // Key frames of each submap (seeds included), by index.
+  std::vector<int> submap_keyframes;
+  int keyframes_added = 0;    // stored in some submap since start (resumed ones too, seeds once)
+  int keyframes_covered = 0;  // key frames a frozen submap already held one as good as: not stored
+  size_t model_bytes = 0;     // every submap's model
+  std::string last_error;     // the active's (online_learner.h), else of the last failed freeze
+  LearningStatus active;      // the active submap's learner (zeros before the first key frame)
+};
+
 class SubmapLearner {
  public:
-  // `learning.max_keyframes` caps each submap. Throws std::invalid_argument
-  // when learningParamsError or submapParamsError says why.
-  SubmapLearner(LearningParams learning, SubmapParams submaps,
-                RelocalizerParams relocalizer_params);
+  // `learning.max_keyframes` caps each submap; `mode` is each submap
+  // learner's (online_learner.h). Throws std::invalid_argument when
+  // learningParamsError or submapParamsError says why.
+  SubmapLearner(LearningParams learning, SubmapParams submaps, RelocalizerParams relocalizer_params,
+                OnlineLearner::Mode mode = OnlineLearner::Mode::Inline);
+
+  // Continues a place saved as one model file and its key frames
+  // (OnlineLearner::save): it becomes submap 0, active, holding those key
+  // frames as they are (the rule does not re-cut them). Call before the first
+  // addKeyFrame.
+  Status resume(const std::string& model_path);
 
   // A key frame (already chosen by the key-frame rule) with SLAM's
   // camera-to-world pose. Refused when slamPoseError says why; a covered key
@@ -48,20 +75,26 @@ class SubmapLearner {
 
   // Every submap with a model, frozen ones first in order, then the active.
   std::vector<SubmapModel> models() const;
+  SubmapStatus status() const;
+  // Not thread-safe: for the learning thread (and single-threaded callers).
   const SubmapIndex& index() const { return index_; }
   // The active submap's learner, or null before the first key frame.
   const OnlineLearner* active() const { return active_.get(); }
+  // The same, shared (a freeze meanwhile does not destroy it under the
+  // caller), with the submap count read at the same moment.
+  std::shared_ptr<const OnlineLearner> activeLearner(int* submaps = nullptr) const;
 
  private:
-  // The active learner's last retrain becomes submap `frozen`'s model; the learner goes.
-  Status freezeActive(int frozen);
-
   LearningParams learning_;
   RelocalizerParams relocalizer_params_;
+  OnlineLearner::Mode mode_;
+  mutable std::mutex mutex_;  // everything below; never held across a retrain or compression
   SubmapIndex index_;
-  std::unique_ptr<OnlineLearner> active_;
+  std::shared_ptr<OnlineLearner> active_;
   std::vector<std::shared_ptr<const Relocalizer>> frozen_;  // by submap index; null: none learned
   std::int64_t next_id_ = 0;
+  int added_ = 0, covered_ = 0;
+  std::string freeze_error_;
 };
 
 }  // namespace relocalizer

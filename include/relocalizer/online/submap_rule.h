@@ -79,6 +79,9 @@ class SubmapIndex {
   // The active submap is frozen (a new key frame then starts a new one): what
   // a save at the end of a run does.
   void freezeActive();
+  // A new active submap holding `key_frames` as they are (a resumed store:
+  // the rule does not re-cut what an earlier run kept).
+  void startActive(std::vector<SubmapKeyFrame> key_frames);
 
   int submapCount() const { return static_cast<int>(submaps_.size()); }
   int active() const { return active_; }  // -1 when none
