@@ -14,6 +14,46 @@ SubmapLearner::SubmapLearner(LearningParams learning, SubmapParams submaps,
       index_(submaps, learning_.max_keyframes) {
   if (const std::string why = learningParamsError(learning_); !why.empty())
     throw std::invalid_argument(why);
+  if (mode_ == OnlineLearner::Mode::Background)
+    freezer_ = std::thread(&SubmapLearner::freezeLoop, this);
+}
+
+SubmapLearner::~SubmapLearner() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  freeze_cv_.notify_all();
+  if (freezer_.joinable()) freezer_.join();
+}
+
+void SubmapLearner::frozen(int index, const OnlineLearner& learner, const Status& retrained) {
+  // A submap that fails its last retrain keeps the model it had.
+  if (std::shared_ptr<const Relocalizer> last = learner.current())
+    frozen_[static_cast<std::size_t>(index)] = std::move(last);
+  if (!retrained)
+    freeze_error_ = "submap " + std::to_string(index) + "'s last retrain: " + retrained.error();
+}
+
+void SubmapLearner::freezeLoop() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (true) {
+    freeze_cv_.wait(lock, [&] { return freezing_ || stopping_; });
+    // Stopping with nothing handed over; a freeze handed over still ends, so
+    // that a submap frozen before shutdown has its final model.
+    if (!freezing_) return;
+    std::shared_ptr<OnlineLearner> learner = freezing_;
+    const int index = freezing_index_;
+    lock.unlock();
+    const Status retrained = learner->drain();
+    lock.lock();
+    frozen(index, *learner, retrained);
+    freezing_.reset();
+    lock.unlock();
+    learner.reset();  // its store and worker go, outside the lock
+    freeze_cv_.notify_all();
+    lock.lock();
+  }
 }
 
 Status SubmapLearner::resume(const std::string& model_path) {
@@ -42,7 +82,14 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
   std::shared_ptr<OnlineLearner> active, freezing;
   int was_active = -1;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::unique_lock<std::mutex> lock(mutex_);
+    // One freeze at a time: a second waits for the first (only this thread
+    // changes the index, so the decision holds across the wait).
+    if (mode_ == OnlineLearner::Mode::Background && active_) {
+      const SubmapDecision next = index_.decide(camera_to_world);
+      if (next == SubmapDecision::NewFull || next == SubmapDecision::NewLeft)
+        freeze_cv_.wait(lock, [&] { return !freezing_; });
+    }
     // The index names key frames by arrival, so that the active's store
     // entries (also in arrival order, never evicted: a full submap is
     // replaced, not thinned) line up with its key frames.
@@ -65,7 +112,13 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
         // Until its last retrain ends the frozen submap answers with the model it has.
         frozen_.resize(static_cast<std::size_t>(index_.submapCount()));
         frozen_[static_cast<std::size_t>(was_active)] = active_->current();
-        freezing = std::move(active_);
+        if (mode_ == OnlineLearner::Mode::Background) {
+          freezing_ = std::move(active_);
+          freezing_index_ = was_active;
+          freeze_cv_.notify_all();
+        } else {
+          freezing = std::move(active_);
+        }
       }
       active_ = std::make_shared<OnlineLearner>(learning_, relocalizer_params_, mode_);
       if (Status seeded = active_->seed(std::move(seeds)); !seeded)
@@ -73,30 +126,27 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
     }
     active = active_;
   }
-  // Outside the lock: a retrain takes seconds, and the places read models()
-  // meanwhile.
-  Status frozen = okStatus();
+  // Inline, outside the lock: a retrain takes seconds, and models() may be
+  // read meanwhile.
+  Status retrained = okStatus();
   if (freezing) {
-    frozen = freezing->drain();
+    retrained = freezing->drain();
     std::lock_guard<std::mutex> lock(mutex_);
-    // A submap that fails its last retrain keeps the model it had.
-    if (std::shared_ptr<const Relocalizer> last = freezing->current())
-      frozen_[static_cast<std::size_t>(was_active)] = std::move(last);
-    if (!frozen)
-      freeze_error_ = "submap " + std::to_string(was_active) + "'s last retrain: " + frozen.error();
+    frozen(was_active, *freezing, retrained);
   }
   freezing.reset();  // its store and worker go
   if (Status added = active->addKeyFrame(frame, camera_to_world); !added)
     return makeError(added.error());
   // The key frame is stored; the failed freeze is still the caller's to report.
-  if (!frozen) return makeError(freeze_error_);
+  if (!retrained) return makeError(freeze_error_);
   return placement;
 }
 
 Status SubmapLearner::drain() {
   std::shared_ptr<OnlineLearner> active;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::unique_lock<std::mutex> lock(mutex_);
+    freeze_cv_.wait(lock, [&] { return !freezing_; });
     active = active_;
   }
   return active ? active->drain() : okStatus();
@@ -130,6 +180,7 @@ SubmapStatus SubmapLearner::status() const {
     status.keyframes_added = added_;
     status.keyframes_covered = covered_;
     status.last_error = freeze_error_;
+    status.freezing = freezing_ != nullptr;
     for (const auto& model : frozen_)
       if (model) status.model_bytes += modelBytes(model->model());
     active = active_;

@@ -9,14 +9,13 @@
 // Threads: push() from the input callbacks (O(1)); one learning thread; the
 // save service on the node's service calls queue.
 //
-// A freeze (the full submap's last retrain, seconds) runs on the learning
-// thread, never on a relocalization's: the relocalizations go on meanwhile
-// with the frozen submap's last model. Frames that arrive during it replace
-// one another in the Latest buffer and are counted in ~result's
-// learning_frames_skipped; a camera that moves on is learned again from the
-// next frame, and the key-frame rule measures from the last key frame, so
-// what is lost is at most the path walked during one retrain. A freeze thread
-// of its own is the proposal's next step (docs/proposals/issue-26-submaps.md).
+// A freeze (the full submap's last retrain, seconds) runs on the learner's
+// freeze thread (Background mode), neither on this thread nor on a
+// relocalization's: relocalizations go on with the frozen submap's last model
+// until its final one is put. This thread waits only when a second freeze
+// comes while the first still runs; frames that arrive while it waits (or
+// stores a key frame, or waits for TF) replace one another in the Latest
+// buffer and are counted in ~result's learning_frames_skipped.
 
 #include <relocalizer/RelocalizationResult.h>
 #include <relocalizer/SaveModel.h>

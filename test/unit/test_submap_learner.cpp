@@ -145,9 +145,9 @@ TEST_F(SubmapRoom, UnusablePosesAndFramesAreRefusedAndPlacedNowhere) {
   EXPECT_EQ(submaps.index().submapCount(), 1);
 }
 
-// The node's mode: each submap retrains on its worker, a freeze waits for
-// that worker's last retrain on the learning thread, and the places read the
-// models and figures from another thread all along.
+// The node's mode: each submap retrains on its worker, a freeze runs on the
+// freeze thread (one at a time), and the places read the models and figures
+// from another thread all along.
 TEST_F(SubmapRoom, BackgroundSubmapsCutAsInlineOnesWhileAnotherThreadReads) {
   const int cap = 6;
   SubmapParams rule;
@@ -174,10 +174,12 @@ TEST_F(SubmapRoom, BackgroundSubmapsCutAsInlineOnesWhileAnotherThreadReads) {
     auto placed = submaps.addKeyFrame(frame, *frame.ground_truth);
     ASSERT_TRUE(placed.ok()) << placed.error();
   }
+  // drain() waits for the last freeze too.
   ASSERT_TRUE(submaps.drain());
   done = true;
   reader.join();
   EXPECT_GT(reads, 0);
+  EXPECT_FALSE(submaps.status().freezing);
 
   // The cut of CappedSubmapsKeepWhatOneCappedStoreThinsOut: the rule sees poses only.
   const SubmapStatus status = submaps.status();

@@ -7,20 +7,24 @@
 // store, however far the camera walks. Every submap answers in the same map
 // frame, so a frame is searched across them as across places (place_set.h).
 //
-// A freeze runs on the caller's thread, in either mode: Inline (evaluate, the
-// tests: deterministic) or Background (the node: the active submap retrains on
-// its worker as one OnlineLearner does, and the freeze waits for that worker's
-// last retrain). Until the freeze ends, the frozen submap answers with the
-// model it had. A freeze thread of its own, saving the set as a folder and
-// bounding the resident frozen models follow (docs/proposals/issue-26-submaps.md).
+// Two modes, as OnlineLearner's. Inline (evaluate, the tests: deterministic):
+// a freeze retrains on the caller's thread. Background (the node): each
+// submap retrains on its own worker, and a freeze is handed to a freeze
+// thread, so addKeyFrame never waits for it unless a second freeze comes
+// while the first still runs (one at most: memory holds the freezing store
+// and the active's, never more). Until its freeze ends, the frozen submap
+// answers with the model it had. Saving the set as a folder and bounding the
+// resident frozen models follow (docs/proposals/issue-26-submaps.md).
 //
 // Threads: addKeyFrame, resume and drain from one thread (the learning loop);
 // models(), status() and activeLearner() from any, at any time.
 
+#include <condition_variable>
 #include <cstdint>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "relocalizer/core/expected.h"
@@ -47,6 +51,7 @@ struct SubmapStatus {
   int keyframes_covered = 0;  // key frames a frozen submap already held one as good as: not stored
   size_t model_bytes = 0;     // every submap's model
   std::string last_error;     // the active's (online_learner.h), else of the last failed freeze
+  bool freezing = false;      // Background: a full submap's last retrain is running
   LearningStatus active;      // the active submap's learner (zeros before the first key frame)
 };
 
@@ -57,6 +62,10 @@ class SubmapLearner {
   // learningParamsError or submapParamsError says why.
   SubmapLearner(LearningParams learning, SubmapParams submaps, RelocalizerParams relocalizer_params,
                 OnlineLearner::Mode mode = OnlineLearner::Mode::Inline);
+  // Background: waits for a freeze that is running (its retrain is not aborted).
+  ~SubmapLearner();
+  SubmapLearner(const SubmapLearner&) = delete;
+  SubmapLearner& operator=(const SubmapLearner&) = delete;
 
   // Continues a place saved as one model file and its key frames
   // (OnlineLearner::save): it becomes submap 0, active, holding those key
@@ -67,10 +76,12 @@ class SubmapLearner {
   // A key frame (already chosen by the key-frame rule) with SLAM's
   // camera-to-world pose. Refused when slamPoseError says why; a covered key
   // frame is placed nowhere (placement.submap -1). A new submap freezes the
-  // active first, which retrains it (seconds).
+  // active, which retrains it (seconds: Inline here, Background on the freeze
+  // thread); a failed freeze is returned (Inline) or in status().last_error.
   Expected<SubmapPlacement> addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world);
 
-  // The active submap's model trained on all its key frames (a retrain now).
+  // Every submap's model trained on all its key frames: waits for a running
+  // freeze, then for the active's retrain (Inline: retrains now).
   Status drain();
 
   // Every submap with a model, frozen ones first in order, then the active.
@@ -85,16 +96,26 @@ class SubmapLearner {
   std::shared_ptr<const OnlineLearner> activeLearner(int* submaps = nullptr) const;
 
  private:
+  // Background: the freeze thread's loop.
+  void freezeLoop();
+  // A freeze's end, under mutex_: the learner's last model becomes the submap's.
+  void frozen(int index, const OnlineLearner& learner, const Status& retrained);
+
   LearningParams learning_;
   RelocalizerParams relocalizer_params_;
   OnlineLearner::Mode mode_;
   mutable std::mutex mutex_;  // everything below; never held across a retrain or compression
+  std::condition_variable freeze_cv_;        // a freeze handed over, ended, or stopping
+  std::shared_ptr<OnlineLearner> freezing_;  // Background: the submap being frozen
+  int freezing_index_ = -1;
+  bool stopping_ = false;
   SubmapIndex index_;
   std::shared_ptr<OnlineLearner> active_;
   std::vector<std::shared_ptr<const Relocalizer>> frozen_;  // by submap index; null: none learned
   std::int64_t next_id_ = 0;
   int added_ = 0, covered_ = 0;
   std::string freeze_error_;
+  std::thread freezer_;  // Background only; last, so it starts after the rest is built
 };
 
 }  // namespace relocalizer
