@@ -1,329 +1,91 @@
 #include "relocalizer/online/submap_learner.h"
 
-#include <algorithm>
-#include <filesystem>
-#include <set>
 #include <stdexcept>
 
-#include "relocalizer/core/file_io.h"
-#include "relocalizer/core/version.h"
-#include "relocalizer/online/submap_folder.h"
+#include "relocalizer/forest/model_io.h"
 
 namespace relocalizer {
-namespace {
-
-namespace fs = std::filesystem;
-
-std::string inFolder(const std::string& folder, const std::string& name) {
-  return (fs::path(folder) / name).string();
-}
-
-// A frozen submap's model as the manifest names it; errors say why not.
-Expected<std::shared_ptr<const Relocalizer>> loadSubmapModel(const std::string& path,
-                                                             const ModelFileId& expected,
-                                                             const RelocalizerParams& params) {
-  try {
-    auto bytes = readRegularFile(path, "submap model file");
-    if (!bytes) return makeError(bytes.error());
-    const ModelFileId found = modelFileId(*bytes);
-    if (found != expected)
-      return makeError(path + " is not the model the manifest names (" +
-                       std::to_string(found.size) + " bytes, CRC " + std::to_string(found.crc) +
-                       "; the manifest names " + std::to_string(expected.size) + " bytes, CRC " +
-                       std::to_string(expected.crc) + ")");
-    auto model = deserializeModel(bytes->data(), bytes->size(), path);
-    if (!model) return makeError(model.error());
-    auto relocalizer = std::make_shared<const Relocalizer>(std::move(*model), params);
-    if (const std::string why = relocalizer->validationError(); !why.empty())
-      return makeError(path + ": " + why);
-    return std::shared_ptr<const Relocalizer>(std::move(relocalizer));
-  } catch (const std::exception& e) {
-    // Whatever a damaged file makes the loader throw (std::bad_alloc on a
-    // corrupt size) skips this submap only.
-    return makeError(path + ": cannot be loaded: " + e.what());
-  }
-}
-
-}  // namespace
 
 std::string submapPlaceName(const std::string& place, int index) {
   return place + "/" + std::to_string(index);
 }
 
 SubmapLearner::SubmapLearner(LearningParams learning, SubmapParams submaps,
-                             RelocalizerParams relocalizer_params, SubmapNames names)
+                             RelocalizerParams relocalizer_params, SubmapNames names,
+                             OnlineLearner::Mode mode)
     : learning_(std::move(learning)),
       submap_params_(submaps),
       relocalizer_params_(std::move(relocalizer_params)),
       names_(std::move(names)),
+      mode_(mode),
       index_(submaps, learning_.max_keyframes) {
   if (const std::string why = learningParamsError(learning_); !why.empty())
     throw std::invalid_argument(why);
+  if (mode_ == OnlineLearner::Mode::Background)
+    freezer_ = std::thread(&SubmapLearner::freezeLoop, this);
 }
 
-Status SubmapLearner::freezeActive(int frozen) {
-  Status drained = active_->drain();
-  frozen_.resize(static_cast<std::size_t>(index_.submapCount()));
-  Frozen& f = frozen_[static_cast<std::size_t>(frozen)];
-  f.relocalizer = active_->current();
-  f.key_frames = active_->keyFrames();
-  active_.reset();
-  if (!drained) return drained;
+SubmapLearner::~SubmapLearner() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  freeze_cv_.notify_all();
+  if (freezer_.joinable()) freezer_.join();
+}
+
+Status SubmapLearner::finishFreeze(int index, const OnlineLearner& learner,
+                                   const Status& retrained) {
+  // No longer freezing before it is written: writeSet leaves out a submap
+  // whose freeze runs (its model is not final yet).
+  freezing_index_ = -1;
+  Frozen& f = frozen_[static_cast<std::size_t>(index)];
+  // A submap that fails its last retrain keeps the model it had.
+  if (std::shared_ptr<const Relocalizer> last = learner.current()) f.relocalizer = std::move(last);
+  if (!retrained) {
+    freeze_error_ = "submap " + std::to_string(index) + "'s last retrain: " + retrained.error();
+    return makeError(freeze_error_);
+  }
   if (folder_.empty() || !f.relocalizer) return okStatus();
   if (Status written = writeSet(folder_, false, true); !written) {
     warnings_.push_back(written.error());
+    freeze_error_ = written.error();
     return written;
   }
   return okStatus();
 }
 
-Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool adopt) {
-  std::error_code ec;
-  fs::create_directories(folder, ec);
-  if (ec) return makeError(folder + ": cannot create the folder: " + ec.message());
-  const std::string manifest_path = submapManifestPath(folder);
-  // Checked before any submap file is written: a folder that holds someone
-  // else's manifest.json is not ours to fill.
-  if (const std::string why =
-          replaceableError(manifest_path, kSubmapManifestMagic, "learned-submaps manifest");
-      !why.empty())
-    return makeError(why);
-  const bool working = !folder_.empty() && fs::equivalent(folder, folder_, ec);
-
-  SubmapManifest manifest;
-  manifest.place_name = names_.place;
-  manifest.map_frame = names_.map_frame;
-  manifest.software_version = kSoftwareVersion;
-  manifest.min_motion = learning_.min_motion;
-  manifest.max_keyframes = learning_.max_keyframes;
-  manifest.submap_params = submap_params_;
-  std::vector<int> written_now;
-  for (int s = 0; s < static_cast<int>(frozen_.size()); ++s) {
-    Frozen& f = frozen_[static_cast<std::size_t>(s)];
-    if (s == index_.active() || !f.relocalizer) continue;
-    SubmapEntry entry;
-    entry.index = s;
-    entry.name = submapPlaceName(names_.place, s);
-    entry.model = submapFileName(s);
-    entry.keyframes = keyFramesPath(entry.model);
-    entry.keyframe_poses = index_.keyFrames(s);
-    const std::string model_path = inFolder(folder, entry.model);
-    const std::string keyframes_path = inFolder(folder, entry.keyframes);
-    if (!f.written) {
-      std::vector<uint8_t> model = serializeModel(f.relocalizer->model());
-      f.model_id = modelFileId(model);
-      // Key frames first, as OnlineLearner::save: their model identity then
-      // tells a pair cut by a crash.
-      std::vector<FileReplacement> pair;
-      pair.push_back({keyframes_path, kKeyFrameMagic, "relocalizer key-frame file",
-                      serializeKeyFrames(f.key_frames, f.model_id)});
-      pair.push_back({model_path, kModelMagic, "relocalizer model file", std::move(model)});
-      if (Status done = replaceFiles(pair); !done) return done;
-      written_now.push_back(s);
-    } else if (!working) {
-      // Frozen files never change, so one already in `folder` (an earlier
-      // save there) is left as it is.
-      auto there = readRegularFile(model_path, "submap model file");
-      if (!there || modelFileId(*there) != f.model_id) {
-        std::vector<FileReplacement> pair;
-        auto keyframes = readRegularFile(inFolder(folder_, entry.keyframes), "key-frame file");
-        if (keyframes)
-          pair.push_back({keyframes_path, kKeyFrameMagic, "relocalizer key-frame file",
-                          std::move(*keyframes)});
-        else
-          warnings_.push_back(keyframes.error() + ": not copied to " + folder + " (submap " +
-                              std::to_string(s) + " still answers from its model)");
-        pair.push_back({model_path, kModelMagic, "relocalizer model file",
-                        serializeModel(f.relocalizer->model())});
-        if (Status done = replaceFiles(pair); !done) return done;
-      }
-    }
-    entry.model_id = f.model_id;
-    manifest.submaps.push_back(std::move(entry));
+void SubmapLearner::freezeLoop() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (true) {
+    freeze_cv_.wait(lock, [&] { return freezing_ || stopping_; });
+    // Stopping with nothing handed over; a freeze handed over still ends, so
+    // that a submap frozen before shutdown has its final model (and files).
+    if (!freezing_) return;
+    std::shared_ptr<OnlineLearner> learner = freezing_;
+    const int index = freezing_index_;
+    lock.unlock();
+    const Status retrained = learner->drain();
+    lock.lock();
+    freezing_.reset();
+    finishFreeze(index, *learner, retrained);
+    lock.unlock();
+    learner.reset();  // its store and worker go, outside the lock
+    freeze_cv_.notify_all();
+    lock.lock();
   }
+}
 
-  std::vector<FileReplacement> last;
-  if (with_active && active_) {
-    const int s = index_.active();
-    SubmapEntry entry;
-    entry.index = s;
-    entry.name = submapPlaceName(names_.place, s);
-    entry.frozen = false;
-    entry.keyframes = keyFramesPath(submapFileName(s));
-    entry.keyframe_poses = index_.keyFrames(s);
-    // The model first: the key frames then include every one it learned
-    // (the active's store only grows).
-    const std::shared_ptr<const Relocalizer> model = active_->current();
-    std::vector<uint8_t> model_bytes;
-    if (model) {
-      model_bytes = serializeModel(model->model());
-      entry.model = submapFileName(s);
-      entry.model_id = modelFileId(model_bytes);
-    }
-    last.push_back({inFolder(folder, entry.keyframes), kKeyFrameMagic, "relocalizer key-frame file",
-                    serializeKeyFrames(active_->keyFrames(), entry.model_id)});
-    if (model)
-      last.push_back({inFolder(folder, entry.model), kModelMagic, "relocalizer model file",
-                      std::move(model_bytes)});
-    manifest.active = s;
-    manifest.submaps.push_back(std::move(entry));
-  }
-  if (with_active && manifest.submaps.empty())
-    return makeError(folder + ": nothing to save yet: no submap has been learned");
-  const std::string text = serializeSubmapManifest(manifest);
-  last.push_back({manifest_path, kSubmapManifestMagic, "learned-submaps manifest",
-                  std::vector<uint8_t>(text.begin(), text.end())});
-  if (Status done = replaceFiles(last); !done) return done;
-
-  if (!(adopt || working || folder_.empty())) return okStatus();
-  folder_ = folder;
-  for (int s : written_now) {
-    Frozen& f = frozen_[static_cast<std::size_t>(s)];
-    f.written = true;
-    f.key_frames.clear();
-    f.key_frames.shrink_to_fit();
-  }
+Status SubmapLearner::resumeModelFile(const std::string& path) {
+  auto learner = std::make_shared<OnlineLearner>(learning_, relocalizer_params_, mode_);
+  if (Status resumed = learner->resume(path); !resumed) return resumed;
+  std::vector<SubmapKeyFrame> key_frames;
+  for (const KeyFrameStore::Entry& k : learner->keyFrames())
+    key_frames.push_back({next_id_++, k->pose});
+  added_ = static_cast<int>(key_frames.size());
+  index_.restore({std::move(key_frames)}, 0);
+  active_ = std::move(learner);
   return okStatus();
-}
-
-Status SubmapLearner::useFolder(const std::string& folder) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::error_code ec;
-  fs::create_directories(folder, ec);
-  if (ec) return makeError(folder + ": cannot create the folder: " + ec.message());
-  if (const std::string why = replaceableError(submapManifestPath(folder), kSubmapManifestMagic,
-                                               "learned-submaps manifest");
-      !why.empty())
-    return makeError(why);
-  const bool held = std::any_of(frozen_.begin(), frozen_.end(),
-                                [](const Frozen& f) { return f.relocalizer && !f.written; });
-  const bool moved = !folder_.empty() && !fs::equivalent(folder, folder_, ec);
-  if (held || moved) return writeSet(folder, false, true);
-  folder_ = folder;
-  return okStatus();
-}
-
-std::string SubmapLearner::workingFolder() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return folder_;
-}
-
-std::vector<std::string> SubmapLearner::warnings() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return warnings_;
-}
-
-Status SubmapLearner::save(const std::string& folder) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return writeSet(folder, true, false);
-}
-
-Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& folder) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (next_id_ != 0 || index_.submapCount() != 0)
-    return makeError("resume() must come before the first key frame, and only once");
-  auto manifest = readSubmapManifest(folder);
-  if (!manifest) return makeError(manifest.error());
-  std::vector<std::string> warnings;
-  if (manifest->map_frame != names_.map_frame)
-    warnings.push_back(submapManifestPath(folder) + ": the set was learned in map frame " +
-                       manifest->map_frame + ", continued in " + names_.map_frame);
-  const int count = manifest->submaps.empty() ? 0 : manifest->submaps.back().index + 1;
-  std::vector<std::vector<SubmapKeyFrame>> slots(static_cast<std::size_t>(count));
-  std::vector<Frozen> frozen(static_cast<std::size_t>(count));
-  std::unique_ptr<OnlineLearner> active;
-  int active_index = -1;
-  std::int64_t next_id = 0;
-  for (const SubmapEntry& e : manifest->submaps)
-    for (const SubmapKeyFrame& k : e.keyframe_poses) next_id = std::max(next_id, k.id + 1);
-  const RelocalizerParams served = learnedModelParams(learning_, relocalizer_params_);
-  const std::string skipped = "; skipped: its area is learned again when the camera returns";
-  for (const SubmapEntry& e : manifest->submaps) {
-    const std::string name = "submap " + std::to_string(e.index) + ": ";
-    const std::string model_path = inFolder(folder, e.model);
-    const std::string keyframes_path = inFolder(folder, e.keyframes);
-    const std::size_t i = static_cast<std::size_t>(e.index);
-    bool as_frozen = e.frozen;
-    // Its store would evict to fit, and the index would no longer line up with it.
-    if (!e.frozen && !e.model.empty() &&
-        static_cast<int>(e.keyframe_poses.size()) > learning_.max_keyframes) {
-      warnings.push_back(name + "holds " + std::to_string(e.keyframe_poses.size()) +
-                         " key frames, more than max_keyframes " +
-                         std::to_string(learning_.max_keyframes) + ": continued as frozen");
-      as_frozen = true;
-    }
-    if (as_frozen) {
-      auto loaded = loadSubmapModel(model_path, e.model_id, served);
-      if (!loaded) {
-        warnings.push_back(name + loaded.error() + skipped);
-        continue;
-      }
-      frozen[i] = {std::move(*loaded), {}, true, e.model_id};
-      slots[i] = e.keyframe_poses;
-      if (std::error_code ec; !fs::exists(keyframes_path, ec))
-        warnings.push_back(name + keyframes_path +
-                           " is missing: the submap still answers and covers its area");
-      continue;
-    }
-    auto learner = std::make_unique<OnlineLearner>(learning_, relocalizer_params_,
-                                                   OnlineLearner::Mode::Inline);
-    Status resumed = okStatus();
-    if (!e.model.empty()) {
-      resumed = learner->resume(model_path);
-    } else if (auto saved = loadKeyFrames(keyframes_path); !saved) {
-      resumed = makeError(saved.error());
-    } else {
-      // Saved before its first retrain: its key frames alone, learned at the next drain.
-      std::vector<KeyFrameStore::Entry> entries;
-      for (StoredKeyFrame& k : saved->key_frames)
-        entries.push_back(std::make_shared<const StoredKeyFrame>(std::move(k)));
-      resumed = learner->seed(std::move(entries));
-    }
-    if (!resumed) {
-      warnings.push_back(name + resumed.error() + skipped);
-      continue;
-    }
-    if (const std::string note = learner->status().last_error; !note.empty())
-      warnings.push_back(name + note);
-    // The index must list the store's key frames in the store's order (the
-    // next freeze finds its seeds by position). They are the manifest's unless
-    // a save was cut between the active's files and the manifest.
-    const std::vector<KeyFrameStore::Entry> stored = learner->keyFrames();
-    if (stored.size() == e.keyframe_poses.size()) {
-      slots[i] = e.keyframe_poses;
-    } else {
-      for (const KeyFrameStore::Entry& k : stored) slots[i].push_back({next_id++, k->pose});
-    }
-    active = std::move(learner);
-    active_index = e.index;
-  }
-  // Files the manifest does not name: a freeze cut short before its manifest,
-  // or a submap skipped by an earlier resume. Never read; a later freeze of
-  // that index replaces them.
-  std::set<std::string> named;
-  for (const SubmapEntry& e : manifest->submaps) named.insert(e.model);
-  std::vector<std::string> orphans;
-  try {
-    for (const fs::directory_entry& file : fs::directory_iterator(folder)) {
-      const std::string name = file.path().filename().string();
-      if (name.rfind("submap-", 0) == 0 && file.path().extension() == ".model" &&
-          !named.count(name))
-        orphans.push_back(name);
-    }
-  } catch (const fs::filesystem_error& e) {
-    warnings.push_back(folder + ": cannot list the folder's other files: " + e.what());
-  }
-  std::sort(orphans.begin(), orphans.end());
-  for (const std::string& name : orphans)
-    warnings.push_back(inFolder(folder, name) + " is not named by " + kSubmapManifestName +
-                       ": ignored");
-  index_.restore(std::move(slots), active_index);
-  frozen_ = std::move(frozen);
-  active_ = std::move(active);
-  next_id_ = next_id;
-  folder_ = folder;
-  warnings_ = warnings;
-  return warnings;
 }
 
 Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
@@ -334,41 +96,88 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
   // placed (only an encoder failure is left, which the store reports).
   if (const std::string why = frameValidationError(frame); !why.empty())
     return makeError("key frame " + std::to_string(frame.id) + ": " + why);
-  // The index names key frames by arrival, so that the active's store entries
-  // (also in arrival order, never evicted: a full submap is replaced, not
-  // thinned) line up with its key frames.
-  std::lock_guard<std::mutex> lock(mutex_);
-  const int was_active = index_.active();
-  SubmapPlacement placement = index_.place(next_id_++, camera_to_world);
-  if (placement.decision == SubmapDecision::Covered) return placement;
-  Status frozen = okStatus();
-  if (placement.decision != SubmapDecision::Active) {
-    std::vector<KeyFrameStore::Entry> seeds;
-    if (active_) {
-      // A new submap leaves the old one's key frames in the index as they were.
-      const std::vector<SubmapKeyFrame>& before = index_.keyFrames(was_active);
-      const std::vector<KeyFrameStore::Entry> stored = active_->keyFrames();
-      for (const SubmapKeyFrame& seed : placement.seeds)
-        for (std::size_t k = 0; k < before.size() && k < stored.size(); ++k)
-          if (before[k].id == seed.id) seeds.push_back(stored[k]);
-      // A submap that fails its last retrain (or its write) keeps the model
-      // it had: the failure is the caller's to report, the run goes on with
-      // the new submap, which the index has already started.
-      frozen = freezeActive(was_active);
+  SubmapPlacement placement;
+  std::shared_ptr<OnlineLearner> active, freezing;
+  int was_active = -1;
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    // One freeze at a time: a second waits for the first (only this thread
+    // changes the index, so the decision holds across the wait).
+    if (mode_ == OnlineLearner::Mode::Background && active_) {
+      const SubmapDecision next = index_.decide(camera_to_world);
+      if (next == SubmapDecision::NewFull || next == SubmapDecision::NewLeft)
+        freeze_cv_.wait(lock, [&] { return freezing_index_ < 0; });
     }
-    active_ = std::make_unique<OnlineLearner>(learning_, relocalizer_params_,
-                                              OnlineLearner::Mode::Inline);
-    if (Status seeded = active_->seed(std::move(seeds)); !seeded) return makeError(seeded.error());
+    // The index names key frames by arrival, so that the active's store
+    // entries (also in arrival order, never evicted: a full submap is
+    // replaced, not thinned) line up with its key frames.
+    was_active = index_.active();
+    placement = index_.place(next_id_++, camera_to_world);
+    if (placement.decision == SubmapDecision::Covered) {
+      ++covered_;
+      return placement;
+    }
+    ++added_;
+    if (placement.decision != SubmapDecision::Active) {
+      std::vector<KeyFrameStore::Entry> seeds;
+      if (active_) {
+        // A new submap leaves the old one's key frames in the index as they were.
+        const std::vector<SubmapKeyFrame>& before = index_.keyFrames(was_active);
+        const std::vector<KeyFrameStore::Entry> stored = active_->keyFrames();
+        for (const SubmapKeyFrame& seed : placement.seeds)
+          for (std::size_t k = 0; k < before.size() && k < stored.size(); ++k)
+            if (before[k].id == seed.id) seeds.push_back(stored[k]);
+        // Until its last retrain ends the frozen submap answers with the
+        // model it has; its key frames are kept until written (Frozen).
+        frozen_.resize(static_cast<std::size_t>(index_.submapCount()));
+        Frozen& f = frozen_[static_cast<std::size_t>(was_active)];
+        f.relocalizer = active_->current();
+        f.key_frames = stored;
+        // A save meanwhile (another thread) waits for it: a frozen submap is
+        // written once, with its final model.
+        freezing_index_ = was_active;
+        if (mode_ == OnlineLearner::Mode::Background) {
+          freezing_ = std::move(active_);
+          freeze_cv_.notify_all();
+        } else {
+          freezing = std::move(active_);
+        }
+      }
+      frozen_.resize(static_cast<std::size_t>(index_.submapCount()));
+      active_ = std::make_shared<OnlineLearner>(learning_, relocalizer_params_, mode_);
+      if (Status seeded = active_->seed(std::move(seeds)); !seeded)
+        return makeError(seeded.error());
+    }
+    active = active_;
   }
-  if (Status added = active_->addKeyFrame(frame, camera_to_world); !added)
+  // Inline, outside the lock: a retrain takes seconds, and models() may be
+  // read meanwhile. A submap that fails its last retrain (or its write) keeps
+  // the model it had: the failure is the caller's to report, the run goes on
+  // with the new submap, which the index has already started.
+  Status frozen = okStatus();
+  if (freezing) {
+    const Status retrained = freezing->drain();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      frozen = finishFreeze(was_active, *freezing, retrained);
+    }
+    freeze_cv_.notify_all();
+  }
+  freezing.reset();  // its store and worker go
+  if (Status added = active->addKeyFrame(frame, camera_to_world); !added)
     return makeError(added.error());
   if (!frozen) return makeError(frozen.error());
   return placement;
 }
 
 Status SubmapLearner::drain() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return active_ ? active_->drain() : okStatus();
+  std::shared_ptr<OnlineLearner> active;
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    freeze_cv_.wait(lock, [&] { return freezing_index_ < 0; });
+    active = active_;
+  }
+  return active ? active->drain() : okStatus();
 }
 
 std::vector<SubmapModel> SubmapLearner::models() const {
@@ -388,6 +197,37 @@ std::vector<SubmapModel> SubmapLearner::models() const {
     if (model.relocalizer) out.push_back(std::move(model));
   }
   return out;
+}
+
+SubmapStatus SubmapLearner::status() const {
+  SubmapStatus status;
+  std::shared_ptr<const OnlineLearner> active;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status.submaps = index_.submapCount();
+    for (int s = 0; s < status.submaps; ++s)
+      status.submap_keyframes.push_back(static_cast<int>(index_.keyFrames(s).size()));
+    status.keyframes_added = added_;
+    status.keyframes_covered = covered_;
+    status.last_error = freeze_error_;
+    status.freezing = freezing_ != nullptr;
+    for (int s = 0; s < static_cast<int>(frozen_.size()); ++s)
+      if (s != index_.active() && frozen_[static_cast<std::size_t>(s)].relocalizer)
+        status.model_bytes += modelBytes(frozen_[static_cast<std::size_t>(s)].relocalizer->model());
+    active = active_;
+  }
+  if (active) {
+    status.active = active->status();
+    status.model_bytes += status.active.model_bytes;
+    if (!status.active.last_error.empty()) status.last_error = status.active.last_error;
+  }
+  return status;
+}
+
+std::shared_ptr<const OnlineLearner> SubmapLearner::activeLearner(int* submaps) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (submaps) *submaps = index_.submapCount();
+  return active_;
 }
 
 }  // namespace relocalizer

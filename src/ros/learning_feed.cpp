@@ -1,6 +1,8 @@
 #include "learning_feed.h"
 
+#include <unistd.h>
 #include <boost/bind/bind.hpp>
+#include <cstdlib>
 #include <filesystem>
 
 #include "message_conversion.h"
@@ -8,29 +10,37 @@
 
 namespace relocalizer_ros {
 
-relocalizer::Expected<std::unique_ptr<relocalizer::KeyFrameFeed>> LearningFeed::makeFeed(
+relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> LearningFeed::makeLearner(
     const NodeParams& params) {
-  auto feed = std::make_unique<relocalizer::KeyFrameFeed>(
-      params.learning, params.relocalizer, relocalizer::OnlineLearner::Mode::Background);
+  auto learner = std::make_unique<relocalizer::SubmapLearner>(
+      params.learning, params.submaps, params.relocalizer,
+      relocalizer::SubmapNames{placeName(params), params.map_frame},
+      relocalizer::OnlineLearner::Mode::Background);
   if (!params.model.empty()) {
-    relocalizer::Status resumed = relocalizer::makeError("not loaded");
+    relocalizer::Expected<std::vector<std::string>> resumed = relocalizer::makeError("not loaded");
     try {
-      resumed = feed->learner().resume(params.model);
+      resumed = learner->resume(params.model);
     } catch (const std::exception& e) {
       resumed = relocalizer::makeError(params.model + ": cannot be loaded: " + e.what());
     }
     if (!resumed) return relocalizer::makeError(resumed.error());
-    // A pair left by an interrupted save resumes from its key frames alone;
-    // the log says so as well as ~result's learning_error.
-    if (const std::string why = feed->learner().status().last_error; !why.empty())
-      ROS_WARN("relocalizer: %s", why.c_str());
+    // A submap that could not be loaded is skipped, and a pair left by an
+    // interrupted save resumes from its key frames alone: each is logged.
+    for (const std::string& warning : *resumed) ROS_WARN("relocalizer: %s", warning.c_str());
   }
-  return feed;
+  // Frozen submaps go to disk as they freeze, so memory stays bounded
+  // (submap_learner.h): into save_on_exit, which the exit writes anyway.
+  if (!params.save_on_exit.empty()) {
+    if (const relocalizer::Status working = learner->useFolder(params.save_on_exit); !working)
+      return relocalizer::makeError("save_on_exit: " + working.error());
+  }
+  return learner;
 }
 
 LearningFeed::LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-                           std::unique_ptr<relocalizer::KeyFrameFeed> feed, ServiceCallQueue& calls)
-    : params_(params), feed_(std::move(feed)) {
+                           std::unique_ptr<relocalizer::SubmapLearner> learner,
+                           ServiceCallQueue& calls)
+    : params_(params), learner_(std::move(learner)), selector_(params.learning.min_motion) {
   auto save_options = ros::AdvertiseServiceOptions::create<relocalizer::SaveModel>(
       "save_model",
       boost::bind(&LearningFeed::onSaveModel, this, boost::placeholders::_1,
@@ -51,33 +61,37 @@ LearningFeed::~LearningFeed() {
   close();
   if (worker_.joinable()) worker_.join();
   if (params_.save_on_exit.empty()) return;
-  // The current model, not a final retrain: shutdown must stay quick, and
-  // the key frames saved with it let the next run retrain on all of them.
-  const relocalizer::Status saved = feed_->learner().save(params_.save_on_exit);
+  // The active submap's current model, not a final retrain: shutdown must
+  // stay quick, and the key frames saved with it let the next run retrain on
+  // all of them.
+  const relocalizer::Status saved = saveLearned(params_.save_on_exit);
   if (saved)
-    ROS_INFO("relocalizer: saved the learned model to %s", params_.save_on_exit.c_str());
+    ROS_INFO("relocalizer: saved the learned submaps to %s", params_.save_on_exit.c_str());
   else
     ROS_ERROR("relocalizer: save_on_exit: %s", saved.error().c_str());
 }
 
 void LearningFeed::fill(relocalizer::RelocalizationResult& result) const {
-  const relocalizer::LearningStatus status = feed_->learner().status();
+  const relocalizer::SubmapStatus status = learner_->status();
   result.learning = true;
   result.keyframes_added = saturate(static_cast<uint64_t>(status.keyframes_added));
-  result.keyframes_stored = saturate(static_cast<uint64_t>(status.keyframes_stored));
-  result.keyframes_learned = saturate(static_cast<uint64_t>(status.keyframes_learned));
-  result.learning_backlog = saturate(static_cast<uint64_t>(status.backlog));
+  result.keyframes_stored = saturate(static_cast<uint64_t>(status.active.keyframes_stored));
+  result.keyframes_learned = saturate(static_cast<uint64_t>(status.active.keyframes_learned));
+  result.learning_backlog = saturate(static_cast<uint64_t>(status.active.backlog));
   result.model_bytes = status.model_bytes;
-  result.keyframe_bytes = status.store_bytes;
+  result.keyframe_bytes = status.active.store_bytes;
   result.frames_untracked = saturate(frames_untracked_);
+  result.learning_frames_skipped = saturate(frames_.dropped());
+  result.submaps = saturate(static_cast<uint64_t>(status.submaps));
+  result.keyframes_covered = saturate(static_cast<uint64_t>(status.keyframes_covered));
   result.learning_error = status.last_error;
 }
 
 std::string LearningFeed::noModelYet() const {
-  const relocalizer::LearningStatus status = feed_->learner().status();
-  return "no model yet: learning has " + std::to_string(status.keyframes_stored) +
+  const relocalizer::SubmapStatus status = learner_->status();
+  return "no model yet: learning has " + std::to_string(status.active.keyframes_stored) +
          " key frames, the first model needs " + std::to_string(params_.learning.first_retrain) +
-         (status.retraining ? " (being trained now)" : "") + "; is SLAM publishing " +
+         (status.active.retraining ? " (being trained now)" : "") + "; is SLAM publishing " +
          params_.map_frame + " -> camera on TF?";
 }
 
@@ -106,11 +120,22 @@ void LearningFeed::learnLoop() {
             stamp.toSec(), params_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(),
             messageExcerpt(e.what(), 256).c_str());
     }
-    const relocalizer::KeyFrameFeed::Result fed = feed_->offer(pose, [&] {
-      auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
-      if (frame) frame->id = static_cast<int>(entry->seq);
-      return frame;
-    });
+    const relocalizer::KeyFrameFeed::Result fed = relocalizer::KeyFrameFeed::offerTo(
+        selector_, pose,
+        [&] {
+          auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
+          if (frame) frame->id = static_cast<int>(entry->seq);
+          return frame;
+        },
+        [&](const relocalizer::RgbdFrame& frame,
+            const relocalizer::Pose& camera_to_world) -> relocalizer::Expected<bool> {
+          auto placed = learner_->addKeyFrame(frame, camera_to_world);
+          if (!placed) return relocalizer::makeError(placed.error());
+          if (placed->decision == relocalizer::SubmapDecision::NewFull ||
+              placed->decision == relocalizer::SubmapDecision::NewLeft)
+            keepFrozenOnDisk();
+          return placed->decision != relocalizer::SubmapDecision::Covered;
+        });
     if (fed.outcome == Outcome::Untracked) {
       ++frames_untracked_;  // no pose, or one SLAM got wrong (fed.why)
       if (!fed.why.empty() && log_.allow("learn: bad SLAM pose"))
@@ -122,11 +147,45 @@ void LearningFeed::learnLoop() {
   }
 }
 
+void LearningFeed::keepFrozenOnDisk() {
+  if (!learner_->workingFolder().empty()) return;
+  // Without a folder to write to, every frozen submap would keep its key
+  // frames in memory until the first save: a folder of this run's own.
+  const char* ros_home = std::getenv("ROS_HOME");
+  const char* home = std::getenv("HOME");
+  const std::filesystem::path base =
+      ros_home && *ros_home ? ros_home : std::filesystem::path(home ? home : "/tmp") / ".ros";
+  const std::string folder =
+      (base / ("relocalizer_learned_" + std::to_string(::getpid()) + "_" +
+               std::to_string(static_cast<long>(ros::WallTime::now().toSec()))))
+          .string();
+  if (const relocalizer::Status working = learner_->useFolder(folder); !working) {
+    if (log_.allow("learn: working folder"))
+      ROS_WARN("relocalizer: frozen submaps stay in memory until ~save_model: %s",
+               working.error().c_str());
+    return;
+  }
+  ROS_INFO(
+      "relocalizer: frozen submaps are written to %s (~save_model or save_on_exit copies them)",
+      folder.c_str());
+}
+
+relocalizer::Status LearningFeed::saveLearned(const std::string& path) const {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_directory(path, ec))
+    return relocalizer::makeError(
+        path +
+        ": is not a folder: the learned submaps are saved as one folder (manifest.json "
+        "and a model and key-frame file per submap); a model file saved before submaps "
+        "is still continued with model:=, and is not replaced");
+  return learner_->save(path);
+}
+
 bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
                                relocalizer::SaveModel::Response& response) {
   if (request.path.empty()) {
     response.success = false;
-    response.message = "path is empty: name the model file to write";
+    response.message = "path is empty: name the folder to write";
     return true;
   }
   // Relative to the node's working folder (ROS_HOME), which the caller does
@@ -135,13 +194,13 @@ bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
   const std::string path =
       std::filesystem::absolute(request.path, ignored).lexically_normal().string();
   std::lock_guard<std::mutex> lock(save_mutex_);
-  const relocalizer::Status saved = feed_->learner().save(path);
+  const relocalizer::Status saved = saveLearned(path);
   response.success = saved.ok();
-  const relocalizer::LearningStatus status = feed_->learner().status();
-  response.message = saved ? "wrote " + path + " (trained on " +
-                                 std::to_string(status.keyframes_learned) + " key frames) and " +
-                                 relocalizer::keyFramesPath(path) + " (" +
-                                 std::to_string(status.keyframes_stored) + " key frames)"
+  const relocalizer::SubmapStatus status = learner_->status();
+  int keyframes = 0;
+  for (int count : status.submap_keyframes) keyframes += count;
+  response.message = saved ? "wrote " + path + " (" + std::to_string(status.submaps) +
+                                 " submaps, " + std::to_string(keyframes) + " key frames)"
                            : saved.error();
   ROS_INFO("relocalizer: ~save_model: %s", response.message.c_str());
   return true;

@@ -2,11 +2,20 @@
 // Learn mode's feed from SLAM into the online learner: the newest synchronised
 // frame is posed by TF map_frame -> camera at its own stamp (never a later
 // one: a frame TF cannot cover was not tracked), checked, filtered by the
-// key-frame rule and handed to the learner, whose own low-priority worker
-// retrains (online_learner.h). Also ~save_model and save_on_exit.
+// key-frame rule and handed to the submap learner (submap_learner.h): the
+// active submap's own low-priority worker retrains, and a full submap is
+// frozen. Also ~save_model and save_on_exit.
 //
 // Threads: push() from the input callbacks (O(1)); one learning thread; the
 // save service on the node's service calls queue.
+//
+// A freeze (the full submap's last retrain, seconds) runs on the learner's
+// freeze thread (Background mode), neither on this thread nor on a
+// relocalization's: relocalizations go on with the frozen submap's last model
+// until its final one is put. This thread waits only when a second freeze
+// comes while the first still runs; frames that arrive while it waits (or
+// stores a key frame, or waits for TF) replace one another in the Latest
+// buffer and are counted in ~result's learning_frames_skipped.
 
 #include <relocalizer/RelocalizationResult.h>
 #include <relocalizer/SaveModel.h>
@@ -24,6 +33,7 @@
 #include "node_params.h"
 #include "relocalizer/core/expected.h"
 #include "relocalizer/online/key_frame_feed.h"
+#include "relocalizer/online/submap_learner.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
 
@@ -31,13 +41,13 @@ namespace relocalizer_ros {
 
 class LearningFeed {
  public:
-  // The feed (key-frame rule, store, learner) the parameters describe,
-  // resumed from `model` when set; the error names the file at fault.
-  static relocalizer::Expected<std::unique_ptr<relocalizer::KeyFrameFeed>> makeFeed(
+  // The learner the parameters describe, resumed from `model` when set; the
+  // error names the file at fault.
+  static relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> makeLearner(
       const NodeParams& params);
 
   LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-               std::unique_ptr<relocalizer::KeyFrameFeed> feed, ServiceCallQueue& calls);
+               std::unique_ptr<relocalizer::SubmapLearner> learner, ServiceCallQueue& calls);
   // Stops the learning thread, then writes save_on_exit if set.
   ~LearningFeed();
   LearningFeed(const LearningFeed&) = delete;
@@ -47,10 +57,7 @@ class LearningFeed {
   // Ends the learning thread's wait and the save service; the destructor does the rest.
   void close();
 
-  std::shared_ptr<const relocalizer::Relocalizer> current() const {
-    return feed_->learner().current();
-  }
-  relocalizer::LearningStatus status() const { return feed_->learner().status(); }
+  relocalizer::SubmapStatus status() const { return learner_->status(); }
   // Learn mode's fields of ~result.
   void fill(relocalizer::RelocalizationResult& result) const;
   // "no model yet" with what learning has so far, for frames that come too early.
@@ -58,11 +65,18 @@ class LearningFeed {
 
  private:
   void learnLoop();
+  // ~save_model and save_on_exit: the whole set as one folder
+  // (submap_folder.h); an existing file there is refused, not replaced.
+  relocalizer::Status saveLearned(const std::string& path) const;
+  // At the first new submap, when neither save_on_exit nor a continued
+  // folder gave one: a working folder under ROS_HOME for frozen submaps.
+  void keepFrozenOnDisk();
   bool onSaveModel(relocalizer::SaveModel::Request& request,
                    relocalizer::SaveModel::Response& response);
 
   const NodeParams& params_;
-  const std::unique_ptr<relocalizer::KeyFrameFeed> feed_;
+  const std::unique_ptr<relocalizer::SubmapLearner> learner_;
+  relocalizer::KeyFrameSelector selector_;  // the learning thread's
   // The newest frame only: key frames are chosen by motion, so a skipped
   // frame is covered by the next.
   FrameBuffer<FrameInputPtr> frames_{FrameBuffer<FrameInputPtr>::Policy::Latest};

@@ -52,6 +52,7 @@ std::string ageText(int64_t then_ns, int64_t now_ns) {
 }
 
 void addLearning(DiagnosticStatusWrapper& status, const NodeOutput::ResultMsg& counters) {
+  status.add("submaps", counters.submaps);
   status.add("key frames stored", counters.keyframes_stored);
   status.add("key frames learned", counters.keyframes_learned);
   status.add("learning backlog", counters.learning_backlog);

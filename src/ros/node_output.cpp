@@ -99,10 +99,14 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
 }
 
 void NodeOutput::logPlace(const ros::Time& stamp, const relocalizer::PlaceAnswer& found) {
+  // The learned submaps are one map: answers that move between them as the
+  // camera walks are not news.
+  const std::string place =
+      isLearnedPlaceName(params_, found.place) ? placeName(params_) : found.place;
   {
     std::lock_guard<std::mutex> lock(place_mutex_);
-    if (found.place == last_place_) return;
-    last_place_ = found.place;
+    if (place == last_place_) return;
+    last_place_ = place;
   }
   ROS_INFO("relocalizer: the frame at %.3f is in place '%s' (%s; %zu places screened)",
            stamp.toSec(), found.place.c_str(), found.map_frame.c_str(), found.attempts.size());

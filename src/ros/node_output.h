@@ -81,7 +81,7 @@ class NodeOutput {
   std::atomic<uint64_t> frames_failed_{0};
   ThrottledLog log_;
   std::mutex place_mutex_;
-  std::string last_place_;  // the place of the last answer, for the log
+  std::string last_place_;  // the place (or learned group) of the last answer, for the log
   std::vector<Listener> listeners_;
 };
 

@@ -228,9 +228,9 @@ std::string checkPlaces(const ros::NodeHandle& nh, const NodeParams& p) {
   const std::string own = placeName(p);
   for (size_t i = 0; i < p.places.size(); ++i) {
     const std::string entry = "'" + nh.resolveName("places") + "[" + std::to_string(i) + "]'";
-    if (model_place && p.places[i].name == own)
-      return entry + " is named '" + own + "' like the place of " +
-             (p.learn ? "learning" : "model " + p.model) +
+    if ((model_place && p.places[i].name == own) || isLearnedPlaceName(p, p.places[i].name))
+      return entry + " is named '" + p.places[i].name + "' like the place of " +
+             (p.learn ? "learning (or its submaps, " + own + "/i)" : "model " + p.model) +
              "; set place_name to another name, or rename the entry";
     if (!p.odom_frame.empty() && p.places[i].map_frame == p.odom_frame)
       return entry + "'s map_frame equals odom_frame";
@@ -244,6 +244,12 @@ std::string placeName(const NodeParams& params) {
   if (!params.place_name.empty()) return params.place_name;
   if (params.learn) return "learned";
   return std::filesystem::path(params.model).stem().string();
+}
+
+bool isLearnedPlaceName(const NodeParams& params, const std::string& name) {
+  if (!params.learn) return false;
+  const std::string own = placeName(params);
+  return name == own || name.rfind(own + "/", 0) == 0;
 }
 
 std::vector<PlaceSpec> startupPlaces(const NodeParams& params) {
@@ -287,6 +293,9 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   check(read(nh, "save_on_exit", p.save_on_exit));
   check(read(nh, "learn_min_motion", p.learn_min_motion));
   check(readInt(nh, "learn_max_keyframes", p.learn_max_keyframes, 2));
+  check(read(nh, "learn_submap_radius", p.learn_submap_radius));
+  check(readInt(nh, "learn_submap_overlap", p.learn_submap_overlap, 0));
+  check(read(nh, "learn_cover_steps", p.learn_cover_steps));
   check(readInt(nh, "learn_first_retrain", p.learn_first_retrain, 1));
   check(read(nh, "learn_retrain_growth", p.learn_retrain_growth));
   check(read(nh, "learn_surface_gate", p.learn_surface_gate));
@@ -326,12 +335,22 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
     learning.first_retrain = p.learn_first_retrain;
     learning.retrain_growth = p.learn_retrain_growth;
     learning.surface_gate = p.learn_surface_gate;
-    auto checked = relocalizer::readLearningParams(
-        learning, p.learn_min_motion, p.learn_config, [&](const std::string& field) {
-          return ns(field == "config" ? "learn_config" : "learn_" + field);
-        });
+    const relocalizer::SettingName name = [&](const std::string& field) {
+      if (field == "config") return ns("learn_config");
+      if (field == "area_radius") return ns("learn_submap_radius");
+      if (field == "overlap") return ns("learn_submap_overlap");
+      return ns("learn_" + field);
+    };
+    auto checked =
+        relocalizer::readLearningParams(learning, p.learn_min_motion, p.learn_config, name);
     if (!checked) return makeError(checked.error());
     p.learning = *checked;
+    p.submaps.area_radius = p.learn_submap_radius;
+    p.submaps.overlap = p.learn_submap_overlap;
+    p.submaps.cover_steps = p.learn_cover_steps;
+    if (std::string why = relocalizer::submapParamsError(p.submaps, p.learning.max_keyframes, name);
+        !why.empty())
+      return makeError(why);
   }
   if (p.map_frame.empty()) return makeError(ns("map_frame") + " is empty");
   if (p.odom_frame == p.map_frame) return makeError(ns("odom_frame") + " equals map_frame");
@@ -375,6 +394,9 @@ std::string nodeParamsToJson(const NodeParams& p) {
             {"save_on_exit", p.save_on_exit},
             {"learn_min_motion", p.learn_min_motion},
             {"learn_max_keyframes", p.learn_max_keyframes},
+            {"learn_submap_radius", p.learn_submap_radius},
+            {"learn_submap_overlap", p.learn_submap_overlap},
+            {"learn_cover_steps", p.learn_cover_steps},
             {"learn_first_retrain", p.learn_first_retrain},
             {"learn_retrain_growth", p.learn_retrain_growth},
             {"learn_surface_gate", p.learn_surface_gate},

@@ -10,6 +10,7 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/online/online_learner.h"
+#include "relocalizer/online/submap_rule.h"
 #include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer_ros {
@@ -64,18 +65,26 @@ struct NodeParams {
   bool learn = false;        // learn the place from frames posed by TF map_frame -> camera
   std::string save_on_exit;  // learn: write the model and its key frames here at shutdown
   std::string learn_min_motion = "0.05,5";  // key frames: metres,degrees since the last one
-  int learn_max_keyframes = 64;             // cap on stored key frames
+  int learn_max_keyframes = 64;             // cap on stored key frames, per submap
   int learn_first_retrain = 2;              // key frames before the first model
   double learn_retrain_growth = 0.25;       // retrain when the store grew by this share
   bool learn_surface_gate = false;          // learned models: refuse poses off the learned surface
   std::string
       learn_config;  // training YAML (as `train --config`); empty: config/forest.yaml defaults
+  // Submaps (online/submap_rule.h): metres from the active submap's key
+  // frames that count as its area, key frames a full submap hands to the next,
+  // key-frame steps within which a frozen submap's key frame covers a new one.
+  double learn_submap_radius = 1.5;
+  int learn_submap_overlap = 4;
+  double learn_cover_steps = 1.0;
   // /diagnostics (node_diagnostics.h); inputs count as stopped after input_timeout.
   double diagnostic_period = 1.0;     // seconds between statuses (diagnostic_updater's name)
   int diagnostics_max_failures = 10;  // relocalized frames in a row without a pose: WARN (0: never)
   // The learn_* settings as the learner takes them, read and checked by
   // readLearningParams (online_learner.h), the one check the tools share.
   relocalizer::LearningParams learning;
+  // The learn_submap_* and learn_cover_steps settings, checked by submapParamsError.
+  relocalizer::SubmapParams submaps;
   relocalizer::RelocalizerParams relocalizer;
 };
 
@@ -90,6 +99,9 @@ relocalizer::Expected<NodeParams> loadNodeParams(const ros::NodeHandle& private_
 std::vector<PlaceSpec> startupPlaces(const NodeParams& params);
 // The name of `model`'s place, or of the learned place in learn mode.
 std::string placeName(const NodeParams& params);
+// Learn mode: `name` is placeName() or one of its submaps' (placeName()/i),
+// names the learner owns.
+bool isLearnedPlaceName(const NodeParams& params, const std::string& name);
 
 // The parameters as JSON, keyed as in config/default.yaml, for the start-up
 // log and for the test that compares the compiled defaults with that file.

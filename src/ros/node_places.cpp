@@ -39,7 +39,7 @@ std::string placeText(const relocalizer::PlaceFigures& f) {
 }
 
 relocalizer::Expected<std::unique_ptr<NodePlaces>> NodePlaces::create(const NodeParams& params,
-                                                                      LearnedModel learned) {
+                                                                      LearnedModels learned) {
   std::unique_ptr<NodePlaces> places(new NodePlaces(params, std::move(learned)));
   std::vector<std::string> failures;
   for (const PlaceSpec& spec : startupPlaces(params)) {
@@ -62,7 +62,7 @@ relocalizer::Expected<std::unique_ptr<NodePlaces>> NodePlaces::create(const Node
   return places;
 }
 
-NodePlaces::NodePlaces(const NodeParams& params, LearnedModel learned)
+NodePlaces::NodePlaces(const NodeParams& params, LearnedModels learned)
     : params_(params), learned_(std::move(learned)), learned_name_(placeName(params)) {}
 
 void NodePlaces::advertise(ros::NodeHandle private_nh, ServiceCallQueue& calls) {
@@ -82,21 +82,33 @@ void NodePlaces::shutdown() {
   list_service_.shutdown();
 }
 
+bool NodePlaces::learnedName(const std::string& name) const {
+  return learning() && isLearnedPlaceName(params_, name);
+}
+
 void NodePlaces::followLearner() {
   if (!learned_) return;
-  std::shared_ptr<const relocalizer::Relocalizer> current = learned_();
+  const std::vector<relocalizer::SubmapModel> models = learned_();
+  std::vector<std::shared_ptr<const relocalizer::Relocalizer>> current;
+  for (const relocalizer::SubmapModel& m : models) current.push_back(m.relocalizer);
   {
     std::lock_guard<std::mutex> lock(learned_mutex_);
-    if (current == learned_model_) return;
-    learned_model_ = current;
-    if (!current) return;
-    relocalizer::Place place;
-    place.name = learned_name_;
-    place.map_frame = params_.map_frame;
-    place.relocalizer = std::move(current);
-    if (const relocalizer::Status put = places_.put(std::move(place)); !put) {
+    // Pointers, not contents: the learner swaps in a new model, never changes one.
+    if (current == learned_models_) return;
+    learned_models_ = current;
+    if (models.empty()) return;
+    const bool one = models.size() == 1 && models[0].index == 0;
+    std::vector<relocalizer::Place> group;
+    for (const relocalizer::SubmapModel& m : models) {
+      relocalizer::Place place;
+      place.name = one ? learned_name_ : learned_name_ + "/" + std::to_string(m.index);
+      place.map_frame = params_.map_frame;
+      place.relocalizer = m.relocalizer;
+      group.push_back(std::move(place));
+    }
+    if (const relocalizer::Status put = places_.putGroup(learned_name_, std::move(group)); !put) {
       if (log_.allow(put.error()))
-        ROS_WARN("relocalizer: the learned model: %s", put.error().c_str());
+        ROS_WARN("relocalizer: the learned submaps: %s", put.error().c_str());
       return;
     }
   }
@@ -135,8 +147,8 @@ bool NodePlaces::onLoad(relocalizer::LoadPlace::Request& request,
     response.message = "name is empty: name the place";
   } else if (spec.model.empty()) {
     response.message = "model is empty: name the model file of place '" + spec.name + "'";
-  } else if (learning() && spec.name == learned_name_) {
-    response.message = "'" + spec.name + "' is the learned place; choose another name";
+  } else if (learnedName(spec.name)) {
+    response.message = "'" + spec.name + "' is a name of the learned places; choose another name";
   } else if (!params_.odom_frame.empty() && spec.map_frame == params_.odom_frame) {
     response.message = "map_frame " + spec.map_frame + " is the odom_frame";
   } else {
@@ -164,9 +176,9 @@ bool NodePlaces::onLoad(relocalizer::LoadPlace::Request& request,
 
 bool NodePlaces::onUnload(relocalizer::UnloadPlace::Request& request,
                           relocalizer::UnloadPlace::Response& response) {
-  if (learning() && request.name == learned_name_) {
+  if (learnedName(request.name)) {
     response.success = false;
-    response.message = "'" + request.name + "' is the learned place; it follows the learner";
+    response.message = "'" + request.name + "' is a learned place; it follows the learner";
   } else {
     response.success = places_.remove(request.name);
     if (response.success && changed_) changed_();
@@ -184,6 +196,7 @@ bool NodePlaces::onList(relocalizer::ListPlaces::Request&,
     info.name = f.name;
     info.map_frame = f.map_frame;
     info.model = f.source;
+    info.group = f.group;
     info.point_trees = static_cast<uint32_t>(f.point_trees);
     info.line_trees = static_cast<uint32_t>(f.line_trees);
     info.modes = static_cast<uint64_t>(f.modes);

@@ -5,8 +5,12 @@
 // per call, so a model that takes seconds to load never holds up a
 // relocalization: those work on the places as they were when they started.
 //
-// In learn mode the learner's current model is one more place (placeName(),
-// in map_frame), put again whenever the learner swaps in a new model.
+// In learn mode the learner's submaps are places of one group, placeName(),
+// in map_frame (place_set.h: their answers that agree are one answer), put
+// again all at once whenever the learner swaps in a new model or starts a
+// submap. While only the first submap has a model it is the place
+// placeName() itself, as before submaps (and saved as one model file); from
+// the second on they are placeName()/0, placeName()/1, ...
 
 #include <relocalizer/ListPlaces.h>
 #include <relocalizer/LoadPlace.h>
@@ -20,6 +24,7 @@
 
 #include "node_params.h"
 #include "relocalizer/core/expected.h"
+#include "relocalizer/online/submap_learner.h"
 #include "relocalizer/relocalize/place_set.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
@@ -28,14 +33,15 @@ namespace relocalizer_ros {
 
 class NodePlaces {
  public:
-  using LearnedModel = std::function<std::shared_ptr<const relocalizer::Relocalizer>()>;
+  // The learner's submap models now (SubmapLearner::models()).
+  using LearnedModels = std::function<std::vector<relocalizer::SubmapModel>()>;
 
   // Loads the start-up places (startupPlaces()). One that does not load is
   // logged as an error naming the place, the file and why, and the others
   // keep working; when none loads and `learned` is empty (not learn mode),
   // the error says why each failed.
   static relocalizer::Expected<std::unique_ptr<NodePlaces>> create(const NodeParams& params,
-                                                                   LearnedModel learned);
+                                                                   LearnedModels learned);
 
   // Advertises the three services on `calls`.
   void advertise(ros::NodeHandle private_nh, ServiceCallQueue& calls);
@@ -55,21 +61,23 @@ class NodePlaces {
   void onChange(std::function<void()> changed) { changed_ = std::move(changed); }
 
  private:
-  NodePlaces(const NodeParams& params, LearnedModel learned);
-  // Puts the learner's model into the set when it changed since the last look.
+  NodePlaces(const NodeParams& params, LearnedModels learned);
+  // Puts the learner's models into the set when they changed since the last look.
   void followLearner();
+  // A name of the learned group's (placeName(), or placeName()/i).
+  bool learnedName(const std::string& name) const;
   bool onLoad(relocalizer::LoadPlace::Request& request, relocalizer::LoadPlace::Response& response);
   bool onUnload(relocalizer::UnloadPlace::Request& request,
                 relocalizer::UnloadPlace::Response& response);
   bool onList(relocalizer::ListPlaces::Request& request,
               relocalizer::ListPlaces::Response& response);
 
-  const NodeParams params_;     // a copy: the node's own is moved in after create()
-  const LearnedModel learned_;  // empty unless learn mode
+  const NodeParams params_;      // a copy: the node's own is moved in after create()
+  const LearnedModels learned_;  // empty unless learn mode
   const std::string learned_name_;
   relocalizer::PlaceSet places_;
   std::mutex learned_mutex_;
-  std::shared_ptr<const relocalizer::Relocalizer> learned_model_;  // the one last put
+  std::vector<std::shared_ptr<const relocalizer::Relocalizer>> learned_models_;  // as last put
   ThrottledLog log_;
   ros::ServiceServer load_service_, unload_service_, list_service_;
   std::function<void()> changed_;

@@ -23,25 +23,25 @@ relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
     ros::NodeHandle nh, ros::NodeHandle private_nh) {
   auto params = loadNodeParams(private_nh);
   if (!params) return relocalizer::makeError(params.error());
-  std::unique_ptr<relocalizer::KeyFrameFeed> feed;
-  NodePlaces::LearnedModel learned;
+  std::unique_ptr<relocalizer::SubmapLearner> learner;
+  NodePlaces::LearnedModels learned;
   if (params->learn) {
-    auto made = LearningFeed::makeFeed(*params);
+    auto made = LearningFeed::makeLearner(*params);
     if (!made) return relocalizer::makeError(made.error());
-    feed = std::move(*made);
-    // The feed lives as long as the node, and the places only ask while it runs.
-    learned = [learner = &feed->learner()] { return learner->current(); };
+    learner = std::move(*made);
+    // The learner lives as long as the node, and the places only ask while it runs.
+    learned = [submaps = learner.get()] { return submaps->models(); };
   }
   auto places = NodePlaces::create(*params, std::move(learned));
   if (!places) return relocalizer::makeError(places.error());
-  return std::unique_ptr<RelocalizerNode>(new RelocalizerNode(std::move(nh), std::move(private_nh),
-                                                              std::move(*params),
-                                                              std::move(*places), std::move(feed)));
+  return std::unique_ptr<RelocalizerNode>(
+      new RelocalizerNode(std::move(nh), std::move(private_nh), std::move(*params),
+                          std::move(*places), std::move(learner)));
 }
 
 RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
                                  std::unique_ptr<NodePlaces> places,
-                                 std::unique_ptr<relocalizer::KeyFrameFeed> feed)
+                                 std::unique_ptr<relocalizer::SubmapLearner> learner)
     : nh_(std::move(nh)),
       private_nh_(std::move(private_nh)),
       params_(std::move(params)),
@@ -92,9 +92,9 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   sources.output = &output_;
   service_ =
       std::make_unique<RelocalizeService>(private_nh_, params_, std::move(sources), service_calls_);
-  if (feed)
-    learning_ =
-        std::make_unique<LearningFeed>(nh_, private_nh_, params_, std::move(feed), service_calls_);
+  if (learner)
+    learning_ = std::make_unique<LearningFeed>(nh_, private_nh_, params_, std::move(learner),
+                                               service_calls_);
   places_->advertise(private_nh_, service_calls_);
   if (params_.mode == Mode::Continuous) worker_ = std::thread(&RelocalizerNode::workerLoop, this);
 
@@ -119,10 +119,10 @@ void RelocalizerNode::logStartup() const {
     model_text += (model_text.empty() ? "" : ", ") + placeText(place);
   model_text = model_text.empty() ? "no place yet" : "places " + model_text;
   if (learning_) {
-    const relocalizer::LearningStatus status = learning_->status();
+    const relocalizer::SubmapStatus status = learning_->status();
     model_text +=
         std::string(", learning place '") + placeName(params_) + "' from TF " + params_.map_frame +
-        " -> camera (" + std::to_string(status.keyframes_stored) +
+        " -> camera (" + std::to_string(status.keyframes_added) +
         " key frames so far, key frames at " +
         relocalizer::formatMinMotion(params_.learning.min_motion) + " m,deg" +
         (params_.save_on_exit.empty() ? "" : ", saved to " + params_.save_on_exit + " on exit") +

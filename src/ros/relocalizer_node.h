@@ -10,8 +10,8 @@
 //  - RelocalizeService (relocalize_service.h): calls wait for a frame on
 //    their own threads (ServiceCallQueue) and share relocalizations;
 //  - LearningFeed (learning_feed.h, learn mode): SLAM-posed key frames into
-//    the online learner, ~save_model; relocalizations use whichever model is
-//    current;
+//    the submap learner, ~save_model; relocalizations use the submaps' models
+//    as they are now;
 //  - NodePlaces (node_places.h): the places relocalized against, and the
 //    services that load, unload and list them;
 //  - NodeOutput (node_output.h): ~result, and a whole answer (pose, TF) or none.
@@ -62,7 +62,7 @@ class RelocalizerNode {
 
   RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh, NodeParams params,
                   std::unique_ptr<NodePlaces> places,
-                  std::unique_ptr<relocalizer::KeyFrameFeed> feed);
+                  std::unique_ptr<relocalizer::SubmapLearner> learner);
 
   void onFrame(FrameInputPtr input);
   void workerLoop();

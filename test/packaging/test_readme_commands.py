@@ -34,7 +34,7 @@ fixture's model, lab.model the model of its second room; test.bag is written by
   rostest fixture's learn.bag), then the test frames play without TF and the README's
   `rosservice call /relocalizer/relocalize` line must place them (retried while the
   model is too young to answer; its first answer must be right), and its `rosservice call /relocalizer/save_model` line must write
-  the model and its key frames;
+  the learned folder (manifest.json and each submap's key frames);
 - the README's `rostopic echo -n 1 /diagnostics` line, run after its on-demand launch
   line and `rosservice call /relocalizer/relocalize` line answered, must show the node's
   status OK with the pose's age and the fixture model's place;
@@ -404,8 +404,10 @@ class ReadmeCommandsTest(unittest.TestCase):
                     self.assertEqual(result.returncode, 0, result.stdout + result.stderr)
                     self.assertTrue(yaml.safe_load(result.stdout)["success"], result.stdout)
                     path = re.search(r"path: \$PWD/(\S+?)[}\"]", save).group(1)
-                    self.assertTrue((self.shell.work / path).is_file(), save)
-                    self.assertTrue((self.shell.work / (path + ".keyframes")).is_file(), save)
+                    manifest = json.loads((self.shell.work / path / "manifest.json").read_text())
+                    self.assertGreaterEqual(len(manifest["submaps"]), 1, save)
+                    for submap in manifest["submaps"]:
+                        self.assertTrue((self.shell.work / path / submap["keyframes"]).is_file(), save)
                 self.shell.stop_all()
 
     def test_diagnostics_line_shows_the_node_ok_after_an_answer(self):

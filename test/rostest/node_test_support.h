@@ -46,13 +46,14 @@ inline sensor_msgs::Image imageMessage(const cv::Mat& mat, const std::string& en
   return *cv_bridge::CvImage(std_msgs::Header(), encoding, mat).toImageMsg();
 }
 
-// The test frames of a fixture room (make_fixture.sh: `scene`, and `scene2`
-// for the second place), as a camera driver would send them: bgr8 colour,
-// 16UC1 millimetre depth, camera_info.
-inline std::vector<FrameMessages> loadFixtureFrames(const std::string& scene = "scene") {
+// The test frames (or `split` train) of a fixture room (make_fixture.sh:
+// `scene`, and `scene2` for the second place), as a camera driver would send
+// them: bgr8 colour, 16UC1 millimetre depth, camera_info.
+inline std::vector<FrameMessages> loadFixtureFrames(const std::string& scene = "scene",
+                                                    const std::string& split = "test") {
   std::string fixture;
   ros::NodeHandle("~").getParam("fixture", fixture);
-  auto dataset = relocalizer::openDataset(fixture + "/" + scene + "/test");
+  auto dataset = relocalizer::openDataset(fixture + "/" + scene + "/" + split);
   if (!dataset) throw std::runtime_error(dataset.error());
   std::vector<FrameMessages> frames;
   for (size_t i = 0; i < (*dataset)->size(); ++i) {

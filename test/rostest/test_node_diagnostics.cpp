@@ -233,6 +233,7 @@ TEST(Diagnostics, LearningWithoutAModelIsAnError) {
   const DiagnosticStatus& status = *find(*array, "learner: relocalization");
   EXPECT_EQ(status.level, DiagnosticStatus::ERROR);
   EXPECT_TRUE(contains(status.message, "no usable place: no model yet")) << status.message;
+  EXPECT_EQ(value(status, "submaps"), "0");
   EXPECT_EQ(value(status, "key frames stored"), "0");
   EXPECT_EQ(value(status, "learning backlog"), "0");
   EXPECT_EQ(value(status, "places"), "none");

@@ -6,66 +6,19 @@
 #include <relocalizer/ListPlaces.h>
 #include <relocalizer/SaveModel.h>
 #include <relocalizer/UnloadPlace.h>
-#include <rosbag/bag.h>
-#include <rosbag/view.h>
-#include <tf2_msgs/TFMessage.h>
 
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <filesystem>
 
+#include "learn_bag.h"
 #include "node_test_support.h"
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/keyframe_store.h"
+#include "relocalizer/online/submap_folder.h"
 
 using namespace relocalizer_test;
-
-namespace {
-
-std::string fixtureDir() {
-  std::string fixture;
-  ros::NodeHandle("~").getParam("fixture", fixture);
-  return fixture;
-}
-
-// Plays the bag as `rosbag play` would (same topics, same pacing), once the
-// node listens, so no frame is lost to connection set-up. Returns the number
-// of frames played.
-int playLearnBag(CameraPublisher& camera) {
-  ros::NodeHandle nh;
-  ros::Publisher tf = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
-  ros::Publisher colour = nh.advertise<sensor_msgs::Image>("/camera/rgb/image_raw", 100);
-  ros::Publisher depth = nh.advertise<sensor_msgs::Image>("/camera/depth/image_raw", 100);
-  ros::Publisher info = nh.advertise<sensor_msgs::CameraInfo>("/camera/rgb/camera_info", 100);
-  EXPECT_TRUE(camera.waitForNode());
-  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(10.0);
-  while (tf.getNumSubscribers() == 0 && ros::WallTime::now() < give_up)
-    ros::WallDuration(0.05).sleep();
-  ros::WallDuration(0.5).sleep();
-  rosbag::Bag bag(fixtureDir() + "/learn.bag");
-  rosbag::View view(bag);
-  int frames = 0;
-  ros::Time previous;
-  for (const rosbag::MessageInstance& m : view) {
-    if (!previous.isZero() && m.getTime() > previous) (m.getTime() - previous).sleep();
-    previous = m.getTime();
-    if (auto msg = m.instantiate<tf2_msgs::TFMessage>()) tf.publish(*msg);
-    if (m.getTopic() == "/camera/rgb/image_raw") {
-      colour.publish(*m.instantiate<sensor_msgs::Image>());
-      ++frames;
-    }
-    if (m.getTopic() == "/camera/depth/image_raw")
-      depth.publish(*m.instantiate<sensor_msgs::Image>());
-    if (m.getTopic() == "/camera/rgb/camera_info")
-      info.publish(*m.instantiate<sensor_msgs::CameraInfo>());
-  }
-  // The publishers go with this scope; let the last frame's messages leave first.
-  ros::WallDuration(0.5).sleep();
-  return frames;
-}
-
-}  // namespace
 
 TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
   Listener<ResultMsg> results("/relocalizer/result", 1000);
@@ -79,18 +32,11 @@ TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
   int answered = 0;
   const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(90.0);
   for (size_t i = 0; i < frames.size() && answered < 3 && ros::WallTime::now() < give_up; i += 5) {
-    FrameMessages frame = frames[i];
-    relocalizer::Relocalize::Response response;
-    do {
-      response = callWhilePublishing(
-          [&] {
-            frame.stamp(ros::Time::now());
-            camera.publish(frame);
-          },
-          5.0);
-      // A young model may lack the evidence for these views ("no model yet",
-      // "weak evidence"); whatever it answers must be right.
-    } while (!response.success && ros::WallTime::now() < give_up);
+    const FrameMessages& frame = frames[i];
+    // A young model may lack the evidence for these views ("no model yet",
+    // "weak evidence"); whatever it answers must be right.
+    const relocalizer::Relocalize::Response response =
+        relocalizeUntilAnswered(camera, frame, give_up);
     ASSERT_TRUE(response.success) << "frame " << i << ": " << response.message;
     EXPECT_LT(translationError(response.pose.pose.pose, frame.truth), 0.05) << "frame " << i;
     EXPECT_LT(rotationError(response.pose.pose.pose, frame.truth), 5.0) << "frame " << i;
@@ -129,15 +75,7 @@ TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
   // The learning thread gives up on a frame's TF after tf_timeout; one more
   // call after that, and its ~result counts the held-out frames as untracked.
   ros::WallDuration(1.0).sleep();
-  results.clear();
-  FrameMessages frame = frames[0];
-  callWhilePublishing(
-      [&] {
-        frame.stamp(ros::Time::now());
-        camera.publish(frame);
-      },
-      5.0);
-  const auto last = results.waitFor([](const ResultMsg&) { return true; }, 5.0);
+  const auto last = resultOfOneCall(camera, results, frames[0]);
   ASSERT_TRUE(last.has_value());
   EXPECT_TRUE(last->learning);
   EXPECT_GE(last->keyframes_added, 10u);  // the room's training loop moves more than 5 cm a frame
@@ -149,32 +87,31 @@ TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
   EXPECT_GE(last->frames_untracked, 1u);
   EXPECT_EQ(last->learning_error, "");
 
-  // ~save_model writes the model and its key frames, and both load.
-  const std::string path = "/tmp/relocalizer_learn_test_" + std::to_string(::getpid()) + ".model";
-  relocalizer::SaveModel save;
-  save.request.path = path;
-  ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
-  EXPECT_TRUE(save.response.success) << save.response.message;
-  auto model = relocalizer::loadModel(path);
-  EXPECT_TRUE(model.ok()) << (model.ok() ? "" : model.error());
-  auto key_frames = relocalizer::loadKeyFrames(relocalizer::keyFramesPath(path));
+  // ~save_model writes the set as one folder (one submap here): the manifest,
+  // the model and its key frames, and both load.
+  const std::string path = "/tmp/relocalizer_learn_test_" + std::to_string(::getpid());
+  const auto manifest = saveAndReadFolder(path);
+  ASSERT_TRUE(manifest.has_value());
+  ASSERT_EQ(manifest->submaps.size(), 1u);
+  const relocalizer::SubmapEntry& saved = manifest->submaps[0];
+  EXPECT_FALSE(saved.model.empty());
+  auto key_frames = relocalizer::loadKeyFrames(path + "/" + saved.keyframes);
   ASSERT_TRUE(key_frames.ok()) << key_frames.error();
   EXPECT_GE(key_frames->key_frames.size(), 10u);
-  std::filesystem::remove(path);
-  std::filesystem::remove(relocalizer::keyFramesPath(path));
+  std::filesystem::remove_all(path);
 
   // A relative path is the node's working folder's, which the caller cannot
   // know: the answer names the absolute path it wrote.
-  const std::string name = "relocalizer_learn_test_" + std::to_string(::getpid()) + ".model";
+  const std::string name = "relocalizer_learn_test_" + std::to_string(::getpid());
+  relocalizer::SaveModel save;
   save.request.path = name;
   ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
   EXPECT_TRUE(save.response.success) << save.response.message;
   ASSERT_TRUE(contains(save.response.message, "wrote /")) << save.response.message;
   const std::string written = save.response.message.substr(6, save.response.message.find(" (") - 6);
   EXPECT_EQ(std::filesystem::path(written).filename().string(), name);
-  EXPECT_TRUE(std::filesystem::is_regular_file(written)) << written;
-  std::filesystem::remove(written);
-  std::filesystem::remove(relocalizer::keyFramesPath(written));
+  EXPECT_TRUE(std::filesystem::is_regular_file(written + "/manifest.json")) << written;
+  std::filesystem::remove_all(written);
 
   // Any peer may call ~save_model: it must not replace what is not the
   // node's own file (here a FIFO; as root, /dev/null would do the same).
@@ -183,8 +120,7 @@ TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
   save.request.path = fifo;
   ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
   EXPECT_FALSE(save.response.success);
-  EXPECT_TRUE(contains(save.response.message, fifo + ": is not a regular file"))
-      << save.response.message;
+  EXPECT_TRUE(contains(save.response.message, fifo + ": is not a folder")) << save.response.message;
   EXPECT_EQ(std::filesystem::status(fifo).type(), std::filesystem::file_type::fifo);
   std::filesystem::remove(fifo);
   std::filesystem::remove(relocalizer::keyFramesPath(fifo));

@@ -235,6 +235,51 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
          nh.setParam("learn_max_keyframes", 1);
        },
        "learn_max_keyframes' is 1; it must be an integer from 2 to 2147483647"},
+      // Submaps: each bad value named, with the setting it depends on.
+      {"/radius",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("learn_submap_radius", 0.0);
+       },
+       "'/radius/learn_submap_radius' must be a finite distance > 0 metres (got 0.000000)"},
+      {"/overlap",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("learn_max_keyframes", 4);
+       },
+       "'/overlap/learn_submap_overlap' must be between 0 and '/overlap/learn_max_keyframes' - 1 "
+       "(got 4)"},
+      {"/negative_overlap",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("learn_submap_overlap", -1);
+       },
+       "learn_submap_overlap' is -1; it must be an integer from 0 to 2147483647"},
+      {"/cover",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("learn_cover_steps", std::nan(""));
+       },
+       "'/cover/learn_cover_steps' must be finite and >= 0 (got nan)"},
+      {"/cover_type",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("learn_cover_steps", "one");
+       },
+       "learn_cover_steps' has the wrong type"},
+      {"/submap_name",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("places",
+                     placeList({placeEntry({{"name", "learned/2"}, {"model", "a.model"}})}));
+       },
+       "is named 'learned/2' like the place of learning (or its submaps, learned/i)"},
   };
   for (const Case& c : cases) {
     ros::NodeHandle nh(c.ns);

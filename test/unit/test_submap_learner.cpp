@@ -6,10 +6,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <thread>
 
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/submap_learner.h"
@@ -129,6 +132,122 @@ TEST_F(SubmapRoom, UnusablePosesAndFramesAreRefusedAndPlacedNowhere) {
   EXPECT_EQ(submaps.active(), nullptr);
   EXPECT_TRUE(submaps.addKeyFrame(learn_[0], *learn_[0].ground_truth).ok());
   EXPECT_EQ(submaps.index().submapCount(), 1);
+}
+
+// The node's mode: each submap retrains on its worker, a freeze runs on the
+// freeze thread (one at a time), and the places read the models and figures
+// from another thread all along.
+TEST_F(SubmapRoom, BackgroundSubmapsCutAsInlineOnesWhileAnotherThreadReads) {
+  const int cap = 6;
+  SubmapParams rule;
+  rule.overlap = 2;
+  SubmapLearner submaps(smallLearning(cap), rule, fastRelocalizer(), SubmapNames{},
+                        OnlineLearner::Mode::Background);
+  std::atomic<bool> done{false};
+  int reads = 0;
+  size_t most_models = 0;
+  std::thread reader([&] {
+    while (!done) {
+      const std::vector<SubmapModel> models = submaps.models();
+      const SubmapStatus status = submaps.status();
+      // Every model read is trained; the figures, read after, know every submap read.
+      for (const SubmapModel& m : models) EXPECT_GE(m.relocalizer->model().summary.images, 2);
+      EXPECT_LE(models.size(), static_cast<size_t>(status.submaps));
+      most_models = std::max(most_models, models.size());
+      ++reads;
+      // As often as relocalizations ask; a spinning reader would starve the nice workers.
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  });
+  for (const RgbdFrame& frame : learn_) {
+    auto placed = submaps.addKeyFrame(frame, *frame.ground_truth);
+    ASSERT_TRUE(placed.ok()) << placed.error();
+  }
+  // drain() waits for the last freeze too.
+  ASSERT_TRUE(submaps.drain());
+  done = true;
+  reader.join();
+  EXPECT_GT(reads, 0);
+  EXPECT_FALSE(submaps.status().freezing);
+
+  // The cut of CappedSubmapsKeepWhatOneCappedStoreThinsOut: the rule sees poses only.
+  const SubmapStatus status = submaps.status();
+  EXPECT_EQ(status.submaps, 5);
+  EXPECT_EQ(status.submap_keyframes, (std::vector<int>{6, 6, 6, 6, 4}));
+  EXPECT_EQ(status.keyframes_added, static_cast<int>(learn_.size()));
+  EXPECT_EQ(status.keyframes_covered, 0);
+  EXPECT_EQ(status.last_error, "");
+  EXPECT_EQ(status.active.keyframes_stored, 4);
+  const std::vector<SubmapModel> models = submaps.models();
+  ASSERT_EQ(models.size(), 5u);
+  size_t bytes = 0;
+  for (const SubmapModel& m : models) {
+    // Frozen ones by their last retrain, on all their key frames.
+    EXPECT_EQ(m.relocalizer->model().summary.images, m.keyframes) << "submap " << m.index;
+    bytes += modelBytes(m.relocalizer->model());
+  }
+  EXPECT_EQ(status.model_bytes, bytes);
+  EXPECT_GE(most_models, 2u);
+
+  // Walked again, the frozen submaps' key frames are covered: not stored.
+  for (size_t i = 0; i < 6; ++i) {
+    auto placed = submaps.addKeyFrame(learn_[i], *learn_[i].ground_truth);
+    ASSERT_TRUE(placed.ok()) << placed.error();
+    EXPECT_EQ(placed->decision, SubmapDecision::Covered) << i;
+  }
+  EXPECT_EQ(submaps.status().keyframes_covered, 6);
+  EXPECT_EQ(submaps.status().keyframes_added, static_cast<int>(learn_.size()));
+}
+
+// A place saved as one model file (the node's save while it has one submap)
+// continues as submap 0, and the next submap starts from its key frames.
+TEST_F(SubmapRoom, AOneFilePlaceResumesAsTheActiveSubmap) {
+  const relocalizer::testing::TempDir dir;
+  const std::string path = dir.str() + "/one.model";
+  OnlineLearner one(smallLearning(6), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  for (size_t i = 0; i < 6; ++i) ASSERT_TRUE(one.addKeyFrame(learn_[i], *learn_[i].ground_truth));
+  ASSERT_TRUE(one.drain());
+  ASSERT_TRUE(one.save(path));
+
+  SubmapParams rule;
+  rule.overlap = 2;
+  SubmapLearner submaps(smallLearning(6), rule, fastRelocalizer());
+  ASSERT_TRUE(submaps.resume(path));
+  std::vector<SubmapModel> models = submaps.models();
+  ASSERT_EQ(models.size(), 1u);
+  EXPECT_FALSE(models[0].frozen);
+  EXPECT_EQ(models[0].keyframes, 6);
+  EXPECT_EQ(serializeModel(models[0].relocalizer->model()), serializeModel(one.current()->model()));
+  EXPECT_EQ(submaps.status().keyframes_added, 6);
+  int count = 0;
+  EXPECT_NE(submaps.activeLearner(&count), nullptr);
+  EXPECT_EQ(count, 1);
+  // Resuming twice, or after a key frame, is refused.
+  EXPECT_FALSE(submaps.resume(path));
+
+  // Full: the next key frame starts submap 1 with the 2 resumed key frames nearest to it.
+  auto placed = submaps.addKeyFrame(learn_[6], *learn_[6].ground_truth);
+  ASSERT_TRUE(placed.ok()) << placed.error();
+  EXPECT_EQ(placed->decision, SubmapDecision::NewFull);
+  EXPECT_EQ(placed->submap, 1);
+  ASSERT_EQ(placed->seeds.size(), 2u);
+  ASSERT_TRUE(submaps.drain());
+  models = submaps.models();
+  ASSERT_EQ(models.size(), 2u);
+  EXPECT_TRUE(models[0].frozen);
+  EXPECT_EQ(models[1].relocalizer->model().summary.images, 3);
+  const std::vector<KeyFrameStore::Entry> held = submaps.active()->keyFrames();
+  ASSERT_EQ(held.size(), 3u);
+  EXPECT_TRUE(held[2]->pose.isApprox(*learn_[6].ground_truth));
+  submaps.activeLearner(&count);
+  EXPECT_EQ(count, 2);
+
+  // A missing file is refused, naming it.
+  SubmapLearner fresh(smallLearning(6), rule, fastRelocalizer());
+  const auto missing = fresh.resume(dir.str() + "/none.model");
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().find("none.model"), std::string::npos) << missing.error();
+  EXPECT_EQ(fresh.status().submaps, 0);
 }
 
 TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {

@@ -6,17 +6,23 @@
 // stays, its learner (store, compressed images) goes. Memory then holds one
 // store, however far the camera walks. Every submap answers in the same map
 // frame, so a frame is searched across them as across places (place_set.h).
-//
 // The set is saved as one folder (submap_folder.h) and continued from it.
 //
-// This step freezes on the caller's thread (what evaluate and the tests need:
-// deterministic); the node's background freeze and bounding the resident
-// frozen models follow (docs/proposals/issue-26-submaps.md).
+// Two modes, as OnlineLearner's. Inline (evaluate, the tests: deterministic):
+// a freeze retrains on the caller's thread. Background (the node): each
+// submap retrains on its own worker, and a freeze is handed to a freeze
+// thread, so addKeyFrame never waits for it unless a second freeze comes
+// while the first still runs (one at most: memory holds the freezing store
+// and the active's, never more). Until its freeze ends, the frozen submap
+// answers with the model it had. Bounding the resident frozen models follows
+// (docs/proposals/issue-26-submaps.md).
 
+#include <condition_variable>
 #include <cstdint>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "relocalizer/core/expected.h"
@@ -43,18 +49,35 @@ struct SubmapModel {
   std::shared_ptr<const Relocalizer> relocalizer;
 };
 
-// Thread safety: every call but index() and active() takes one lock inside,
-// so the node may save() or read models() on another thread than the one that
-// feeds key frames. A call waits for the one in progress: a save for a freeze
-// (a retrain, seconds) or for drain(), a key frame for a save (the active
-// submap's files and the manifest). index() and active() are for the feeding
-// thread, between its own calls.
+// What a run of submaps holds now.
+struct SubmapStatus {
+  int submaps = 0;  // started (frozen ones and the active)
+  // Key frames of each submap (seeds included), by index.
+  std::vector<int> submap_keyframes;
+  int keyframes_added = 0;    // stored in some submap since start (resumed ones too, seeds once)
+  int keyframes_covered = 0;  // key frames a frozen submap already held one as good as: not stored
+  size_t model_bytes = 0;     // every submap's model
+  std::string last_error;     // the active's (online_learner.h), else of the last failed freeze
+  bool freezing = false;      // Background: a full submap's last retrain is running
+  LearningStatus active;      // the active submap's learner (zeros before the first key frame)
+};
+
+// Thread safety: addKeyFrame, resume and drain from one thread (the learning
+// loop), index() and active() from that thread only; models(), status(),
+// activeLearner(), save() and the rest from any thread at any time. A save
+// waits for a freeze in progress (a retrain, seconds); a key frame waits for
+// a save (the active submap's files and the manifest).
 class SubmapLearner {
  public:
-  // `learning.max_keyframes` caps each submap. Throws std::invalid_argument
-  // when learningParamsError or submapParamsError says why.
+  // `learning.max_keyframes` caps each submap; `mode` is each submap
+  // learner's (online_learner.h). Throws std::invalid_argument when
+  // learningParamsError or submapParamsError says why.
   SubmapLearner(LearningParams learning, SubmapParams submaps, RelocalizerParams relocalizer_params,
-                SubmapNames names = {});
+                SubmapNames names = {}, OnlineLearner::Mode mode = OnlineLearner::Mode::Inline);
+  // Background: waits for a freeze that is running (its retrain is not aborted).
+  ~SubmapLearner();
+  SubmapLearner(const SubmapLearner&) = delete;
+  SubmapLearner& operator=(const SubmapLearner&) = delete;
 
   // Continues the set saved in `folder` (call before the first key frame):
   // frozen submaps answer again and cover their areas, the active one goes on
@@ -64,7 +87,9 @@ class SubmapLearner {
   // would overwrite the set at the next save. A submap whose model is missing
   // or damaged is skipped (its area is learned again when the camera comes
   // back): the returned warnings, also kept in warnings(), name each such file
-  // and why.
+  // and why. `folder` may also be one model file and its key frames
+  // (OnlineLearner::save, a place learned before submaps): it becomes the
+  // active submap 0, holding those key frames as they are.
   Expected<std::vector<std::string>> resume(const std::string& folder);
 
   // From now on a frozen submap is written into `folder` (created if need be)
@@ -94,17 +119,23 @@ class SubmapLearner {
   // A key frame (already chosen by the key-frame rule) with SLAM's
   // camera-to-world pose. Refused when slamPoseError says why; a covered key
   // frame is placed nowhere (placement.submap -1). A new submap freezes the
-  // active first, which retrains it (seconds).
+  // active, which retrains it (seconds: Inline here, Background on the freeze
+  // thread); a failed freeze is returned (Inline) or in status().last_error.
   Expected<SubmapPlacement> addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world);
 
-  // The active submap's model trained on all its key frames (a retrain now).
+  // Every submap's model trained on all its key frames: waits for a running
+  // freeze, then for the active's retrain (Inline: retrains now).
   Status drain();
 
   // Every submap with a model, frozen ones first in order, then the active.
   std::vector<SubmapModel> models() const;
+  SubmapStatus status() const;
   const SubmapIndex& index() const { return index_; }
   // The active submap's learner, or null before the first key frame.
   const OnlineLearner* active() const { return active_.get(); }
+  // The same, shared (a freeze meanwhile does not destroy it under the
+  // caller), with the submap count read at the same moment.
+  std::shared_ptr<const OnlineLearner> activeLearner(int* submaps = nullptr) const;
 
  private:
   // A frozen submap. Why key frames are kept at all: its key-frame file must
@@ -118,9 +149,13 @@ class SubmapLearner {
     ModelFileId model_id;                            // of its model file, once written
   };
 
-  // The active learner's last retrain becomes submap `frozen`'s model; the
-  // learner goes; with a working folder the submap is written there.
-  Status freezeActive(int frozen);
+  // Background: the freeze thread's loop.
+  void freezeLoop();
+  // A freeze's end, under mutex_: the learner's last model becomes submap
+  // `index`'s, and with a working folder the submap is written there.
+  Status finishFreeze(int index, const OnlineLearner& learner, const Status& retrained);
+  // resume() of one model file (a place learned before submaps), under mutex_.
+  Status resumeModelFile(const std::string& path);
   // Writes the frozen submaps not yet in `folder`, the active one too when
   // `with_active`, then the manifest; `folder` then becomes the working
   // folder when `adopt`, or when there was none. Under mutex_.
@@ -130,13 +165,21 @@ class SubmapLearner {
   const SubmapParams submap_params_;
   const RelocalizerParams relocalizer_params_;
   const SubmapNames names_;
-  mutable std::mutex mutex_;
+  const OnlineLearner::Mode mode_;
+  mutable std::mutex mutex_;  // everything below; never held across a retrain or compression
+  std::condition_variable freeze_cv_;        // a freeze handed over, ended, or stopping
+  std::shared_ptr<OnlineLearner> freezing_;  // Background: the submap being frozen
+  int freezing_index_ = -1;
+  bool stopping_ = false;
   SubmapIndex index_;
-  std::unique_ptr<OnlineLearner> active_;
+  std::shared_ptr<OnlineLearner> active_;
   std::vector<Frozen> frozen_;  // by submap index
   std::int64_t next_id_ = 0;
+  int added_ = 0, covered_ = 0;
+  std::string freeze_error_;
   std::string folder_;  // the working folder; empty: none yet
   std::vector<std::string> warnings_;
+  std::thread freezer_;  // Background only; last, so it starts after the rest is built
 };
 
 }  // namespace relocalizer
