@@ -4,6 +4,8 @@
 // while a second thread relocalizes held-out frames at the node's continuous
 // rate on whatever model is current. Reports whether the stream kept up, when
 // the first correct relocalization came, relocalization latency and memory.
+// With --submaps the stream is learned as submaps (online/submap_learner.h),
+// as the node does, and each frame is relocalized across all of them.
 
 #include <array>
 #include <atomic>
@@ -20,6 +22,8 @@
 #include "relocalizer/eval/latency_benchmark.h"
 #include "relocalizer/eval/metrics.h"
 #include "relocalizer/online/key_frame_feed.h"
+#include "relocalizer/online/submap_learner.h"
+#include "submap_places.h"
 
 using namespace relocalizer;
 using Clock = std::chrono::steady_clock;
@@ -42,12 +46,50 @@ struct Attempt {
   int keyframes_learned;
 };
 
-// Relocalizes the test frames round-robin at `rate` on whatever model the
-// learner has, until `done`, reading each frame when used.
+// What is learned so far, as the relocalizing thread sees it: one learner's
+// current model, or every submap's as places of one group.
+class Learned {
+ public:
+  explicit Learned(const OnlineLearner& learner) : learner_(&learner) {}
+  explicit Learned(const SubmapLearner& submaps) : submaps_(&submaps) {}
+
+  // False while nothing is learned yet. The submaps' places are put again
+  // only when a model changed (a retrain or a freeze swapped one in).
+  bool ready() {
+    if (learner_) return (model_ = learner_->current()) != nullptr;
+    std::vector<std::shared_ptr<const Relocalizer>> now;
+    for (const SubmapModel& m : submaps_->models()) now.push_back(m.relocalizer);
+    if (now != models_ && !now.empty()) {
+      if (!cli::putSubmaps(*submaps_, places_)) return false;
+      models_ = std::move(now);
+    }
+    return !models_.empty();
+  }
+  Relocalization relocalize(const RgbdFrame& frame) const {
+    if (learner_) return model_->relocalize(frame);
+    return places_.relocalize(frame).relocalization;
+  }
+  int keyFramesLearned() const {
+    if (learner_) return learner_->status().keyframes_learned;
+    // Frozen submaps are learned whole; the active one as far as its model goes.
+    const SubmapStatus s = submaps_->status();
+    return s.keyframes_added - s.active.keyframes_stored + s.active.keyframes_learned;
+  }
+
+ private:
+  const OnlineLearner* learner_ = nullptr;
+  const SubmapLearner* submaps_ = nullptr;
+  std::shared_ptr<const Relocalizer> model_;
+  std::vector<std::shared_ptr<const Relocalizer>> models_;
+  PlaceSet places_;
+};
+
+// Relocalizes the test frames round-robin at `rate` on whatever is learned,
+// until `done`, reading each frame when used.
 std::vector<Attempt> relocalizeUntilDone(const Dataset& test_data,
-                                         const std::vector<size_t>& test_frames,
-                                         const OnlineLearner& learner, double rate,
-                                         Clock::time_point start, const std::atomic<bool>& done) {
+                                         const std::vector<size_t>& test_frames, Learned& learned,
+                                         double rate, Clock::time_point start,
+                                         const std::atomic<bool>& done) {
   std::vector<Attempt> attempts;
   size_t next = 0;
   const auto period = std::chrono::duration<double>(1.0 / rate);
@@ -55,16 +97,15 @@ std::vector<Attempt> relocalizeUntilDone(const Dataset& test_data,
   while (!done) {
     std::this_thread::sleep_until(slot);
     slot += std::chrono::duration_cast<Clock::duration>(period);
-    auto model = learner.current();
-    if (!model) continue;
+    if (!learned.ready()) continue;
     auto loaded = test_data.load(test_frames[next++ % test_frames.size()]);
     if (!loaded) continue;
     const RgbdFrame& frame = *loaded;
     const auto t0 = Clock::now();
-    const Relocalization r = model->relocalize(frame);
+    const Relocalization r = learned.relocalize(frame);
     const EvaluationRecord record = recordAttempt(frame.id, frame.stamp, *frame.ground_truth, r);
     const bool correct = within(frameError(record.id, record.estimate, record.truth), kCorrectPose);
-    attempts.push_back({since(start), since(t0), correct, learner.status().keyframes_learned});
+    attempts.push_back({since(start), since(t0), correct, learned.keyFramesLearned()});
     if (slot < Clock::now()) slot = Clock::now();
   }
   return attempts;
@@ -74,11 +115,14 @@ std::vector<Attempt> relocalizeUntilDone(const Dataset& test_data,
 struct Stream {
   double rate = 0.0, seconds = 0.0, worst_lag = 0.0;
   long frames = 0, late = 0;
+  // Every frame's outcome (KeyFrameFeed::Result::Outcome order): they sum to `frames`.
+  std::array<long, 5> outcomes{};
   std::vector<std::array<double, 6>> timeline;  // t, frames, key frames, learned, backlog, RSS
 };
 
+// `status` is the one learner's, or with submaps the active submap's (`submaps` then set).
 void report(const Stream& stream, const std::vector<Attempt>& attempts,
-            const LearningStatus& status, const std::string& output) {
+            const LearningStatus& status, const SubmapStatus* submaps, const std::string& output) {
   const auto [rss, peak] = residentMiB();
   double first_correct = -1.0;
   std::vector<double> latencies;
@@ -95,12 +139,25 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
       "ms)\n",
       stream.frames, stream.seconds, stream.rate, stream.late, 1000.0 * stream.worst_lag);
   std::printf(
-      "learning: %d key frames added, %d stored, %d evicted; %d retrains, the last %.1f s; backlog "
+      "learning%s: %d key frames added, %d stored, %d evicted; %d retrains, the last %.1f s; "
+      "backlog "
       "%d; "
       "model %.1f MB, key frames %.1f MB\n",
-      status.keyframes_added, status.keyframes_stored, status.keyframes_evicted, status.retrains,
-      status.last_retrain_seconds, status.backlog, status.model_bytes / 1e6,
-      status.store_bytes / 1e6);
+      submaps ? " (the active submap)" : "", status.keyframes_added, status.keyframes_stored,
+      status.keyframes_evicted, status.retrains, status.last_retrain_seconds, status.backlog,
+      status.model_bytes / 1e6, status.store_bytes / 1e6);
+  std::printf(
+      "frames: %ld untracked, %ld not key frames, %ld key frames learned, %ld covered, %ld "
+      "failed\n",
+      stream.outcomes[0], stream.outcomes[1], stream.outcomes[2], stream.outcomes[3],
+      stream.outcomes[4]);
+  if (submaps)
+    std::printf(
+        "submaps: %d, key frames per submap (seeds included) %s; %d key frames covered by frozen "
+        "submaps; all models %.1f MB%s%s\n",
+        submaps->submaps, nlohmann::json(submaps->submap_keyframes).dump().c_str(),
+        submaps->keyframes_covered, submaps->model_bytes / 1e6,
+        submaps->last_error.empty() ? "" : "; last error: ", submaps->last_error.c_str());
   std::printf(
       "relocalization: %zu attempts, %d correct (5 cm / 5 deg); first correct at %.1f s of stream; "
       "latency median %.0f ms, p95 %.0f ms\n",
@@ -132,7 +189,18 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
                             {"latency_median_ms", p50},
                             {"latency_p95_ms", p95},
                             {"resident_mib", rss},
-                            {"peak_resident_mib", peak}};
+                            {"peak_resident_mib", peak},
+                            {"frames_untracked", stream.outcomes[0]},
+                            {"frames_not_keyframes", stream.outcomes[1]},
+                            {"frames_learned", stream.outcomes[2]},
+                            {"frames_covered", stream.outcomes[3]},
+                            {"frames_failed", stream.outcomes[4]}};
+  if (submaps) {
+    summary["submaps"] = submaps->submaps;
+    summary["submap_keyframes"] = submaps->submap_keyframes;
+    summary["keyframes_covered"] = submaps->keyframes_covered;
+    summary["model_bytes_all_submaps"] = submaps->model_bytes;
+  }
   std::ofstream(output + "/summary.json") << summary.dump(2) << '\n';
 }
 
@@ -144,12 +212,14 @@ int main(int argc, char** argv) {
       "online learner, as the node in learn mode receives them, while relocalizing --frames "
       "round-robin at --reloc-rate Hz on the current model. Prints whether the stream kept its "
       "rate, the stream time of the first correct relocalization (5 cm / 5 deg), relocalization "
-      "latency, retrains and memory; --output writes timeline.csv and summary.json.",
+      "latency, retrains and memory; --output writes timeline.csv and summary.json. --submaps "
+      "learns submaps of --max-keyframes each, as the node does, and relocalizes across them.",
       "learn_benchmark"};
   cli::DatasetArguments arguments;
   std::string learn_frames, min_motion = formatMinMotion(KeyFrameMotion{}), learn_config, output;
   double rate = 30.0, reloc_rate = 2.0, seconds = 60.0;
   int threads = 1;
+  bool submaps = false;
   LearningParams learning;
   arguments.add(app, "Dataset folder with ground truth", "Held-out frames to relocalize");
   app.add_option("--learn-frames", learn_frames, "Frames streamed to the learner, in order")
@@ -164,7 +234,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.01, 100.0))
       ->capture_default_str();
   app.add_option("--min-motion", min_motion, "Key frames: METRES,DEGREES")->capture_default_str();
-  app.add_option("--max-keyframes", learning.max_keyframes, "Cap on stored key frames")
+  app.add_flag("--submaps", submaps,
+               "Learn submaps (--max-keyframes each) and relocalize across them, as the node");
+  app.add_option("--max-keyframes", learning.max_keyframes,
+                 "Cap on stored key frames (with --submaps: per submap)")
       ->check(CLI::Range(2, 100000))
       ->capture_default_str();
   app.add_option("--learn-config", learn_config, "Training YAML for the retrains");
@@ -191,14 +264,39 @@ int main(int argc, char** argv) {
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
                             static_cast<size_t>(threads) + 1);
 
-  KeyFrameFeed feed(*checked, RelocalizerParams{}, OnlineLearner::Mode::Background);
-  OnlineLearner& learner = feed.learner();
+  // One learner (a capped store) or submaps, as the node learns them.
+  std::unique_ptr<KeyFrameFeed> feed;
+  std::unique_ptr<SubmapLearner> submap_learner;
+  KeyFrameSelector selector(checked->min_motion);
+  if (submaps)
+    submap_learner =
+        std::make_unique<SubmapLearner>(*checked, SubmapParams{}, RelocalizerParams{},
+                                        SubmapNames{}, OnlineLearner::Mode::Background);
+  else
+    feed = std::make_unique<KeyFrameFeed>(*checked, RelocalizerParams{},
+                                          OnlineLearner::Mode::Background);
+  // The relocalizing thread's alone (its place set is not shared).
+  auto learned = submaps ? std::make_unique<Learned>(*submap_learner)
+                         : std::make_unique<Learned>(feed->learner());
+  const auto offer = [&](size_t i) {
+    const auto load = [&] { return learn_data.load(i); };
+    if (!submaps) return feed->offer(learn_data.groundTruth(i), load);
+    return KeyFrameFeed::offerTo(selector, learn_data.groundTruth(i), load,
+                                 [&](const RgbdFrame& frame, const Pose& pose) -> Expected<bool> {
+                                   auto placed = submap_learner->addKeyFrame(frame, pose);
+                                   if (!placed) return makeError(placed.error());
+                                   return placed->decision != SubmapDecision::Covered;
+                                 });
+  };
+  const auto learningStatus = [&] {
+    return submaps ? submap_learner->status().active : feed->learner().status();
+  };
   std::atomic<bool> done{false};
   const Clock::time_point start = Clock::now();
 
   std::vector<Attempt> attempts;
   std::thread relocalizing([&] {
-    attempts = relocalizeUntilDone(test_data, test_frames, learner, reloc_rate, start, done);
+    attempts = relocalizeUntilDone(test_data, test_frames, *learned, reloc_rate, start, done);
   });
 
   // The stream: frame k is due at k / rate; loading it stands for the camera
@@ -216,18 +314,21 @@ int main(int argc, char** argv) {
     stream.worst_lag = std::max(stream.worst_lag, lag);
     if (lag > 1.0 / rate) ++stream.late;
     const size_t i = static_cast<size_t>(frames) % learn_data.size();
-    const KeyFrameFeed::Result fed =
-        feed.offer(learn_data.groundTruth(i), [&] { return learn_data.load(i); });
+    const KeyFrameFeed::Result fed = offer(i);
+    ++stream.outcomes[static_cast<size_t>(fed.outcome)];
     if (!fed.why.empty()) {
       failure = fed.why;
+      ++frames;
       break;
     }
-    if (fed.outcome != KeyFrameFeed::Result::Outcome::Learned) continue;
+    // Sampled whatever the frame's outcome: a looped stream learns little,
+    // and memory must be seen then too.
     if (since(start) >= next_sample) {
-      const LearningStatus s = learner.status();
+      const LearningStatus s = learningStatus();
+      const int added = submaps ? submap_learner->status().keyframes_added : s.keyframes_added;
       stream.timeline.push_back({since(start), static_cast<double>(frames),
-                                 static_cast<double>(s.keyframes_added),
-                                 static_cast<double>(s.keyframes_learned),
+                                 static_cast<double>(added),
+                                 static_cast<double>(learned->keyFramesLearned()),
                                  static_cast<double>(s.backlog), residentMiB().first});
       next_sample = since(start) + 5.0;
     }
@@ -236,6 +337,11 @@ int main(int argc, char** argv) {
   done = true;
   relocalizing.join();  // also on a failure: a running std::thread may not be destroyed
   if (!failure.empty()) return cli::fail(app, failure);
-  report(stream, attempts, learner.status(), output);
+  if (submaps) {
+    const SubmapStatus status = submap_learner->status();
+    report(stream, attempts, status.active, &status, output);
+  } else {
+    report(stream, attempts, feed->learner().status(), nullptr, output);
+  }
   return 0;
 }

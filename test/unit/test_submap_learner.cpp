@@ -311,3 +311,49 @@ TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
   EXPECT_EQ(relocalizer::testing::readBytes(dir.path() / "again/places.csv"),
             relocalizer::testing::readBytes(dir.path() / "out/places.csv"));
 }
+
+TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
+  const relocalizer::testing::TempDir dir;
+  const std::string log = dir.str() + "/tool.log";
+  ASSERT_EQ(relocalizer::testing::runTool(
+                "synthesize",
+                "--seed 7 --train-frames 80 --test-frames 1 --width 320 --height 240 --output '" +
+                    dir.str() + "/scene'",
+                log),
+            0)
+      << relocalizer::testing::readBytes(log);
+  std::ofstream(dir.path() / "small.yaml")
+      << "points: {trees: 3, max_depth: 16, samples_per_image: 1000}\n"
+         "lines: {trees: 3, max_depth: 16, samples_per_image: 1000}\n";
+  // The 80-frame arc looped for 8 s at 30 Hz: three laps, so the later laps
+  // walk through areas that frozen submaps already hold.
+  ASSERT_EQ(relocalizer::testing::runTool(
+                "learn_benchmark",
+                "--dataset '" + dir.str() + "/scene/train' --learn-frames 0-79 --frames " +
+                    "2,10,18,26,34,42,50,58,66,74 --submaps --max-keyframes 6 --seconds 8 " +
+                    "--reloc-rate 5 --learn-config '" + dir.str() + "/small.yaml' --output '" +
+                    dir.str() + "/bench'",
+                log, log),
+            0)
+      << relocalizer::testing::readBytes(log);
+  const nlohmann::json summary =
+      nlohmann::json::parse(relocalizer::testing::readBytes(dir.path() / "bench/summary.json"));
+  // Every streamed frame is counted once, by what became of it.
+  const long frames = summary.at("frames").get<long>();
+  EXPECT_GT(frames, 150) << relocalizer::testing::readBytes(log);
+  EXPECT_EQ(summary.at("frames_untracked").get<long>() +
+                summary.at("frames_not_keyframes").get<long>() +
+                summary.at("frames_learned").get<long>() +
+                summary.at("frames_covered").get<long>() + summary.at("frames_failed").get<long>(),
+            frames);
+  EXPECT_EQ(summary.at("frames_failed").get<long>(), 0);
+  EXPECT_EQ(summary.at("frames_untracked").get<long>(), 0);  // every frame has ground truth
+  // Cut into submaps of at most 6 key frames; laps after the first are mostly covered.
+  EXPECT_GE(summary.at("submaps").get<int>(), 3) << relocalizer::testing::readBytes(log);
+  for (const auto& count : summary.at("submap_keyframes")) EXPECT_LE(count.get<int>(), 6);
+  EXPECT_EQ(summary.at("keyframes_covered").get<long>(), summary.at("frames_covered").get<long>());
+  EXPECT_GT(summary.at("frames_covered").get<long>(), 0);
+  // Relocalized across the submaps while they were learned.
+  EXPECT_GT(summary.at("attempts").get<long>(), 10);
+  EXPECT_GT(summary.at("correct").get<long>(), 0) << relocalizer::testing::readBytes(log);
+}
