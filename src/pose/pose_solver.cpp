@@ -406,7 +406,7 @@ PoseSolution solvePose(const std::vector<SolverSample>& points,
 }
 
 ScreenResult screenPose(const std::vector<SolverSample>& points, const PoseSolverParams& params,
-                        int hypotheses, std::mt19937& rng) {
+                        int hypotheses, int sampling_attempts, std::mt19937& rng) {
   int point_count = 0;
   const std::vector<const SolverSample*> all = usableSamples(points, {}, point_count);
   if (point_count < 3 || hypotheses < 1) return {};
@@ -415,7 +415,7 @@ ScreenResult screenPose(const std::vector<SolverSample>& points, const PoseSolve
   // Every round scores on all samples, and Kabsch refits replace LM throughout.
   screen.batch_size = point_count;
   screen.lm_hypotheses = 0;
-  const int attempts = hypotheses * std::max(1, params.max_sampling_attempts);
+  const int attempts = hypotheses * std::max(1, sampling_attempts);
   std::vector<Hypothesis> drawn = drawHypotheses(all, point_count, screen, attempts, rng);
   if (drawn.empty()) return {};
   PreemptiveRounds rounds(all, screen, rng);

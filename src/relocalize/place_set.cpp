@@ -218,8 +218,10 @@ void judge(const std::vector<std::shared_ptr<const Place>>& places, Solves& solv
 }  // namespace
 
 std::string PlaceSearchParams::validationError() const {
-  if (screen.samples < 3 || screen.hypotheses < 1 || screen.max_leaves < 1)
-    return "screen.samples must be >= 3, screen.hypotheses and screen.max_leaves >= 1";
+  if (screen.samples < 3 || screen.hypotheses < 1 || screen.sampling_attempts < 1 ||
+      screen.max_leaves < 1)
+    return "screen.samples must be >= 3, screen.hypotheses, screen.sampling_attempts and "
+           "screen.max_leaves >= 1";
   if (max_solved < 1) return "max_solved must be >= 1";
   if (!(runner_up_ratio >= 0 && runner_up_ratio <= 1))
     return "runner_up_ratio must be a share between 0 and 1";

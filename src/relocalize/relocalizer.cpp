@@ -244,7 +244,7 @@ ScreenResult Relocalizer::screen(const FrameSamples& samples, const ScreenParams
     inputs.push_back({subset[i].camera_point, &predictions[i], nullptr});
   // A stream of its own: the screen must not change what the full solve draws.
   std::mt19937 rng(params_.seed);
-  return screenPose(inputs, params_.solver, screen.hypotheses, rng);
+  return screenPose(inputs, params_.solver, screen.hypotheses, screen.sampling_attempts, rng);
 }
 
 Relocalization Relocalizer::failed(Relocalization result, std::string message,

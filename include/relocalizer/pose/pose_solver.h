@@ -104,8 +104,9 @@ struct ScreenResult {
 
 // For ranking places at a small share of solvePose's cost: a short preemptive
 // RANSAC of `hypotheses` Kabsch hypotheses, refitted by Kabsch only (no LM, no
-// lines).
+// lines), drawn from at most `sampling_attempts` minimal sets per hypothesis
+// (the screen's own budget, not params.max_sampling_attempts).
 ScreenResult screenPose(const std::vector<SolverSample>& points, const PoseSolverParams& params,
-                        int hypotheses, std::mt19937& rng);
+                        int hypotheses, int sampling_attempts, std::mt19937& rng);
 
 }  // namespace relocalizer
