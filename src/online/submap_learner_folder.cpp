@@ -306,4 +306,34 @@ Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& fold
   return warnings;
 }
 
+Expected<SavedSubmaps> loadSavedSubmaps(const std::string& folder, const std::string& group,
+                                        const std::string& map_frame,
+                                        const RelocalizerParams& params) {
+  auto manifest = readSubmapManifest(folder);
+  if (!manifest) return makeError(manifest.error());
+  LearningParams learning;
+  // The saved settings, so that the active submap loads as it was learned.
+  learning.max_keyframes = manifest->max_keyframes;
+  learning.first_retrain = 1;
+  std::string why = learningParamsError(learning);
+  if (why.empty()) why = submapParamsError(manifest->submap_params, learning.max_keyframes);
+  if (!why.empty()) return makeError(submapManifestPath(folder) + ": " + why);
+  SubmapLearner submaps(learning, manifest->submap_params, params,
+                        {manifest->place_name, manifest->map_frame});
+  auto resumed = submaps.resume(folder);
+  if (!resumed) return makeError(resumed.error());
+  SavedSubmaps saved;
+  saved.saved_map_frame = manifest->map_frame;
+  saved.warnings = std::move(*resumed);
+  for (const SubmapModel& m : submaps.models())
+    saved.places.push_back({submapPlaceName(group, m.index), map_frame,
+                            inFolder(folder, submapFileName(m.index)), m.relocalizer, group});
+  if (saved.places.empty()) {
+    std::string reasons;
+    for (const std::string& warning : saved.warnings) reasons += "; " + warning;
+    return makeError(folder + ": no submap of the saved set could be loaded" + reasons);
+  }
+  return saved;
+}
+
 }  // namespace relocalizer

@@ -330,9 +330,15 @@ bool PlaceSet::remove(const std::string& name) {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto found = std::find_if(places_.begin(), places_.end(),
                                   [&](const auto& place) { return place->name == name; });
-  if (found == places_.end()) return false;
-  places_.erase(found);
-  return true;
+  if (found != places_.end()) {
+    places_.erase(found);
+    return true;
+  }
+  const size_t before = places_.size();
+  places_.erase(std::remove_if(places_.begin(), places_.end(),
+                               [&](const auto& place) { return place->group == name; }),
+                places_.end());
+  return places_.size() != before;
 }
 
 std::vector<std::shared_ptr<const Place>> PlaceSet::snapshot() const {

@@ -10,9 +10,32 @@ namespace relocalizer_ros {
 
 namespace {
 
-relocalizer::Expected<relocalizer::Place> loadPlace(const PlaceSpec& spec,
-                                                    const relocalizer::RelocalizerParams& params) {
-  return relocalizer::PlaceSet::load(spec.name, spec.model, spec.map_frame, params);
+// A model file is one place; a folder of learned submaps (saved by learn
+// mode) is a group of places `name/i`, all in the spec's map frame.
+relocalizer::Expected<std::vector<relocalizer::Place>> loadPlaces(
+    const PlaceSpec& spec, const relocalizer::RelocalizerParams& params) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(spec.model, ec)) {
+    auto place = relocalizer::PlaceSet::load(spec.name, spec.model, spec.map_frame, params);
+    if (!place) return relocalizer::makeError(place.error());
+    return std::vector<relocalizer::Place>{std::move(*place)};
+  }
+  auto saved = relocalizer::loadSavedSubmaps(spec.model, spec.name, spec.map_frame, params);
+  if (!saved) return relocalizer::makeError("place '" + spec.name + "': " + saved.error());
+  for (const std::string& warning : saved->warnings)
+    ROS_WARN("relocalizer: place '%s': %s", spec.name.c_str(), warning.c_str());
+  if (saved->saved_map_frame != spec.map_frame)
+    ROS_WARN("relocalizer: place '%s': %s was learned in %s and is answered in %s",
+             spec.name.c_str(), spec.model.c_str(), saved->saved_map_frame.c_str(),
+             spec.map_frame.c_str());
+  return std::move(saved->places);
+}
+
+// One place, or a saved set's places as one group named after the spec.
+relocalizer::Status putPlaces(relocalizer::PlaceSet& set, const PlaceSpec& spec,
+                              std::vector<relocalizer::Place> places) {
+  if (places.size() == 1 && places[0].group.empty()) return set.put(std::move(places[0]));
+  return set.putGroup(spec.name, std::move(places));
 }
 
 template <typename Service, typename Handler>
@@ -43,14 +66,16 @@ relocalizer::Expected<std::unique_ptr<NodePlaces>> NodePlaces::create(const Node
   std::unique_ptr<NodePlaces> places(new NodePlaces(params, std::move(learned)));
   std::vector<std::string> failures;
   for (const PlaceSpec& spec : startupPlaces(params)) {
-    auto place = loadPlace(spec, params.relocalizer);
-    if (!place) {
-      failures.push_back(place.error());
-    } else if (const relocalizer::Status put = places->places_.put(*place); !put) {
-      failures.push_back(put.error());
-    } else {
-      warnLimitations(*place);
+    auto loaded = loadPlaces(spec, params.relocalizer);
+    if (!loaded) {
+      failures.push_back(loaded.error());
+      continue;
     }
+    const std::vector<relocalizer::Place> places_of_spec = *loaded;
+    if (const relocalizer::Status put = putPlaces(places->places_, spec, std::move(*loaded)); !put)
+      failures.push_back(put.error());
+    else
+      for (const relocalizer::Place& place : places_of_spec) warnLimitations(place);
   }
   if (places->places_.size() == 0 && !places->learning()) {
     std::string why;
@@ -154,15 +179,22 @@ bool NodePlaces::onLoad(relocalizer::LoadPlace::Request& request,
   } else {
     const std::vector<std::string> before = places_.names();
     const bool replaces = std::find(before.begin(), before.end(), spec.name) != before.end();
-    auto place = loadPlace(spec, params_.relocalizer);
+    auto loaded = loadPlaces(spec, params_.relocalizer);
+    const std::vector<relocalizer::Place> places =
+        loaded ? *loaded : std::vector<relocalizer::Place>{};
     const relocalizer::Status put =
-        place ? places_.put(*place) : relocalizer::Status(relocalizer::makeError(place.error()));
+        loaded ? putPlaces(places_, spec, std::move(*loaded))
+               : relocalizer::Status(relocalizer::makeError(loaded.error()));
     response.success = put.ok();
     if (put) {
       if (changed_) changed_();
-      warnLimitations(*place);
-      response.message = std::string(replaces ? "replaced" : "loaded") + " place " +
-                         placeText(relocalizer::placeFigures(*place));
+      for (const relocalizer::Place& place : places) warnLimitations(place);
+      response.message = places.size() == 1 && places[0].group.empty()
+                             ? std::string(replaces ? "replaced" : "loaded") + " place " +
+                                   placeText(relocalizer::placeFigures(places[0]))
+                             : "loaded " + std::to_string(places.size()) +
+                                   " learned submaps of place '" + spec.name + "' in " +
+                                   spec.map_frame + " (" + spec.model + ")";
     } else {
       response.message = put.error();
     }

@@ -39,21 +39,12 @@ inline Expected<FrameEvaluation> evaluateSubmapFolder(const std::string& folder,
                                                       const FrameSource& data) {
   auto manifest = readSubmapManifest(folder);
   if (!manifest) return makeError(manifest.error());
-  LearningParams learning;
-  // The saved settings, so that the active submap loads as it was learned.
-  learning.max_keyframes = manifest->max_keyframes;
-  learning.first_retrain = 1;
-  std::string why = learningParamsError(learning);
-  if (why.empty()) why = submapParamsError(manifest->submap_params, learning.max_keyframes);
-  if (!why.empty()) return makeError(submapManifestPath(folder) + ": " + why);
-  SubmapLearner submaps(learning, manifest->submap_params, params,
-                        {manifest->place_name, manifest->map_frame});
-  auto resumed = submaps.resume(folder);
-  if (!resumed) return makeError(resumed.error());
-  for (const std::string& warning : *resumed) std::printf("warning: %s\n", warning.c_str());
+  auto saved = loadSavedSubmaps(folder, manifest->place_name, manifest->map_frame, params);
+  if (!saved) return makeError(saved.error());
+  for (const std::string& warning : saved->warnings) std::printf("warning: %s\n", warning.c_str());
   PlaceSet places;
-  if (Status put = putSubmaps(submaps, places); !put) return makeError(put.error());
-  if (places.size() == 0) return makeError(folder + ": no submap could be loaded");
+  if (Status put = places.putGroup(manifest->place_name, std::move(saved->places)); !put)
+    return makeError(put.error());
   std::printf("%s: %zu submaps of %s in %s\n", folder.c_str(), places.size(),
               manifest->place_name.c_str(), manifest->map_frame.c_str());
   return evaluateFrames(places, data, "evaluating " + std::to_string(places.size()) + " submaps");

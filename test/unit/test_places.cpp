@@ -390,6 +390,16 @@ TEST_F(Places, PutGroupReplacesTheGroupAtOnce) {
 
   ASSERT_TRUE(set.putGroup("kitchen", {}).ok());
   EXPECT_EQ(set.names(), std::vector<std::string>{"lab"});
+
+  // remove() takes one place by name, or a whole group by its name.
+  ASSERT_TRUE(set.putGroup("kitchen", {groupPlace(kitchen, "kitchen/0", ""),
+                                       groupPlace(kitchen, "kitchen/1", "")})
+                  .ok());
+  EXPECT_TRUE(set.remove("kitchen/0"));
+  EXPECT_EQ(set.names(), (std::vector<std::string>{"lab", "kitchen/1"}));
+  EXPECT_TRUE(set.remove("kitchen"));
+  EXPECT_EQ(set.names(), std::vector<std::string>{"lab"});
+  EXPECT_FALSE(set.remove("kitchen"));
 }
 
 TEST_F(Places, PutReplacesByNameAndRefusesWhatCannotBeUsed) {

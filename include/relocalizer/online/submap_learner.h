@@ -29,6 +29,7 @@
 #include "relocalizer/core/frame.h"
 #include "relocalizer/online/online_learner.h"
 #include "relocalizer/online/submap_rule.h"
+#include "relocalizer/relocalize/place_set.h"
 
 namespace relocalizer {
 
@@ -181,5 +182,19 @@ class SubmapLearner {
   std::vector<std::string> warnings_;
   std::thread freezer_;  // Background only; last, so it starts after the rest is built
 };
+
+// A saved set loaded to answer, not to learn more: every submap that loads,
+// as places `<group>/<index>` of `group` in `map_frame`, with the models
+// served as the learner served them (learnedModelParams).
+struct SavedSubmaps {
+  std::vector<Place> places;
+  std::string saved_map_frame;        // the frame the set was learned in (manifest)
+  std::vector<std::string> warnings;  // the submaps skipped, naming each file and why
+};
+// Fails, naming the file, when the manifest is missing or unreadable, or when
+// no submap could be loaded.
+Expected<SavedSubmaps> loadSavedSubmaps(const std::string& folder, const std::string& group,
+                                        const std::string& map_frame,
+                                        const RelocalizerParams& params);
 
 }  // namespace relocalizer

@@ -119,7 +119,8 @@ class PlaceSet {
   // Refuses (and changes nothing) an empty group, what put() refuses, two
   // places of one name or of two frames, or a name held outside the group.
   Status putGroup(const std::string& group, std::vector<Place> places);
-  // False when no place has that name.
+  // Removes the place of that name, or else every place of the group of that
+  // name (a saved set of submaps goes as it came). False when neither is there.
   bool remove(const std::string& name);
   std::vector<PlaceFigures> list() const;
   std::vector<std::string> names() const;
