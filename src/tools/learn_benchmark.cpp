@@ -12,6 +12,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -119,6 +120,42 @@ struct Stream {
   std::array<long, 5> outcomes{};
   std::vector<std::array<double, 6>> timeline;  // t, frames, key frames, learned, backlog, RSS
 };
+
+// The stream: frame k (of `learn_frames`, looped) is due at k / rate and
+// offered; loading it stands for the camera driver and the message
+// conversion. `sample` gives the key frames added, learned and the backlog,
+// every 5 s whatever the frames' outcome: a looped stream learns little, and
+// memory must be seen then too. Returns why a frame failed, or empty.
+std::string streamFrames(size_t learn_frames, double seconds, Clock::time_point start,
+                         const std::function<KeyFrameFeed::Result(size_t)>& offer,
+                         const std::function<std::array<double, 3>()>& sample, Stream& stream) {
+  long& frames = stream.frames;
+  double next_sample = 0.0;
+  std::string failure;
+  for (; since(start) < seconds; ++frames) {
+    const Clock::time_point due = start + std::chrono::duration_cast<Clock::duration>(
+                                              std::chrono::duration<double>(frames / stream.rate));
+    std::this_thread::sleep_until(due);
+    const double lag = std::chrono::duration<double>(Clock::now() - due).count();
+    stream.worst_lag = std::max(stream.worst_lag, lag);
+    if (lag > 1.0 / stream.rate) ++stream.late;
+    const KeyFrameFeed::Result fed = offer(static_cast<size_t>(frames) % learn_frames);
+    ++stream.outcomes[static_cast<size_t>(fed.outcome)];
+    if (!fed.why.empty()) {
+      failure = fed.why;
+      ++frames;
+      break;
+    }
+    if (since(start) >= next_sample) {
+      const std::array<double, 3> learned = sample();
+      stream.timeline.push_back({since(start), static_cast<double>(frames), learned[0], learned[1],
+                                 learned[2], residentMiB().first});
+      next_sample = since(start) + 5.0;
+    }
+  }
+  stream.seconds = since(start);
+  return failure;
+}
 
 // `status` is the one learner's, or with submaps the active submap's (`submaps` then set).
 void report(const Stream& stream, const std::vector<Attempt>& attempts,
@@ -299,41 +336,18 @@ int main(int argc, char** argv) {
     attempts = relocalizeUntilDone(test_data, test_frames, *learned, reloc_rate, start, done);
   });
 
-  // The stream: frame k is due at k / rate; loading it stands for the camera
-  // driver and the message conversion.
   Stream stream;
   stream.rate = rate;
-  long& frames = stream.frames;
-  double next_sample = 0.0;
-  std::string failure;
-  for (; since(start) < seconds; ++frames) {
-    const Clock::time_point due = start + std::chrono::duration_cast<Clock::duration>(
-                                              std::chrono::duration<double>(frames / rate));
-    std::this_thread::sleep_until(due);
-    const double lag = std::chrono::duration<double>(Clock::now() - due).count();
-    stream.worst_lag = std::max(stream.worst_lag, lag);
-    if (lag > 1.0 / rate) ++stream.late;
-    const size_t i = static_cast<size_t>(frames) % learn_data.size();
-    const KeyFrameFeed::Result fed = offer(i);
-    ++stream.outcomes[static_cast<size_t>(fed.outcome)];
-    if (!fed.why.empty()) {
-      failure = fed.why;
-      ++frames;
-      break;
-    }
-    // Sampled whatever the frame's outcome: a looped stream learns little,
-    // and memory must be seen then too.
-    if (since(start) >= next_sample) {
-      const LearningStatus s = learningStatus();
-      const int added = submaps ? submap_learner->status().keyframes_added : s.keyframes_added;
-      stream.timeline.push_back({since(start), static_cast<double>(frames),
-                                 static_cast<double>(added),
-                                 static_cast<double>(learned->keyFramesLearned()),
-                                 static_cast<double>(s.backlog), residentMiB().first});
-      next_sample = since(start) + 5.0;
-    }
-  }
-  stream.seconds = since(start);
+  const std::string failure = streamFrames(
+      learn_data.size(), seconds, start, offer,
+      [&] {
+        const LearningStatus s = learningStatus();
+        const int added = submaps ? submap_learner->status().keyframes_added : s.keyframes_added;
+        return std::array<double, 3>{static_cast<double>(added),
+                                     static_cast<double>(learned->keyFramesLearned()),
+                                     static_cast<double>(s.backlog)};
+      },
+      stream);
   done = true;
   relocalizing.join();  // also on a failure: a running std::thread may not be destroyed
   if (!failure.empty()) return cli::fail(app, failure);
