@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "message_conversion.h"
+#include "relocalizer/online/submap_folder.h"
 
 namespace relocalizer_ros {
 
@@ -20,6 +21,11 @@ relocalizer::Expected<std::vector<relocalizer::Place>> loadPlaces(
     if (!place) return relocalizer::makeError(place.error());
     return std::vector<relocalizer::Place>{std::move(*place)};
   }
+  if (!std::filesystem::exists(relocalizer::submapManifestPath(spec.model), ec))
+    return relocalizer::makeError("place '" + spec.name + "': " + spec.model +
+                                  ": is a directory, not a model file nor a folder of learned "
+                                  "submaps (it has no " +
+                                  relocalizer::kSubmapManifestName + ")");
   auto saved = relocalizer::loadSavedSubmaps(spec.model, spec.name, spec.map_frame, params);
   if (!saved) return relocalizer::makeError("place '" + spec.name + "': " + saved.error());
   for (const std::string& warning : saved->warnings)

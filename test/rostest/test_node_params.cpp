@@ -454,11 +454,15 @@ TEST(NodeParams, BadModelFilesStopTheNodeWithTheirReason) {
        "not a relocalizer model (wrong magic number; expected a file written by `train`)",
        ros::param::param<std::string>("~config", "")},
   };
-  // A folder (the loader would see a size near 2^63) and a FIFO (it would
-  // block start-up): refused before loading.
+  // A folder that is not a saved set of submaps (the loader would see a size
+  // near 2^63) and a FIFO (it would block start-up): refused before loading.
   ASSERT_TRUE(std::filesystem::create_directory(dir + "/model_folder"));
   ASSERT_EQ(mkfifo((dir + "/model_fifo").c_str(), 0600), 0);
-  cases.push_back({"folder", {}, "is a directory, not a model file", dir + "/model_folder"});
+  cases.push_back({"folder",
+                   {},
+                   "is a directory, not a model file nor a folder of learned submaps (it has no "
+                   "manifest.json)",
+                   dir + "/model_folder"});
   cases.push_back({"fifo",
                    {},
                    "is not a regular file (a device or a pipe?), not a model file",
