@@ -10,6 +10,14 @@ std::string submapPlaceName(const std::string& place, int index) {
   return place + "/" + std::to_string(index);
 }
 
+std::vector<Place> submapPlaces(const std::vector<SubmapModel>& models, const std::string& group,
+                                const std::string& map_frame) {
+  std::vector<Place> places;
+  for (const SubmapModel& m : models)
+    places.push_back({submapPlaceName(group, m.index), map_frame, "", m.relocalizer, group});
+  return places;
+}
+
 SubmapLearner::SubmapLearner(LearningParams learning, SubmapParams submaps,
                              RelocalizerParams relocalizer_params, SubmapNames names,
                              OnlineLearner::Mode mode)
@@ -119,6 +127,7 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
     }
     ++added_;
     if (placement.decision != SubmapDecision::Active) {
+      frozen_.resize(static_cast<std::size_t>(index_.submapCount()));
       std::vector<KeyFrameStore::Entry> seeds;
       if (active_) {
         // A new submap leaves the old one's key frames in the index as they were.
@@ -129,7 +138,6 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
             if (before[k].id == seed.id) seeds.push_back(stored[k]);
         // Until its last retrain ends the frozen submap answers with the
         // model it has; its key frames are kept until written (Frozen).
-        frozen_.resize(static_cast<std::size_t>(index_.submapCount()));
         Frozen& f = frozen_[static_cast<std::size_t>(was_active)];
         f.relocalizer = active_->current();
         f.key_frames = stored;
@@ -143,7 +151,6 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
           freezing = std::move(active_);
         }
       }
-      frozen_.resize(static_cast<std::size_t>(index_.submapCount()));
       active_ = std::make_shared<OnlineLearner>(learning_, relocalizer_params_, mode_);
       if (Status seeded = active_->seed(std::move(seeds)); !seeded)
         return makeError(seeded.error());
@@ -210,7 +217,7 @@ SubmapStatus SubmapLearner::status() const {
     status.keyframes_added = added_;
     status.keyframes_covered = covered_;
     status.last_error = freeze_error_;
-    status.freezing = freezing_ != nullptr;
+    status.freezing = freezing_index_ >= 0;
     for (int s = 0; s < static_cast<int>(frozen_.size()); ++s)
       if (s != index_.active() && frozen_[static_cast<std::size_t>(s)].relocalizer)
         status.model_bytes += modelBytes(frozen_[static_cast<std::size_t>(s)].relocalizer->model());
@@ -222,12 +229,6 @@ SubmapStatus SubmapLearner::status() const {
     if (!status.active.last_error.empty()) status.last_error = status.active.last_error;
   }
   return status;
-}
-
-std::shared_ptr<const OnlineLearner> SubmapLearner::activeLearner(int* submaps) const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (submaps) *submaps = index_.submapCount();
-  return active_;
 }
 
 }  // namespace relocalizer

@@ -45,19 +45,31 @@ Expected<std::shared_ptr<const Relocalizer>> loadSubmapModel(const std::string& 
   }
 }
 
+// `folder` made ready to hold the set: created if need be, refused when it
+// is something else (a file, a pipe: never replaced) or holds someone else's
+// manifest.json (not ours to fill; checked before any submap file is written).
+Status prepareFolder(const std::string& folder) {
+  std::error_code ec;
+  if (fs::exists(folder, ec) && !fs::is_directory(folder, ec))
+    return makeError(folder +
+                     ": is not a folder: a learned set is saved as one folder (manifest.json and "
+                     "a model and key-frame file per submap); a model file saved before submaps "
+                     "is continued, not replaced");
+  fs::create_directories(folder, ec);
+  if (ec) return makeError(folder + ": cannot create the folder: " + ec.message());
+  if (const std::string why = replaceableError(submapManifestPath(folder), kSubmapManifestMagic,
+                                               "learned-submaps manifest");
+      !why.empty())
+    return makeError(why);
+  return okStatus();
+}
+
 }  // namespace
 
 Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool adopt) {
+  if (Status ready = prepareFolder(folder); !ready) return ready;
   std::error_code ec;
-  fs::create_directories(folder, ec);
-  if (ec) return makeError(folder + ": cannot create the folder: " + ec.message());
   const std::string manifest_path = submapManifestPath(folder);
-  // Checked before any submap file is written: a folder that holds someone
-  // else's manifest.json is not ours to fill.
-  if (const std::string why =
-          replaceableError(manifest_path, kSubmapManifestMagic, "learned-submaps manifest");
-      !why.empty())
-    return makeError(why);
   const bool working = !folder_.empty() && fs::equivalent(folder, folder_, ec);
 
   SubmapManifest manifest;
@@ -159,13 +171,8 @@ Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool
 Status SubmapLearner::useFolder(const std::string& folder) {
   std::unique_lock<std::mutex> lock(mutex_);
   freeze_cv_.wait(lock, [&] { return freezing_index_ < 0; });
+  if (Status ready = prepareFolder(folder); !ready) return ready;
   std::error_code ec;
-  fs::create_directories(folder, ec);
-  if (ec) return makeError(folder + ": cannot create the folder: " + ec.message());
-  if (const std::string why = replaceableError(submapManifestPath(folder), kSubmapManifestMagic,
-                                               "learned-submaps manifest");
-      !why.empty())
-    return makeError(why);
   const bool held = std::any_of(frozen_.begin(), frozen_.end(),
                                 [](const Frozen& f) { return f.relocalizer && !f.written; });
   const bool moved = !folder_.empty() && !fs::equivalent(folder, folder_, ec);
@@ -325,9 +332,11 @@ Expected<SavedSubmaps> loadSavedSubmaps(const std::string& folder, const std::st
   SavedSubmaps saved;
   saved.saved_map_frame = manifest->map_frame;
   saved.warnings = std::move(*resumed);
-  for (const SubmapModel& m : submaps.models())
-    saved.places.push_back({submapPlaceName(group, m.index), map_frame,
-                            inFolder(folder, submapFileName(m.index)), m.relocalizer, group});
+  const std::vector<SubmapModel> models = submaps.models();
+  saved.places = submapPlaces(models, group, map_frame);
+  // Listings and logs name each place's file.
+  for (std::size_t i = 0; i < models.size(); ++i)
+    saved.places[i].source = inFolder(folder, submapFileName(models[i].index));
   if (saved.places.empty()) {
     std::string reasons;
     for (const std::string& warning : saved.warnings) reasons += "; " + warning;

@@ -64,7 +64,7 @@ LearningFeed::~LearningFeed() {
   // The active submap's current model, not a final retrain: shutdown must
   // stay quick, and the key frames saved with it let the next run retrain on
   // all of them.
-  const relocalizer::Status saved = saveLearned(params_.save_on_exit);
+  const relocalizer::Status saved = learner_->save(params_.save_on_exit);
   if (saved)
     ROS_INFO("relocalizer: saved the learned submaps to %s", params_.save_on_exit.c_str());
   else
@@ -170,17 +170,6 @@ void LearningFeed::keepFrozenOnDisk() {
       folder.c_str());
 }
 
-relocalizer::Status LearningFeed::saveLearned(const std::string& path) const {
-  std::error_code ec;
-  if (std::filesystem::exists(path, ec) && !std::filesystem::is_directory(path, ec))
-    return relocalizer::makeError(
-        path +
-        ": is not a folder: the learned submaps are saved as one folder (manifest.json "
-        "and a model and key-frame file per submap); a model file saved before submaps "
-        "is still continued with model:=, and is not replaced");
-  return learner_->save(path);
-}
-
 bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
                                relocalizer::SaveModel::Response& response) {
   if (request.path.empty()) {
@@ -194,7 +183,7 @@ bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
   const std::string path =
       std::filesystem::absolute(request.path, ignored).lexically_normal().string();
   std::lock_guard<std::mutex> lock(save_mutex_);
-  const relocalizer::Status saved = saveLearned(path);
+  const relocalizer::Status saved = learner_->save(path);
   response.success = saved.ok();
   const relocalizer::SubmapStatus status = learner_->status();
   int keyframes = 0;

@@ -65,9 +65,6 @@ class LearningFeed {
 
  private:
   void learnLoop();
-  // ~save_model and save_on_exit: the whole set as one folder
-  // (submap_folder.h); an existing file there is refused, not replaced.
-  relocalizer::Status saveLearned(const std::string& path) const;
   // At the first new submap, when neither save_on_exit nor a continued
   // folder gave one: a working folder under ROS_HOME for frozen submaps.
   void keepFrozenOnDisk();

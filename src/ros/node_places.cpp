@@ -37,10 +37,15 @@ relocalizer::Expected<std::vector<relocalizer::Place>> loadPlaces(
   return std::move(saved->places);
 }
 
+// What loadPlaces gave for a model file (not a saved set of submaps).
+bool oneModelFile(const std::vector<relocalizer::Place>& places) {
+  return places.size() == 1 && places[0].group.empty();
+}
+
 // One place, or a saved set's places as one group named after the spec.
 relocalizer::Status putPlaces(relocalizer::PlaceSet& set, const PlaceSpec& spec,
                               std::vector<relocalizer::Place> places) {
-  if (places.size() == 1 && places[0].group.empty()) return set.put(std::move(places[0]));
+  if (oneModelFile(places)) return set.put(std::move(places[0]));
   return set.putGroup(spec.name, std::move(places));
 }
 
@@ -128,15 +133,10 @@ void NodePlaces::followLearner() {
     if (current == learned_models_) return;
     learned_models_ = current;
     if (models.empty()) return;
-    const bool one = models.size() == 1 && models[0].index == 0;
-    std::vector<relocalizer::Place> group;
-    for (const relocalizer::SubmapModel& m : models) {
-      relocalizer::Place place;
-      place.name = one ? learned_name_ : learned_name_ + "/" + std::to_string(m.index);
-      place.map_frame = params_.map_frame;
-      place.relocalizer = m.relocalizer;
-      group.push_back(std::move(place));
-    }
+    std::vector<relocalizer::Place> group =
+        relocalizer::submapPlaces(models, learned_name_, params_.map_frame);
+    // The first submap alone is the place placeName() itself, as before submaps.
+    if (models.size() == 1 && models[0].index == 0) group[0].name = learned_name_;
     if (const relocalizer::Status put = places_.putGroup(learned_name_, std::move(group)); !put) {
       if (log_.allow(put.error()))
         ROS_WARN("relocalizer: the learned submaps: %s", put.error().c_str());
@@ -195,7 +195,7 @@ bool NodePlaces::onLoad(relocalizer::LoadPlace::Request& request,
     if (put) {
       if (changed_) changed_();
       for (const relocalizer::Place& place : places) warnLimitations(place);
-      response.message = places.size() == 1 && places[0].group.empty()
+      response.message = oneModelFile(places)
                              ? std::string(replaces ? "replaced" : "loaded") + " place " +
                                    placeText(relocalizer::placeFigures(places[0]))
                              : "loaded " + std::to_string(places.size()) +

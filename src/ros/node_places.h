@@ -9,8 +9,8 @@
 // in map_frame (place_set.h: their answers that agree are one answer), put
 // again all at once whenever the learner swaps in a new model or starts a
 // submap. While only the first submap has a model it is the place
-// placeName() itself, as before submaps (and saved as one model file); from
-// the second on they are placeName()/0, placeName()/1, ...
+// placeName() itself, as before submaps; from the second on they are
+// placeName()/0, placeName()/1, ...
 
 #include <relocalizer/ListPlaces.h>
 #include <relocalizer/LoadPlace.h>

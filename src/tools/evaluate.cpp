@@ -255,7 +255,8 @@ int learnSubmaps(const CLI::App& app, const Options& o, LearnOptions l,
     if (++learned % l.curve_every != 0 && i + 1 != learn.size()) continue;
     if (Status drained = submaps.drain(); !drained) return cli::fail(app, drained.error());
     PlaceSet places;
-    if (Status put = cli::putSubmaps(submaps, places); !put) return cli::fail(app, put.error());
+    if (Status put = cli::putSubmaps(submaps, submaps.models(), places); !put)
+      return cli::fail(app, put.error());
     auto evaluated = evaluateFrames(places, data, "curve " + std::to_string(learned));
     if (!evaluated) return cli::fail(app, evaluated.error());
     out.evaluation = std::move(*evaluated);

@@ -58,10 +58,11 @@ class Learned {
   // only when a model changed (a retrain or a freeze swapped one in).
   bool ready() {
     if (learner_) return (model_ = learner_->current()) != nullptr;
+    const std::vector<SubmapModel> models = submaps_->models();
     std::vector<std::shared_ptr<const Relocalizer>> now;
-    for (const SubmapModel& m : submaps_->models()) now.push_back(m.relocalizer);
+    for (const SubmapModel& m : models) now.push_back(m.relocalizer);
     if (now != models_ && !now.empty()) {
-      if (!cli::putSubmaps(*submaps_, places_)) return false;
+      if (!cli::putSubmaps(*submaps_, models, places_)) return false;
       models_ = std::move(now);
     }
     return !models_.empty();

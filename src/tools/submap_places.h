@@ -1,5 +1,5 @@
 #pragma once
-// evaluate's sets of learned submaps as places: the set a run learns
+// The tools' sets of learned submaps as places (evaluate, learn_benchmark): the set a run learns
 // (--submaps) and a saved folder (--model FOLDER) are relocalized across alike,
 // as one group of places in one map frame (relocalize/place_set.h).
 
@@ -16,14 +16,12 @@
 
 namespace relocalizer::cli {
 
-// Every submap with a model as a place of one group, in one map frame.
-inline Status putSubmaps(const SubmapLearner& submaps, PlaceSet& places) {
+// `models` (the learner's models(), read once by the caller) as the places
+// of the learner's group, in its map frame.
+inline Status putSubmaps(const SubmapLearner& submaps, const std::vector<SubmapModel>& models,
+                         PlaceSet& places) {
   const SubmapNames& names = submaps.names();
-  std::vector<Place> group;
-  for (const SubmapModel& m : submaps.models())
-    group.push_back({submapPlaceName(names.place, m.index), names.map_frame, "submap",
-                     m.relocalizer, names.place});
-  return places.putGroup(names.place, std::move(group));
+  return places.putGroup(names.place, submapPlaces(models, names.place, names.map_frame));
 }
 
 // A --model folder is a set of learned submaps (its manifest.json says what is in it).

@@ -219,9 +219,8 @@ TEST_F(SubmapRoom, AOneFilePlaceResumesAsTheActiveSubmap) {
   EXPECT_EQ(models[0].keyframes, 6);
   EXPECT_EQ(serializeModel(models[0].relocalizer->model()), serializeModel(one.current()->model()));
   EXPECT_EQ(submaps.status().keyframes_added, 6);
-  int count = 0;
-  EXPECT_NE(submaps.activeLearner(&count), nullptr);
-  EXPECT_EQ(count, 1);
+  EXPECT_NE(submaps.active(), nullptr);
+  EXPECT_EQ(submaps.status().submaps, 1);
   // Resuming twice, or after a key frame, is refused.
   EXPECT_FALSE(submaps.resume(path));
 
@@ -239,8 +238,7 @@ TEST_F(SubmapRoom, AOneFilePlaceResumesAsTheActiveSubmap) {
   const std::vector<KeyFrameStore::Entry> held = submaps.active()->keyFrames();
   ASSERT_EQ(held.size(), 3u);
   EXPECT_TRUE(held[2]->pose.isApprox(*learn_[6].ground_truth));
-  submaps.activeLearner(&count);
-  EXPECT_EQ(count, 2);
+  EXPECT_EQ(submaps.status().submaps, 2);
 
   // A missing file is refused, naming it.
   SubmapLearner fresh(smallLearning(6), rule, fastRelocalizer());
@@ -250,9 +248,12 @@ TEST_F(SubmapRoom, AOneFilePlaceResumesAsTheActiveSubmap) {
   EXPECT_EQ(fresh.status().submaps, 0);
 }
 
-TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
-  const relocalizer::testing::TempDir dir;
-  const std::string log = dir.str() + "/tool.log";
+namespace {
+
+// The tool tests' room: an 80-frame training arc in `dir`/scene, and the
+// small forests of the unit tests as a training YAML for the retrains
+// (`dir`/small.yaml). Tool output goes to `log`.
+void writeToolScene(const relocalizer::testing::TempDir& dir, const std::string& log) {
   ASSERT_EQ(relocalizer::testing::runTool(
                 "synthesize",
                 "--seed 7 --train-frames 80 --test-frames 1 --width 320 --height 240 --output '" +
@@ -260,10 +261,17 @@ TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
                 log),
             0)
       << relocalizer::testing::readBytes(log);
-  // The small forests of the unit tests, as a training YAML for the retrains.
   std::ofstream(dir.path() / "small.yaml")
       << "points: {trees: 3, max_depth: 16, samples_per_image: 1000}\n"
          "lines: {trees: 3, max_depth: 16, samples_per_image: 1000}\n";
+}
+
+}  // namespace
+
+TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
+  const relocalizer::testing::TempDir dir;
+  const std::string log = dir.str() + "/tool.log";
+  ASSERT_NO_FATAL_FAILURE(writeToolScene(dir, log));
   // Learn the whole training arc; relocalize frames between its key frames.
   const std::string arguments = "--dataset '" + dir.str() +
                                 "/scene/train' --learn-frames 0-79 --frames " +
@@ -315,16 +323,7 @@ TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
 TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   const relocalizer::testing::TempDir dir;
   const std::string log = dir.str() + "/tool.log";
-  ASSERT_EQ(relocalizer::testing::runTool(
-                "synthesize",
-                "--seed 7 --train-frames 80 --test-frames 1 --width 320 --height 240 --output '" +
-                    dir.str() + "/scene'",
-                log),
-            0)
-      << relocalizer::testing::readBytes(log);
-  std::ofstream(dir.path() / "small.yaml")
-      << "points: {trees: 3, max_depth: 16, samples_per_image: 1000}\n"
-         "lines: {trees: 3, max_depth: 16, samples_per_image: 1000}\n";
+  ASSERT_NO_FATAL_FAILURE(writeToolScene(dir, log));
   // The 80-frame arc looped for 8 s at 30 Hz: up to three laps, so the later
   // laps walk through areas that frozen submaps already hold. How many frames
   // the stream gets through depends on the machine (a freeze waits for the

@@ -59,13 +59,13 @@ struct SubmapStatus {
   int keyframes_covered = 0;  // key frames a frozen submap already held one as good as: not stored
   size_t model_bytes = 0;     // every submap's model
   std::string last_error;     // the active's (online_learner.h), else of the last failed freeze
-  bool freezing = false;      // Background: a full submap's last retrain is running
+  bool freezing = false;      // a full submap's last retrain is running
   LearningStatus active;      // the active submap's learner (zeros before the first key frame)
 };
 
 // Thread safety: addKeyFrame, resume and drain from one thread (the learning
 // loop), index() and active() from that thread only; models(), status(),
-// activeLearner(), save() and the rest from any thread at any time. A save
+// save() and the rest from any thread at any time. A save
 // waits for a freeze in progress (a retrain, seconds); a key frame waits for
 // a save (the active submap's files and the manifest).
 class SubmapLearner {
@@ -134,9 +134,6 @@ class SubmapLearner {
   const SubmapIndex& index() const { return index_; }
   // The active submap's learner, or null before the first key frame.
   const OnlineLearner* active() const { return active_.get(); }
-  // The same, shared (a freeze meanwhile does not destroy it under the
-  // caller), with the submap count read at the same moment.
-  std::shared_ptr<const OnlineLearner> activeLearner(int* submaps = nullptr) const;
 
  private:
   // A frozen submap. Why key frames are kept at all: its key-frame file must
@@ -170,7 +167,7 @@ class SubmapLearner {
   mutable std::mutex mutex_;  // everything below; never held across a retrain or compression
   std::condition_variable freeze_cv_;        // a freeze handed over, ended, or stopping
   std::shared_ptr<OnlineLearner> freezing_;  // Background: the submap being frozen
-  int freezing_index_ = -1;
+  int freezing_index_ = -1;                  // the submap being frozen (either mode); -1: none
   bool stopping_ = false;
   SubmapIndex index_;
   std::shared_ptr<OnlineLearner> active_;
@@ -182,6 +179,11 @@ class SubmapLearner {
   std::vector<std::string> warnings_;
   std::thread freezer_;  // Background only; last, so it starts after the rest is built
 };
+
+// Submaps' models as places `<group>/<index>` of `group` in `map_frame`: how
+// every holder of a set (the node, the tools, a loaded folder) names them.
+std::vector<Place> submapPlaces(const std::vector<SubmapModel>& models, const std::string& group,
+                                const std::string& map_frame);
 
 // A saved set loaded to answer, not to learn more: every submap that loads,
 // as places `<group>/<index>` of `group` in `map_frame`, with the models
