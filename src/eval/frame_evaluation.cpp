@@ -28,11 +28,13 @@ Status addPredictionQuality(const Relocalizer& relocalizer, const RgbdFrame& fra
   return okStatus();
 }
 
-// Visits each selected frame that has ground truth, loaded, in order; the
-// others are counted as skipped. Fails on the first frame that does not load.
-Status forEachPosedFrame(const FrameSource& source, const std::string& progress_label,
-                         FrameEvaluation& evaluation,
-                         const std::function<Status(size_t, const RgbdFrame&)>& visit) {
+// Visits each selected frame that has ground truth, loaded, in order, with its
+// hint when `hints` makes them (else nullptr); the others are counted as
+// skipped. Fails on the first frame that does not load.
+Status forEachPosedFrame(
+    const FrameSource& source, const std::string& progress_label, FrameEvaluation& evaluation,
+    SimulatedHints* hints,
+    const std::function<Status(size_t, const RgbdFrame&, const PoseHint*)>& visit) {
   ProgressBar bar(progress_label, source.size());
   for (size_t i = 0; i < source.size(); ++i) {
     bar.advance();
@@ -42,7 +44,9 @@ Status forEachPosedFrame(const FrameSource& source, const std::string& progress_
     }
     auto frame = source.load(i);
     if (!frame) return makeError(frame.error());
-    if (Status visited = visit(i, *frame); !visited) return visited;
+    PoseHint hint;
+    if (hints) hint = hints->around(*source.groundTruth(i));
+    if (Status visited = visit(i, *frame, hints ? &hint : nullptr); !visited) return visited;
   }
   return okStatus();
 }
@@ -51,11 +55,12 @@ Status forEachPosedFrame(const FrameSource& source, const std::string& progress_
 
 Expected<FrameEvaluation> evaluateFrames(const Relocalizer& relocalizer, const FrameSource& source,
                                          bool measure_predictions,
-                                         const std::string& progress_label) {
+                                         const std::string& progress_label, SimulatedHints* hints) {
   FrameEvaluation evaluation;
   const Status done = forEachPosedFrame(
-      source, progress_label, evaluation, [&](size_t i, const RgbdFrame& frame) -> Status {
-        const Relocalization result = relocalizer.relocalize(frame);
+      source, progress_label, evaluation, hints,
+      [&](size_t i, const RgbdFrame& frame, const PoseHint* hint) -> Status {
+        const Relocalization result = relocalizer.relocalize(frame, hint);
         if (measure_predictions)
           if (Status measured = addPredictionQuality(relocalizer, frame, evaluation); !measured)
             return measured;
@@ -68,12 +73,13 @@ Expected<FrameEvaluation> evaluateFrames(const Relocalizer& relocalizer, const F
 }
 
 Expected<FrameEvaluation> evaluateFrames(const PlaceSet& places, const FrameSource& source,
-                                         const std::string& progress_label) {
+                                         const std::string& progress_label, SimulatedHints* hints) {
   FrameEvaluation evaluation;
   const Status done = forEachPosedFrame(
-      source, progress_label, evaluation, [&](size_t i, const RgbdFrame& frame) -> Status {
+      source, progress_label, evaluation, hints,
+      [&](size_t i, const RgbdFrame& frame, const PoseHint* hint) -> Status {
         evaluation.records.push_back(recordAttempt(
-            source.id(i), source.stamp(i), *source.groundTruth(i), places.relocalize(frame)));
+            source.id(i), source.stamp(i), *source.groundTruth(i), places.relocalize(frame, hint)));
         return okStatus();
       });
   if (!done) return makeError(done.error());

@@ -2,8 +2,9 @@
 
 #include <cmath>
 #include <cstdio>
-#include <sstream>
 #include <vector>
+
+#include "relocalizer/core/number_list.h"
 
 namespace relocalizer {
 
@@ -12,25 +13,15 @@ Expected<KeyFrameMotion> parseMinMotion(const std::string& text) {
     return makeError("bad --min-motion '" + text + "': " + why +
                      " (expected METRES,DEGREES such as 0.05,5; 0 turns selection off)");
   };
-  std::vector<double> values;
-  if (!text.empty() && text.back() == ',') return bad("empty item");
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    item.erase(0, item.find_first_not_of(" \t"));
-    item.erase(item.find_last_not_of(" \t") + 1);
-    if (item.empty()) return bad("empty item");
-    size_t used = 0;
-    double value = 0;
-    try {
-      value = std::stod(item, &used);
-    } catch (const std::exception&) {
-      return bad("'" + item + "' is not a number");
+  auto parsed = parseNumberList(text);
+  if (!parsed) return bad(parsed.error());
+  const std::vector<double>& values = *parsed;
+  for (double value : values)
+    if (value < 0) {
+      char item[32];
+      std::snprintf(item, sizeof item, "'%g' must be >= 0", value);
+      return bad(item);
     }
-    if (used != item.size()) return bad("'" + item + "' is not a number");
-    if (!std::isfinite(value) || value < 0) return bad("'" + item + "' must be finite and >= 0");
-    values.push_back(value);
-  }
   if (values.empty() || values.size() > 2) return bad("expected one or two numbers");
   return KeyFrameMotion{values[0], values.size() > 1 ? values[1] : 0.0};
 }

@@ -33,6 +33,13 @@ struct Options {
   int threads = 0;
   bool prediction_quality = false;
   cli::SourceOptions source;
+  std::string hint;  // --hint: every frame relocalized with a hint near its ground truth
+
+  // One evaluation's hints in map frame `frame` (each draws the same), or none.
+  std::unique_ptr<SimulatedHints> hints(const std::string& frame) const {
+    if (hint.empty()) return nullptr;
+    return std::make_unique<SimulatedHints>(*parseHintNoise(hint), frame);
+  }
 };
 
 // --learn-frames and the options that go with it.
@@ -78,6 +85,10 @@ void addOptions(CLI::App& app, Options& o, LearnOptions& l) {
       ->capture_default_str();
   app.add_flag("--prediction-quality", o.prediction_quality,
                "Also report the share of forest predictions within 10 cm of the truth");
+  app.add_option("--hint", o.hint,
+                 "ERROR_M,ERROR_DEG,SIGMA_M,SIGMA_DEG: each frame hinted (pose_hint.h) this far "
+                 "off its ground truth in random directions (seeded), declaring these sigmas; "
+                 "many places need --expect-place (the hint's map frame)");
   const std::string group = "Online learning (--learn-frames)";
   auto* learn_option =
       app.add_option("--learn-frames", l.learn_frames,
@@ -159,8 +170,8 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
       relocalizer = learner.current();
       double accuracy = 0.0;
       if (relocalizer) {
-        auto evaluated =
-            evaluateFrames(*relocalizer, data, false, "curve " + std::to_string(learned));
+        auto evaluated = evaluateFrames(*relocalizer, data, false,
+                                        "curve " + std::to_string(learned), o.hints("").get());
         if (!evaluated) return cli::fail(app, evaluated.error());
         out.evaluation = std::move(*evaluated);
         accuracy = summarizeEvaluation(out.evaluation.records).accuracy.within_5cm_5deg;
@@ -257,7 +268,8 @@ int learnSubmaps(const CLI::App& app, const Options& o, LearnOptions l,
     PlaceSet places;
     if (Status put = cli::putSubmaps(submaps, submaps.models(), places); !put)
       return cli::fail(app, put.error());
-    auto evaluated = evaluateFrames(places, data, "curve " + std::to_string(learned));
+    auto evaluated = evaluateFrames(places, data, "curve " + std::to_string(learned),
+                                    o.hints(submaps.names().map_frame).get());
     if (!evaluated) return cli::fail(app, evaluated.error());
     out.evaluation = std::move(*evaluated);
     const double accuracy = summarizeEvaluation(out.evaluation.records).accuracy.within_5cm_5deg;
@@ -316,7 +328,8 @@ Expected<FrameEvaluation> evaluatePlaces(const Options& o, const RelocalizerPara
   }
   if (!expected_found)
     return makeError("--expect-place " + o.expect_place + ": no --model names that place");
-  return evaluateFrames(places, data, "evaluating " + std::to_string(places.size()) + " places");
+  return evaluateFrames(places, data, "evaluating " + std::to_string(places.size()) + " places",
+                        o.hints(o.expect_place).get());
 }
 
 // Options that do not go together, or empty.
@@ -345,6 +358,9 @@ std::string combinationError(const Options& o, const LearnOptions& learn, bool m
     return "--prediction-quality measures one model's forests, not a folder of submaps";
   if (learn.submaps && o.prediction_quality)
     return "--prediction-quality measures one model's forests, not --submaps";
+  if (auto hint = parseHintNoise(o.hint); !o.hint.empty() && !hint) return hint.error();
+  if (many_places && !o.hint.empty() && o.expect_place.empty())
+    return "--hint with many places needs --expect-place (the map frame the hint is in)";
   return {};
 }
 
@@ -366,6 +382,7 @@ std::string summaryFields(const Options& o, const FrameSource& data, const nlohm
     extra["min_motion"] = o.source.min_motion;
   }
   extra["forests"] = o.forests;
+  if (!o.hint.empty()) extra["hint"] = o.hint;
   extra["threads"] = thread_count;
   extra["software_version"] = kSoftwareVersion;
   const nlohmann::json quality = nlohmann::json::parse(prediction_json);
@@ -409,6 +426,8 @@ int main(int argc, char** argv) {
   if (!source) return cli::fail(app, source.error());
   const FrameSource& data = **source;
   std::printf("%s\n", data.summary().c_str());
+  if (!o.hint.empty())
+    std::printf("every frame hinted: %s\n", formatHintNoise(*parseHintNoise(o.hint)).c_str());
   const int thread_count = cli::resolveThreads(o.threads);
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, thread_count);
 
@@ -418,7 +437,8 @@ int main(int argc, char** argv) {
   const bool submap_folder = learn.learn_frames.empty() && cli::isFolder(o.model_path);
   const bool by_places = many_places || learn.submaps || submap_folder;
   if (submap_folder) {
-    auto evaluated = cli::evaluateSubmapFolder(o.model_path, params, data);
+    auto evaluated = cli::evaluateSubmapFolder(
+        o.model_path, params, data, [&](const std::string& frame) { return o.hints(frame); });
     if (!evaluated) return cli::fail(app, evaluated.error());
     evaluation = std::move(*evaluated);
   } else if (learn.submaps) {
@@ -447,7 +467,8 @@ int main(int argc, char** argv) {
       std::printf("warning: %s\n", limits.c_str());
     evaluation = std::move(learned.evaluation);
     if (learn.learn_frames.empty() || o.prediction_quality) {
-      auto evaluated = evaluateFrames(relocalizer, data, o.prediction_quality, "evaluating");
+      auto evaluated =
+          evaluateFrames(relocalizer, data, o.prediction_quality, "evaluating", o.hints("").get());
       if (!evaluated) return cli::fail(app, evaluated.error());
       evaluation = std::move(*evaluated);
     }

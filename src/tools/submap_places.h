@@ -5,6 +5,8 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,10 +33,11 @@ inline bool isFolder(const std::string& path) {
 }
 
 // --model FOLDER: a saved set of learned submaps, relocalized across as --submaps
-// does (a submap that cannot be loaded is skipped with a warning).
-inline Expected<FrameEvaluation> evaluateSubmapFolder(const std::string& folder,
-                                                      const RelocalizerParams& params,
-                                                      const FrameSource& data) {
+// does (a submap that cannot be loaded is skipped with a warning); `hints_in`
+// makes the hints (or none) for the set's map frame.
+inline Expected<FrameEvaluation> evaluateSubmapFolder(
+    const std::string& folder, const RelocalizerParams& params, const FrameSource& data,
+    const std::function<std::unique_ptr<SimulatedHints>(const std::string&)>& hints_in) {
   auto manifest = readSubmapManifest(folder);
   if (!manifest) return makeError(manifest.error());
   auto saved = loadSavedSubmaps(folder, manifest->place_name, manifest->map_frame, params);
@@ -45,7 +48,8 @@ inline Expected<FrameEvaluation> evaluateSubmapFolder(const std::string& folder,
     return makeError(put.error());
   std::printf("%s: %zu submaps of %s in %s\n", folder.c_str(), places.size(),
               manifest->place_name.c_str(), manifest->map_frame.c_str());
-  return evaluateFrames(places, data, "evaluating " + std::to_string(places.size()) + " submaps");
+  return evaluateFrames(places, data, "evaluating " + std::to_string(places.size()) + " submaps",
+                        hints_in(manifest->map_frame).get());
 }
 
 }  // namespace relocalizer::cli

@@ -525,7 +525,41 @@ TEST_F(Places, EvaluateRelocalizesAgainstEveryModelAndNamesEachFramesPlace) {
                 .find("\"wrong_place\": 0"),
             std::string::npos);
 
+  // One room under two names (and map frames) fits every frame alike, so no
+  // frame gets a pose; a hint near the truth in the first's frame names it.
+  const std::string twins = " --model first='" + dir.str() + "/room7.model' --model second='" +
+                            dir.str() + "/room7.model' --dataset '" + dir.str() +
+                            "/scene/test' --expect-place first";
+  for (const std::string hint : {"", " --hint 0.1,3,0.3,10"}) {
+    const std::string out = dir.str() + (hint.empty() ? "/twins" : "/hinted");
+    ASSERT_EQ(runLogged("evaluate", twins + hint + " --output '" + out + "'", out + ".log"), 0)
+        << relocalizer::testing::readBytes(out + ".log");
+    std::istringstream answers(relocalizer::testing::readBytes(out + "/places.csv"));
+    std::getline(answers, line);
+    int first = 0, second = 0;
+    while (std::getline(answers, line)) {
+      first += line.find("first") != std::string::npos;
+      second += line.find("second") != std::string::npos;
+    }
+    EXPECT_EQ(second, 0) << hint;
+    if (hint.empty())
+      EXPECT_EQ(first, 0);
+    else
+      EXPECT_GE(first, 4);
+  }
+  EXPECT_NE(relocalizer::testing::readBytes(dir.path() / "hinted" / "summary.json")
+                .find("\"hint\": \"0.1,3,0.3,10\""),
+            std::string::npos);
+
   // Mistakes name the option.
+  EXPECT_NE(runLogged("evaluate", models + " --hint 0.1,3,0.3,10", dir.str() + "/nohome.log"), 0);
+  EXPECT_NE(relocalizer::testing::readBytes(dir.path() / "nohome.log").find("--expect-place"),
+            std::string::npos);
+  EXPECT_NE(runLogged("evaluate", models + " --expect-place room7 --hint 0.1,3,0,10",
+                      dir.str() + "/badhint.log"),
+            0);
+  EXPECT_NE(relocalizer::testing::readBytes(dir.path() / "badhint.log").find("bad --hint"),
+            std::string::npos);
   EXPECT_NE(runLogged("evaluate", models + " --expect-place kitchen", dir.str() + "/bad.log"), 0);
   EXPECT_NE(relocalizer::testing::readBytes(dir.path() / "bad.log").find("--expect-place kitchen"),
             std::string::npos);

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "relocalizer/eval/metrics.h"
+#include "relocalizer/eval/simulated_hints.h"
 #include "relocalizer/forest/model_builder.h"
 #include "relocalizer/pose/pose_hint.h"
 #include "relocalizer/relocalize/place_set.h"
@@ -125,6 +126,34 @@ TEST(PoseHint, ZeroVariancesLeaveAxesFreeAndUnusableHintsAreRefused) {
   PoseHint skewed = hint;
   skewed.pose.linear() *= 2.0;
   EXPECT_NE(poseHintError(skewed).find("rotation"), std::string::npos);
+}
+
+TEST(SimulatedHints, EachHintIsAsFarOffAsAskedInARepeatableRandomDirection) {
+  const HintNoise noise{0.25, 4.0, 0.5, 10.0};
+  SimulatedHints hints(noise, "map"), again(noise, "map");
+  const Pose truth = Eigen::Translation3d(1.0, -2.0, 0.5) *
+                     Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized());
+  Eigen::Vector3d first_shift = Eigen::Vector3d::Zero();
+  for (int i = 0; i < 20; ++i) {
+    const PoseHint hint = hints.around(truth);
+    EXPECT_EQ(hint.frame, "map");
+    EXPECT_TRUE(poseHintError(hint).empty()) << poseHintError(hint);
+    const FrameError error = frameError(0, hint.pose, truth);
+    EXPECT_NEAR(error.translation_m, 0.25, 1e-9);
+    EXPECT_NEAR(error.rotation_deg, 4.0, 1e-6);
+    EXPECT_NEAR(hint.covariance(0, 0), 0.25, 1e-12);
+    EXPECT_NEAR(hint.covariance(5, 5), std::pow(10.0 * M_PI / 180.0, 2), 1e-12);
+    EXPECT_TRUE(hint.pose.isApprox(again.around(truth).pose, 0.0)) << "draw " << i;
+    const Eigen::Vector3d shift = hint.pose.translation() - truth.translation();
+    if (i == 0)
+      first_shift = shift;
+    else
+      EXPECT_GT((shift - first_shift).norm(), 1e-3) << "draw " << i;
+  }
+  EXPECT_EQ(formatHintNoise(*parseHintNoise("0.25,4,0.5,10")), formatHintNoise(noise));
+  for (const char* bad :
+       {"0.1,3,0.3", "0.1,3,0.3,10,1", "0.1,3,0,10", "-1,3,0.3,10", "a,3,0.3,10", "0.1,3,0.3,nan"})
+    EXPECT_FALSE(parseHintNoise(bad).ok()) << bad;
 }
 
 TEST_F(PoseHints, InTheTurnedWorldTheHintDecidesWhichOfTheTwoPlacesItIs) {

@@ -9,6 +9,7 @@
 #include "relocalizer/core/expected.h"
 #include "relocalizer/data/frame_source.h"
 #include "relocalizer/eval/evaluation.h"
+#include "relocalizer/eval/simulated_hints.h"
 #include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
@@ -28,15 +29,18 @@ struct FrameEvaluation {
 };
 
 // `measure_predictions` adds the prediction quality of each forest the model
-// has; `progress_label` names the progress bar. Fails on the first frame that
+// has; `progress_label` names the progress bar; with `hints` every frame is
+// relocalized with a hint near its ground truth. Fails on the first frame that
 // does not load.
 Expected<FrameEvaluation> evaluateFrames(const Relocalizer& relocalizer, const FrameSource& source,
                                          bool measure_predictions,
-                                         const std::string& progress_label);
+                                         const std::string& progress_label,
+                                         SimulatedHints* hints = nullptr);
 
 // The same against many places: each record names its answering place.
 Expected<FrameEvaluation> evaluateFrames(const PlaceSet& places, const FrameSource& source,
-                                         const std::string& progress_label);
+                                         const std::string& progress_label,
+                                         SimulatedHints* hints = nullptr);
 
 // One printed line per measured forest, and the same as a JSON object
 // ({"points": {...}, "lines": {...}}; "null" when nothing was measured).
