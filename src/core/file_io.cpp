@@ -188,4 +188,10 @@ Status replaceFiles(const std::vector<FileReplacement>& files) {
   return okStatus();
 }
 
+std::string pathStem(const std::string& path) {
+  std::filesystem::path p(path);
+  if (!p.has_filename()) p = p.parent_path();
+  return p.stem().string();
+}
+
 }  // namespace relocalizer

@@ -4,12 +4,12 @@
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <limits>
 #include <nlohmann/json.hpp>
 
 #include "message_conversion.h"
 #include "relocalizer/core/config.h"
+#include "relocalizer/core/file_io.h"
 
 namespace relocalizer_ros {
 
@@ -243,7 +243,7 @@ std::string checkPlaces(const ros::NodeHandle& nh, const NodeParams& p) {
 std::string placeName(const NodeParams& params) {
   if (!params.place_name.empty()) return params.place_name;
   if (params.learn) return "learned";
-  return std::filesystem::path(params.model).stem().string();
+  return relocalizer::pathStem(params.model);
 }
 
 bool isLearnedPlaceName(const NodeParams& params, const std::string& name) {

@@ -2,12 +2,12 @@
 // NAME=PATH arguments that name places (evaluate --model, places_benchmark
 // --place and --test), parsed and checked the same way by every tool.
 
-#include <filesystem>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "relocalizer/core/expected.h"
+#include "relocalizer/core/file_io.h"
 
 namespace relocalizer::cli {
 
@@ -24,8 +24,7 @@ inline Expected<std::vector<NamedPath>> parseNamedPaths(const std::vector<std::s
   for (const std::string& argument : arguments) {
     const size_t equals = argument.find('=');
     NamedPath entry;
-    entry.name = equals == std::string::npos ? std::filesystem::path(argument).stem().string()
-                                             : argument.substr(0, equals);
+    entry.name = equals == std::string::npos ? pathStem(argument) : argument.substr(0, equals);
     entry.path = equals == std::string::npos ? argument : argument.substr(equals + 1);
     if (entry.name.empty() || entry.path.empty())
       return makeError(option + " " + argument + ": expected NAME=PATH with a name and a path");

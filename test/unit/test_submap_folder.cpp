@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "relocalizer/core/file_io.h"
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/submap_folder.h"
 #include "relocalizer/online/submap_learner.h"
@@ -88,6 +89,14 @@ relocalizer::testing::TempDir* SubmapFolder::dir_ = nullptr;
 SubmapLearner* SubmapFolder::learner_ = nullptr;
 
 }  // namespace
+
+TEST(PlaceNames, AFolderIsNamedAfterItselfWithOrWithoutATrailingSlash) {
+  EXPECT_EQ(pathStem("/maps/learned/"), "learned");
+  EXPECT_EQ(pathStem("/maps/learned//"), "learned");
+  EXPECT_EQ(pathStem("/maps/learned"), "learned");
+  EXPECT_EQ(pathStem("maps/kitchen.model"), "kitchen");
+  EXPECT_EQ(pathStem("kitchen.model"), "kitchen");
+}
 
 TEST_F(SubmapFolder, AResumedSetAnswersBitForBitAsTheSavedOne) {
   const std::vector<SubmapModel> before = learner_->models();

@@ -41,4 +41,9 @@ std::string replaceableError(const std::string& path, std::string_view magic,
 // target may be replaced. Messages name the path and carry the system's reason.
 Status replaceFiles(const std::vector<FileReplacement>& files);
 
+// The stem of the path's last component, trailing separators ignored: what a
+// place is called by default, for a model file ("kitchen.model") and a folder
+// of submaps ("learned/") alike.
+std::string pathStem(const std::string& path);
+
 }  // namespace relocalizer
