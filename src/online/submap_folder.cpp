@@ -200,9 +200,12 @@ Expected<SubmapManifest> readSubmapManifest(const std::string& folder) {
   const std::string path = submapManifestPath(folder);
   auto bytes = readRegularFile(path, "submap manifest");
   if (!bytes) return makeError(bytes.error());
+  return parseSubmapManifest(std::string(bytes->begin(), bytes->end()), path);
+}
+
+Expected<SubmapManifest> parseSubmapManifest(const std::string& text, const std::string& path) {
   try {
-    const Json json = Json::parse(bytes->begin(), bytes->end());
-    return readManifest(json);
+    return readManifest(Json::parse(text));
   } catch (const std::exception& e) {
     return makeError(path + ": not a learned-submaps manifest: " + e.what());
   }

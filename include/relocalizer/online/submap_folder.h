@@ -62,5 +62,7 @@ std::string serializeSubmapManifest(const SubmapManifest& manifest);
 // Reads `<folder>/manifest.json`. Errors name the file and, for a bad field,
 // the field (`submaps[2].keyframe_poses[5].pose`).
 Expected<SubmapManifest> readSubmapManifest(const std::string& folder);
+// The same from the manifest's text; `path` names it in errors.
+Expected<SubmapManifest> parseSubmapManifest(const std::string& text, const std::string& path);
 
 }  // namespace relocalizer
