@@ -135,8 +135,9 @@ TEST(Diagnostics, AnswersOnTheFixtureModelAreOk) {
   })) << "no status with every input rate near the 10 Hz sent";
   // And no ERROR since the answer.
   for (const DiagnosticArray& seen : g_diagnostics->messages())
-    if (const DiagnosticStatus* s = find(seen, kNode))
+    if (const DiagnosticStatus* s = find(seen, kNode)) {
       EXPECT_NE(s->level, DiagnosticStatus::ERROR) << s->message;
+    }
 }
 
 TEST(Diagnostics, AnswersThatKeepFailingWarnWithTheReason) {

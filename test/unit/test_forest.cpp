@@ -331,7 +331,9 @@ TEST_F(TrainedTree, GrowsWithinLimitsAndEveryLeafHasAMode) {
     EXPECT_LE(t.depth(), params_.points.max_depth);
     EXPECT_EQ(t.descriptors.size(), t.modes.size());
     for (const SplitNode& n : t.nodes)
-      if (n.isLeaf()) EXPECT_GE(n.leafModes().mode_count, 1u);
+      if (n.isLeaf()) {
+        EXPECT_GE(n.leafModes().mode_count, 1u);
+      }
   }
 }
 

@@ -162,15 +162,20 @@ TEST_F(PoseHints, InTheTurnedWorldTheHintDecidesWhichOfTheTwoPlacesItIs) {
     const Pose truth = *frame.ground_truth, mirrored = turn_ * truth;
     const Relocalization free = twins_->relocalize(frame);
     // The world really holds both answers: either, never anything else.
-    if (free.success) EXPECT_TRUE(at(free, truth) || at(free, mirrored));
+    if (free.success) {
+      EXPECT_TRUE(at(free, truth) || at(free, mirrored));
+    }
     without_hint_at_twin += at(free, mirrored);
 
     const PoseHint here = hintNear(truth), there = hintNear(mirrored);
     const Relocalization hinted_here = twins_->relocalize(frame, &here);
     const Relocalization hinted_there = twins_->relocalize(frame, &there);
-    if (hinted_here.success) EXPECT_TRUE(at(hinted_here, truth)) << "hint here, frame " << frame.id;
-    if (hinted_there.success)
+    if (hinted_here.success) {
+      EXPECT_TRUE(at(hinted_here, truth)) << "hint here, frame " << frame.id;
+    }
+    if (hinted_there.success) {
       EXPECT_TRUE(at(hinted_there, mirrored)) << "hint in the twin, frame " << frame.id;
+    }
     right += at(hinted_here, truth);
     twin += at(hinted_there, mirrored);
   }
@@ -195,8 +200,12 @@ TEST_F(PoseHints, AWrongHintDoesNotOverruleUnambiguousEvidence) {
         hintNear(truth * Pose(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY())));
     for (const PoseHint* wrong : {&far, &turned}) {
       const Relocalization hinted = room_->relocalize(frame, wrong);
-      if (hinted.success) EXPECT_TRUE(at(hinted, truth)) << "frame " << frame.id;
-      if (at(free, truth)) EXPECT_TRUE(at(hinted, truth)) << "frame " << frame.id;
+      if (hinted.success) {
+        EXPECT_TRUE(at(hinted, truth)) << "frame " << frame.id;
+      }
+      if (at(free, truth)) {
+        EXPECT_TRUE(at(hinted, truth)) << "frame " << frame.id;
+      }
     }
     correct += at(free, truth);
   }
@@ -245,8 +254,12 @@ TEST_F(PoseHints, WithPlacesTheHintFavoursThePlacesInItsFrame) {
     const PoseHint in_second = hintNear(*frame.ground_truth, "second_map");
     const PlaceAnswer a = set.relocalize(frame, &in_first);
     const PlaceAnswer b = set.relocalize(frame, &in_second);
-    if (a.relocalization.success) EXPECT_EQ(a.place, "first");
-    if (b.relocalization.success) EXPECT_EQ(b.place, "second");
+    if (a.relocalization.success) {
+      EXPECT_EQ(a.place, "first");
+    }
+    if (b.relocalization.success) {
+      EXPECT_EQ(b.place, "second");
+    }
     first += a.place == "first" && at(a.relocalization, *frame.ground_truth);
     second += b.place == "second" && at(b.relocalization, *frame.ground_truth);
   }
