@@ -452,14 +452,15 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   ASSERT_NO_FATAL_FAILURE(writeToolScene(dir, log));
   // The 80-frame arc looped for 8 s at 30 Hz: up to three laps, so the later
   // laps walk through areas that frozen submaps already hold. How many frames
-  // the stream gets through depends on the machine (a freeze waits for the
-  // one before it), so only what holds at any speed is asserted.
+  // the stream gets through depends on the machine (a full queue of freezes
+  // holds it up), so only what holds at any speed is asserted. Frozen
+  // submaps go to the working folder as they freeze, as in the node.
   ASSERT_EQ(relocalizer::testing::runTool(
                 "learn_benchmark",
                 "--dataset '" + dir.str() + "/scene/train' --learn-frames 0-79 --frames " +
                     "2,10,18,26,34,42,50,58,66,74 --submaps --max-keyframes 6 --seconds 8 " +
                     "--reloc-rate 5 --learn-config '" + dir.str() + "/small.yaml' --output '" +
-                    dir.str() + "/bench'",
+                    dir.str() + "/bench' --learn-folder '" + dir.str() + "/working'",
                 log, log),
             0)
       << relocalizer::testing::readBytes(log);
@@ -484,4 +485,14 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   // Relocalized across the submaps while they were learned.
   EXPECT_GT(summary.at("attempts").get<long>(), 10);
   EXPECT_GT(summary.at("correct").get<long>(), 0) << relocalizer::testing::readBytes(log);
+  EXPECT_LE(summary.at("freezes_pending_most").get<int>(), kMaxPendingFreezes);
+  // Every submap but the active one was frozen and written before the tool
+  // ended (pending freezes end first), each with its final model.
+  auto working = loadSavedSubmaps(dir.str() + "/working", "learned", "map", fastRelocalizer());
+  ASSERT_TRUE(working.ok()) << working.error();
+  EXPECT_TRUE(working->warnings.empty()) << working->warnings.front();
+  ASSERT_EQ(static_cast<int>(working->places.size()), summary.at("submaps").get<int>() - 1);
+  const std::vector<int> keyframes = summary.at("submap_keyframes").get<std::vector<int>>();
+  for (std::size_t i = 0; i < working->places.size(); ++i)
+    EXPECT_EQ(working->places[i].relocalizer->model().summary.images, keyframes[i]) << i;
 }
