@@ -168,14 +168,15 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
   {
     std::unique_lock<std::mutex> lock(mutex_);
     // A new submap waits for room in the queue, and for a save waiting for
-    // the queue (only this thread changes the index, so the decision holds
-    // across the wait).
-    if (mode_ == OnlineLearner::Mode::Background && active_) {
+    // the queue (either mode: an Inline freeze is pending while it runs, and
+    // a save meanwhile would leave it out). Only this thread changes the
+    // index, so the decision holds across the wait.
+    const auto room = [&] {
+      return saves_waiting_ == 0 && static_cast<int>(pending_.size()) < kMaxPendingFreezes;
+    };
+    if (active_ && !room()) {
       const SubmapDecision next = index_.decide(camera_to_world);
-      const auto room = [&] {
-        return saves_waiting_ == 0 && static_cast<int>(pending_.size()) < kMaxPendingFreezes;
-      };
-      if ((next == SubmapDecision::NewFull || next == SubmapDecision::NewLeft) && !room()) {
+      if (next == SubmapDecision::NewFull || next == SubmapDecision::NewLeft) {
         const auto start = std::chrono::steady_clock::now();
         freeze_cv_.wait(lock, room);
         ++freeze_waits_;
