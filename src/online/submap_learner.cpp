@@ -1,5 +1,8 @@
 #include "relocalizer/online/submap_learner.h"
 
+#include <algorithm>
+#include <chrono>
+#include <optional>
 #include <stdexcept>
 
 #include "relocalizer/forest/model_io.h"
@@ -29,8 +32,10 @@ SubmapLearner::SubmapLearner(LearningParams learning, SubmapParams submaps,
       index_(submaps, learning_.max_keyframes) {
   if (const std::string why = learningParamsError(learning_); !why.empty())
     throw std::invalid_argument(why);
-  if (mode_ == OnlineLearner::Mode::Background)
+  if (mode_ == OnlineLearner::Mode::Background) {
     freezer_ = std::thread(&SubmapLearner::freezeLoop, this);
+    retirer_ = std::thread(&SubmapLearner::retireLoop, this);
+  }
 }
 
 SubmapLearner::~SubmapLearner() {
@@ -40,25 +45,70 @@ SubmapLearner::~SubmapLearner() {
   }
   freeze_cv_.notify_all();
   if (freezer_.joinable()) freezer_.join();
+  if (retirer_.joinable()) retirer_.join();
 }
 
-Status SubmapLearner::finishFreeze(int index, const OnlineLearner& learner,
-                                   const Status& retrained) {
-  // No longer freezing before it is written: writeSet leaves out a submap
-  // whose freeze runs (its model is not final yet).
-  freezing_index_ = -1;
-  Frozen& f = frozen_[static_cast<std::size_t>(index)];
-  // A submap that fails its last retrain keeps the model it had.
-  if (std::shared_ptr<const Relocalizer> last = learner.current()) f.relocalizer = std::move(last);
-  if (!retrained) {
-    freeze_error_ = "submap " + std::to_string(index) + "'s last retrain: " + retrained.error();
-    return makeError(freeze_error_);
+bool SubmapLearner::pending(int index) const {
+  return std::any_of(pending_.begin(), pending_.end(),
+                     [&](const Pending& p) { return p.index == index; });
+}
+
+Status SubmapLearner::freeze(const Pending& p) {
+  std::shared_ptr<const Relocalizer> model = p.model;
+  Status retrained = okStatus();
+  if (!p.learned_all) {
+    // A learner of its own, seeded with the submap's key frames in their
+    // order: the retrain the submap's learner would have run at drain()
+    // (Background: on a nice worker), without that learner's store or worker.
+    OnlineLearner learner(learning_, relocalizer_params_, mode_);
+    retrained = learner.seed(p.key_frames);
+    if (retrained) retrained = learner.drain();
+    if (std::shared_ptr<const Relocalizer> last = learner.current()) model = std::move(last);
   }
-  if (folder_.empty() || !f.relocalizer) return okStatus();
-  if (Status written = writeSet(folder_, false, true); !written) {
-    warnings_.push_back(written.error());
-    freeze_error_ = written.error();
-    return written;
+  // Frozen files are written once, with the final model, so the pair is
+  // written before the submap counts as frozen; writers of the same folder
+  // (a save, useFolder, the manifest) wait on files_mutex_, readers of the
+  // models do not.
+  std::lock_guard<std::mutex> files(files_mutex_);
+  std::string folder;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    folder = folder_;
+  }
+  Status written = okStatus();
+  ModelFileId model_id;
+  const bool write = retrained && model && !folder.empty();
+  if (write) written = writeFrozenPair(folder, p.index, *model, p.key_frames, model_id);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    Frozen& f = frozen_[static_cast<std::size_t>(p.index)];
+    // A submap that fails its last retrain keeps the model it had.
+    f.relocalizer = model;
+    if (write && written) {
+      f.written = true;
+      f.model_id = model_id;
+    } else {
+      // Kept until a save (or useFolder) writes them.
+      f.key_frames = p.key_frames;
+    }
+    if (!retrained) {
+      freeze_error_ = "submap " + std::to_string(p.index) + "'s last retrain: " + retrained.error();
+      return makeError(freeze_error_);
+    }
+    if (!written) {
+      warnings_.push_back(written.error());
+      freeze_error_ = written.error();
+      return written;
+    }
+  }
+  if (!write) return okStatus();
+  // The working folder's manifest names the submap from now on; a failure
+  // leaves its pair unnamed (resume warns of it) until the next manifest.
+  if (Status named = writeManifest(folder, p.index); !named) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    warnings_.push_back(named.error());
+    freeze_error_ = named.error();
+    return named;
   }
   return okStatus();
 }
@@ -66,21 +116,29 @@ Status SubmapLearner::finishFreeze(int index, const OnlineLearner& learner,
 void SubmapLearner::freezeLoop() {
   std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
-    freeze_cv_.wait(lock, [&] { return freezing_ || stopping_; });
-    // Stopping with nothing handed over; a freeze handed over still ends, so
+    freeze_cv_.wait(lock, [&] { return !pending_.empty() || stopping_; });
+    // Stopping with nothing handed over; freezes handed over still end, so
     // that a submap frozen before shutdown has its final model (and files).
-    if (!freezing_) return;
-    std::shared_ptr<OnlineLearner> learner = freezing_;
-    const int index = freezing_index_;
+    if (pending_.empty()) return;
+    const Pending next = pending_.front();
     lock.unlock();
-    const Status retrained = learner->drain();
+    (void)freeze(next);  // a failure is in status().last_error and warnings()
     lock.lock();
-    freezing_.reset();
-    finishFreeze(index, *learner, retrained);
-    lock.unlock();
-    learner.reset();  // its store and worker go, outside the lock
+    pending_.pop_front();
     freeze_cv_.notify_all();
+  }
+}
+
+void SubmapLearner::retireLoop() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (true) {
+    freeze_cv_.wait(lock, [&] { return !retiring_.empty() || stopping_; });
+    std::vector<std::shared_ptr<OnlineLearner>> retired;
+    retired.swap(retiring_);
+    lock.unlock();
+    retired.clear();  // each stops its worker: a running retrain is aborted
     lock.lock();
+    if (stopping_ && retiring_.empty()) return;
   }
 }
 
@@ -105,21 +163,31 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
   if (const std::string why = frameValidationError(frame); !why.empty())
     return makeError("key frame " + std::to_string(frame.id) + ": " + why);
   SubmapPlacement placement;
-  std::shared_ptr<OnlineLearner> active, freezing;
-  int was_active = -1;
+  std::shared_ptr<OnlineLearner> active;
+  std::optional<Pending> inline_freeze;
   {
     std::unique_lock<std::mutex> lock(mutex_);
-    // One freeze at a time: a second waits for the first (only this thread
-    // changes the index, so the decision holds across the wait).
-    if (mode_ == OnlineLearner::Mode::Background && active_) {
+    // A new submap waits for room in the queue, and for a save waiting for
+    // the queue (either mode: an Inline freeze is pending while it runs, and
+    // a save meanwhile would leave it out). Only this thread changes the
+    // index, so the decision holds across the wait.
+    const auto room = [&] {
+      return saves_waiting_ == 0 && static_cast<int>(pending_.size()) < kMaxPendingFreezes;
+    };
+    if (active_ && !room()) {
       const SubmapDecision next = index_.decide(camera_to_world);
-      if (next == SubmapDecision::NewFull || next == SubmapDecision::NewLeft)
-        freeze_cv_.wait(lock, [&] { return freezing_index_ < 0; });
+      if (next == SubmapDecision::NewFull || next == SubmapDecision::NewLeft) {
+        const auto start = std::chrono::steady_clock::now();
+        freeze_cv_.wait(lock, room);
+        ++freeze_waits_;
+        freeze_wait_seconds_ +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      }
     }
     // The index names key frames by arrival, so that the active's store
     // entries (also in arrival order, never evicted: a full submap is
     // replaced, not thinned) line up with its key frames.
-    was_active = index_.active();
+    const int was_active = index_.active();
     placement = index_.place(next_id_++, camera_to_world);
     if (placement.decision == SubmapDecision::Covered) {
       ++covered_;
@@ -132,23 +200,26 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
       if (active_) {
         // A new submap leaves the old one's key frames in the index as they were.
         const std::vector<SubmapKeyFrame>& before = index_.keyFrames(was_active);
-        const std::vector<KeyFrameStore::Entry> stored = active_->keyFrames();
+        Pending handed;
+        handed.index = was_active;
+        handed.key_frames = active_->keyFrames();
         for (const SubmapKeyFrame& seed : placement.seeds)
-          for (std::size_t k = 0; k < before.size() && k < stored.size(); ++k)
-            if (before[k].id == seed.id) seeds.push_back(stored[k]);
+          for (std::size_t k = 0; k < before.size() && k < handed.key_frames.size(); ++k)
+            if (before[k].id == seed.id) seeds.push_back(handed.key_frames[k]);
+        const LearningStatus learned = active_->status();
+        handed.model = active_->current();
+        handed.learned_all = handed.model && learned.backlog == 0 && !learned.retraining;
         // Until its last retrain ends the frozen submap answers with the
-        // model it has; its key frames are kept until written (Frozen).
-        Frozen& f = frozen_[static_cast<std::size_t>(was_active)];
-        f.relocalizer = active_->current();
-        f.key_frames = stored;
-        // A save meanwhile (another thread) waits for it: a frozen submap is
-        // written once, with its final model.
-        freezing_index_ = was_active;
+        // model it has; a save meanwhile waits for it (a frozen submap is
+        // written once, with its final model).
+        frozen_[static_cast<std::size_t>(was_active)].relocalizer = handed.model;
+        pending_.push_back(std::move(handed));
+        pending_most_ = std::max(pending_most_, static_cast<int>(pending_.size()));
         if (mode_ == OnlineLearner::Mode::Background) {
-          freezing_ = std::move(active_);
+          retiring_.push_back(std::move(active_));
           freeze_cv_.notify_all();
         } else {
-          freezing = std::move(active_);
+          inline_freeze = pending_.back();
         }
       }
       active_ = std::make_shared<OnlineLearner>(learning_, relocalizer_params_, mode_);
@@ -162,15 +233,14 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
   // the model it had: the failure is the caller's to report, the run goes on
   // with the new submap, which the index has already started.
   Status frozen = okStatus();
-  if (freezing) {
-    const Status retrained = freezing->drain();
+  if (inline_freeze) {
+    frozen = freeze(*inline_freeze);
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      frozen = finishFreeze(was_active, *freezing, retrained);
+      pending_.pop_front();
     }
     freeze_cv_.notify_all();
   }
-  freezing.reset();  // its store and worker go
   if (Status added = active->addKeyFrame(frame, camera_to_world); !added)
     return makeError(added.error());
   if (!frozen) return makeError(frozen.error());
@@ -181,7 +251,7 @@ Status SubmapLearner::drain() {
   std::shared_ptr<OnlineLearner> active;
   {
     std::unique_lock<std::mutex> lock(mutex_);
-    freeze_cv_.wait(lock, [&] { return freezing_index_ < 0; });
+    freeze_cv_.wait(lock, [&] { return pending_.empty(); });
     active = active_;
   }
   return active ? active->drain() : okStatus();
@@ -217,7 +287,11 @@ SubmapStatus SubmapLearner::status() const {
     status.keyframes_added = added_;
     status.keyframes_covered = covered_;
     status.last_error = freeze_error_;
-    status.freezing = freezing_index_ >= 0;
+    status.freezes_pending = static_cast<int>(pending_.size());
+    status.freezing = status.freezes_pending > 0;
+    status.freezes_pending_most = pending_most_;
+    status.freeze_waits = freeze_waits_;
+    status.freeze_wait_seconds = freeze_wait_seconds_;
     for (int s = 0; s < static_cast<int>(frozen_.size()); ++s)
       if (s != index_.active() && frozen_[static_cast<std::size_t>(s)].relocalizer)
         status.model_bytes += modelBytes(frozen_[static_cast<std::size_t>(s)].relocalizer->model());

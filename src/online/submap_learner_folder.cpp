@@ -66,12 +66,22 @@ Status prepareFolder(const std::string& folder) {
 
 }  // namespace
 
-Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool adopt) {
-  if (Status ready = prepareFolder(folder); !ready) return ready;
-  std::error_code ec;
-  const std::string manifest_path = submapManifestPath(folder);
-  const bool working = !folder_.empty() && fs::equivalent(folder, folder_, ec);
+Status SubmapLearner::writeFrozenPair(const std::string& folder, int index,
+                                      const Relocalizer& model,
+                                      const std::vector<KeyFrameStore::Entry>& key_frames,
+                                      ModelFileId& model_id) const {
+  const std::string model_name = submapFileName(index);
+  std::vector<uint8_t> bytes = serializeModel(model.model());
+  model_id = modelFileId(bytes);
+  std::vector<FileReplacement> pair;
+  pair.push_back({inFolder(folder, keyFramesPath(model_name)), kKeyFrameMagic,
+                  "relocalizer key-frame file", serializeKeyFrames(key_frames, model_id)});
+  pair.push_back(
+      {inFolder(folder, model_name), kModelMagic, "relocalizer model file", std::move(bytes)});
+  return replaceFiles(pair);
+}
 
+SubmapManifest SubmapLearner::manifestHead() const {
   SubmapManifest manifest;
   manifest.place_name = names_.place;
   manifest.map_frame = names_.map_frame;
@@ -79,28 +89,54 @@ Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool
   manifest.min_motion = learning_.min_motion;
   manifest.max_keyframes = learning_.max_keyframes;
   manifest.submap_params = submap_params_;
+  return manifest;
+}
+
+SubmapEntry SubmapLearner::frozenEntry(int s) const {
+  SubmapEntry entry;
+  entry.index = s;
+  entry.name = submapPlaceName(names_.place, s);
+  entry.model = submapFileName(s);
+  entry.keyframes = keyFramesPath(entry.model);
+  entry.keyframe_poses = index_.keyFrames(s);
+  entry.model_id = frozen_[static_cast<std::size_t>(s)].model_id;
+  return entry;
+}
+
+Status SubmapLearner::writeManifest(const std::string& folder, int finished) {
+  std::string text;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    SubmapManifest manifest = manifestHead();
+    for (int s = 0; s < static_cast<int>(frozen_.size()); ++s) {
+      const Frozen& f = frozen_[static_cast<std::size_t>(s)];
+      if (s != index_.active() && (s == finished || !pending(s)) && f.relocalizer && f.written)
+        manifest.submaps.push_back(frozenEntry(s));
+    }
+    text = serializeSubmapManifest(manifest);
+  }
+  return replaceFiles(
+      {{submapManifestPath(folder), kSubmapManifestMagic, "learned-submaps manifest",
+        std::vector<uint8_t>(text.begin(), text.end())}});
+}
+
+Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool adopt) {
+  if (Status ready = prepareFolder(folder); !ready) return ready;
+  std::error_code ec;
+  const std::string manifest_path = submapManifestPath(folder);
+  const bool working = !folder_.empty() && fs::equivalent(folder, folder_, ec);
+
+  SubmapManifest manifest = manifestHead();
   std::vector<int> written_now;
   for (int s = 0; s < static_cast<int>(frozen_.size()); ++s) {
     Frozen& f = frozen_[static_cast<std::size_t>(s)];
-    if (s == index_.active() || s == freezing_index_ || !f.relocalizer) continue;
-    SubmapEntry entry;
-    entry.index = s;
-    entry.name = submapPlaceName(names_.place, s);
-    entry.model = submapFileName(s);
-    entry.keyframes = keyFramesPath(entry.model);
-    entry.keyframe_poses = index_.keyFrames(s);
-    const std::string model_path = inFolder(folder, entry.model);
-    const std::string keyframes_path = inFolder(folder, entry.keyframes);
+    if (s == index_.active() || pending(s) || !f.relocalizer) continue;
+    const std::string model_name = submapFileName(s);
+    const std::string model_path = inFolder(folder, model_name);
+    const std::string keyframes_path = inFolder(folder, keyFramesPath(model_name));
     if (!f.written) {
-      std::vector<uint8_t> model = serializeModel(f.relocalizer->model());
-      f.model_id = modelFileId(model);
-      // Key frames first, as OnlineLearner::save: their model identity then
-      // tells a pair cut by a crash.
-      std::vector<FileReplacement> pair;
-      pair.push_back({keyframes_path, kKeyFrameMagic, "relocalizer key-frame file",
-                      serializeKeyFrames(f.key_frames, f.model_id)});
-      pair.push_back({model_path, kModelMagic, "relocalizer model file", std::move(model)});
-      if (Status done = replaceFiles(pair); !done) return done;
+      if (Status done = writeFrozenPair(folder, s, *f.relocalizer, f.key_frames, f.model_id); !done)
+        return done;
       written_now.push_back(s);
     } else if (!working) {
       // Frozen files never change, so one already in `folder` (an earlier
@@ -108,7 +144,8 @@ Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool
       auto there = readRegularFile(model_path, "submap model file");
       if (!there || modelFileId(*there) != f.model_id) {
         std::vector<FileReplacement> pair;
-        auto keyframes = readRegularFile(inFolder(folder_, entry.keyframes), "key-frame file");
+        auto keyframes =
+            readRegularFile(inFolder(folder_, keyFramesPath(model_name)), "key-frame file");
         if (keyframes)
           pair.push_back({keyframes_path, kKeyFrameMagic, "relocalizer key-frame file",
                           std::move(*keyframes)});
@@ -120,8 +157,7 @@ Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool
         if (Status done = replaceFiles(pair); !done) return done;
       }
     }
-    entry.model_id = f.model_id;
-    manifest.submaps.push_back(std::move(entry));
+    manifest.submaps.push_back(frozenEntry(s));
   }
 
   std::vector<FileReplacement> last;
@@ -169,8 +205,10 @@ Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool
 }
 
 Status SubmapLearner::useFolder(const std::string& folder) {
-  std::unique_lock<std::mutex> lock(mutex_);
-  freeze_cv_.wait(lock, [&] { return freezing_index_ < 0; });
+  // Pending freezes are not waited for: each writes its files into the
+  // working folder of when it ends.
+  std::lock_guard<std::mutex> files(files_mutex_);
+  std::lock_guard<std::mutex> lock(mutex_);
   if (Status ready = prepareFolder(folder); !ready) return ready;
   std::error_code ec;
   const bool held = std::any_of(frozen_.begin(), frozen_.end(),
@@ -192,10 +230,23 @@ std::vector<std::string> SubmapLearner::warnings() const {
 }
 
 Status SubmapLearner::save(const std::string& folder) {
-  std::unique_lock<std::mutex> lock(mutex_);
-  // A submap being frozen is written with its final model, once.
-  freeze_cv_.wait(lock, [&] { return freezing_index_ < 0; });
-  return writeSet(folder, true, false);
+  {
+    // A submap being frozen is written with its final model, once: the save
+    // waits for the pending freezes, and no new one is handed over until it
+    // has written.
+    std::unique_lock<std::mutex> lock(mutex_);
+    ++saves_waiting_;
+    freeze_cv_.wait(lock, [&] { return pending_.empty(); });
+  }
+  Status saved = okStatus();
+  {
+    std::lock_guard<std::mutex> files(files_mutex_);
+    std::lock_guard<std::mutex> lock(mutex_);
+    saved = writeSet(folder, true, false);
+    --saves_waiting_;
+  }
+  freeze_cv_.notify_all();
+  return saved;
 }
 
 Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& folder) {

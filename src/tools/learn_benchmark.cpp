@@ -192,9 +192,11 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
   if (submaps)
     std::printf(
         "submaps: %d, key frames per submap (seeds included) %s; %d key frames covered by frozen "
-        "submaps; all models %.1f MB%s%s\n",
+        "submaps; all models %.1f MB; freezes: at most %d pending at once (%d still), %d new "
+        "submaps waited %.1f s for room%s%s\n",
         submaps->submaps, nlohmann::json(submaps->submap_keyframes).dump().c_str(),
-        submaps->keyframes_covered, submaps->model_bytes / 1e6,
+        submaps->keyframes_covered, submaps->model_bytes / 1e6, submaps->freezes_pending_most,
+        submaps->freezes_pending, submaps->freeze_waits, submaps->freeze_wait_seconds,
         submaps->last_error.empty() ? "" : "; last error: ", submaps->last_error.c_str());
   std::printf(
       "relocalization: %zu attempts, %d correct (5 cm / 5 deg); first correct at %.1f s of stream; "
@@ -238,6 +240,9 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
     summary["submap_keyframes"] = submaps->submap_keyframes;
     summary["keyframes_covered"] = submaps->keyframes_covered;
     summary["model_bytes_all_submaps"] = submaps->model_bytes;
+    summary["freezes_pending_most"] = submaps->freezes_pending_most;
+    summary["freeze_waits"] = submaps->freeze_waits;
+    summary["freeze_wait_seconds"] = submaps->freeze_wait_seconds;
   }
   std::ofstream(output + "/summary.json") << summary.dump(2) << '\n';
 }
@@ -254,7 +259,8 @@ int main(int argc, char** argv) {
       "learns submaps of --max-keyframes each, as the node does, and relocalizes across them.",
       "learn_benchmark"};
   cli::DatasetArguments arguments;
-  std::string learn_frames, min_motion = formatMinMotion(KeyFrameMotion{}), learn_config, output;
+  std::string learn_frames, min_motion = formatMinMotion(KeyFrameMotion{}), learn_config, output,
+                            learn_folder;
   double rate = 30.0, reloc_rate = 2.0, seconds = 60.0;
   int threads = 1;
   bool submaps = false;
@@ -274,6 +280,9 @@ int main(int argc, char** argv) {
   app.add_option("--min-motion", min_motion, "Key frames: METRES,DEGREES")->capture_default_str();
   app.add_flag("--submaps", submaps,
                "Learn submaps (--max-keyframes each) and relocalize across them, as the node");
+  app.add_option("--learn-folder", learn_folder,
+                 "With --submaps: the working folder, where frozen submaps are written as they "
+                 "freeze and their key frames leave memory, as in the node");
   app.add_option("--max-keyframes", learning.max_keyframes,
                  "Cap on stored key frames (with --submaps: per submap)")
       ->check(CLI::Range(2, 100000))
@@ -306,11 +315,15 @@ int main(int argc, char** argv) {
   std::unique_ptr<KeyFrameFeed> feed;
   std::unique_ptr<SubmapLearner> submap_learner;
   KeyFrameSelector selector(checked->min_motion);
-  if (submaps)
+  if (!learn_folder.empty() && !submaps) return cli::fail(app, "--learn-folder needs --submaps");
+  if (submaps) {
     submap_learner =
         std::make_unique<SubmapLearner>(*checked, SubmapParams{}, RelocalizerParams{},
                                         SubmapNames{}, OnlineLearner::Mode::Background);
-  else
+    if (!learn_folder.empty())
+      if (Status working = submap_learner->useFolder(learn_folder); !working)
+        return cli::fail(app, "--learn-folder: " + working.error());
+  } else
     feed = std::make_unique<KeyFrameFeed>(*checked, RelocalizerParams{},
                                           OnlineLearner::Mode::Background);
   // The relocalizing thread's alone (its place set is not shared).

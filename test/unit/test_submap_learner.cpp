@@ -134,9 +134,9 @@ TEST_F(SubmapRoom, UnusablePosesAndFramesAreRefusedAndPlacedNowhere) {
   EXPECT_EQ(submaps.index().submapCount(), 1);
 }
 
-// The node's mode: each submap retrains on its worker, a freeze runs on the
-// freeze thread (one at a time), and the places read the models and figures
-// from another thread all along.
+// The node's mode: each submap retrains on its worker, full submaps queue
+// for the freeze thread (one freeze at a time), and the places read the
+// models and figures from another thread all along.
 TEST_F(SubmapRoom, BackgroundSubmapsCutAsInlineOnesWhileAnotherThreadReads) {
   const int cap = 6;
   SubmapParams rule;
@@ -169,6 +169,13 @@ TEST_F(SubmapRoom, BackgroundSubmapsCutAsInlineOnesWhileAnotherThreadReads) {
   reader.join();
   EXPECT_GT(reads, 0);
   EXPECT_FALSE(submaps.status().freezing);
+  // Full submaps queue for their freezes rather than wait (how many at once
+  // depends on the machine's speed).
+  EXPECT_EQ(submaps.status().freezes_pending, 0);
+  EXPECT_GE(submaps.status().freezes_pending_most, 1);
+  EXPECT_LE(submaps.status().freezes_pending_most, kMaxPendingFreezes);
+  EXPECT_EQ(submaps.status().freeze_waits, 0);
+  std::printf("at most %d freezes pending at once\n", submaps.status().freezes_pending_most);
 
   // The cut of CappedSubmapsKeepWhatOneCappedStoreThinsOut: the rule sees poses only.
   const SubmapStatus status = submaps.status();
@@ -197,6 +204,125 @@ TEST_F(SubmapRoom, BackgroundSubmapsCutAsInlineOnesWhileAnotherThreadReads) {
   }
   EXPECT_EQ(submaps.status().keyframes_covered, 6);
   EXPECT_EQ(submaps.status().keyframes_added, static_cast<int>(learn_.size()));
+}
+
+namespace {
+
+// A model's bytes but for the training's wall time and thread count, which
+// differ between a freeze on the caller's thread and one on a worker.
+std::vector<uint8_t> trainedBytes(const Relocalizer& relocalizer) {
+  Model model = relocalizer.model();
+  model.summary.seconds = 0.0;
+  model.summary.threads = 0;
+  return serializeModel(model);
+}
+
+}  // namespace
+
+// The walk arrives as fast as key frames can be compressed, so full submaps
+// queue for their freezes (Background); a save from another thread races the
+// freezes all along. Nothing is lost: every frozen submap ends with the model
+// an Inline run freezes it with, trained on all its key frames, in memory, in
+// the working folder and in each save; no save names a model a freeze has not
+// finished.
+TEST_F(SubmapRoom, QueuedFreezesLoseNoKeyFrameAndEqualInlineOnesWhileSavesRace) {
+  const relocalizer::testing::TempDir dir;
+  const int cap = 6;
+  SubmapParams rule;
+  rule.overlap = 2;
+  SubmapLearner inline_submaps(smallLearning(cap), rule, fastRelocalizer());
+  SubmapLearner submaps(smallLearning(cap), rule, fastRelocalizer(), SubmapNames{},
+                        OnlineLearner::Mode::Background);
+  const std::string working = dir.str() + "/working", saved = dir.str() + "/saved";
+  ASSERT_TRUE(submaps.useFolder(working));
+
+  std::atomic<bool> done{false};
+  int saves = 0;
+  std::thread saver([&] {
+    while (!done) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      const Status written = submaps.save(saved);
+      if (!written) {
+        // Only before the first model is there nothing to save.
+        EXPECT_NE(written.error().find("nothing to save yet"), std::string::npos)
+            << written.error();
+      } else {
+        ++saves;
+        // Every submap the manifest names is on disk as named, a frozen one
+        // trained on all its key frames (never a pending freeze's model).
+        const nlohmann::json manifest =
+            nlohmann::json::parse(relocalizer::testing::readBytes(saved + "/manifest.json"));
+        auto set = loadSavedSubmaps(saved, "learned", "map", fastRelocalizer());
+        if (!set) {
+          // Saved before the first model: the first submap's key frames alone.
+          EXPECT_EQ(manifest.at("submaps").size(), 1u) << set.error();
+          continue;
+        }
+        EXPECT_TRUE(set->warnings.empty()) << set->warnings.front();
+        // Every frozen submap loads; the active one has no model right after it starts.
+        std::size_t frozen = 0;
+        for (const nlohmann::json& entry : manifest.at("submaps")) {
+          if (entry.at("state") != "frozen") continue;
+          ++frozen;
+          const std::string name = "learned/" + std::to_string(entry.at("index").get<int>());
+          const auto place = std::find_if(set->places.begin(), set->places.end(),
+                                          [&](const Place& p) { return p.name == name; });
+          ASSERT_NE(place, set->places.end()) << name;
+          EXPECT_EQ(place->relocalizer->model().summary.images,
+                    static_cast<int>(entry.at("keyframe_poses").size()))
+              << name;
+        }
+        EXPECT_GE(set->places.size(), frozen);
+      }
+    }
+  });
+  for (const RgbdFrame& frame : learn_) {
+    auto placed = submaps.addKeyFrame(frame, *frame.ground_truth);
+    ASSERT_TRUE(placed.ok()) << placed.error();
+    ASSERT_TRUE(inline_submaps.addKeyFrame(frame, *frame.ground_truth).ok());
+  }
+  ASSERT_TRUE(submaps.drain());
+  ASSERT_TRUE(inline_submaps.drain());
+  done = true;
+  saver.join();
+  EXPECT_GT(saves, 0);
+
+  const SubmapStatus status = submaps.status();
+  std::printf("%d saves raced the freezes; at most %d freezes pending at once\n", saves,
+              status.freezes_pending_most);
+  EXPECT_EQ(status.submap_keyframes, inline_submaps.status().submap_keyframes);
+  EXPECT_EQ(status.keyframes_added, static_cast<int>(learn_.size()));
+  EXPECT_EQ(status.freezes_pending, 0);
+  EXPECT_GE(status.freezes_pending_most, 1);
+  EXPECT_LE(status.freezes_pending_most, kMaxPendingFreezes);
+  EXPECT_EQ(status.last_error, "");
+  const std::vector<SubmapModel> models = submaps.models(), inline_models = inline_submaps.models();
+  ASSERT_EQ(models.size(), 5u);
+  ASSERT_EQ(inline_models.size(), models.size());
+  for (std::size_t i = 0; i + 1 < models.size(); ++i) {
+    ASSERT_TRUE(models[i].frozen);
+    EXPECT_EQ(models[i].relocalizer->model().summary.images, models[i].keyframes) << i;
+    EXPECT_EQ(trainedBytes(*models[i].relocalizer), trainedBytes(*inline_models[i].relocalizer))
+        << "submap " << i;
+  }
+
+  // The working folder holds every frozen submap with its final model.
+  auto set = loadSavedSubmaps(working, "learned", "map", fastRelocalizer());
+  ASSERT_TRUE(set.ok()) << set.error();
+  ASSERT_EQ(set->places.size(), models.size() - 1);
+  for (std::size_t i = 0; i < set->places.size(); ++i)
+    EXPECT_EQ(serializeModel(set->places[i].relocalizer->model()),
+              serializeModel(models[i].relocalizer->model()))
+        << "submap " << i;
+  // The last save, after the drain, holds them all.
+  ASSERT_TRUE(submaps.save(saved));
+  set = loadSavedSubmaps(saved, "learned", "map", fastRelocalizer());
+  ASSERT_TRUE(set.ok()) << set.error();
+  ASSERT_EQ(set->places.size(), models.size());
+  for (std::size_t i = 0; i < models.size(); ++i)
+    EXPECT_EQ(serializeModel(set->places[i].relocalizer->model()),
+              serializeModel(models[i].relocalizer->model()))
+        << "submap " << i;
 }
 
 // A place saved as one model file (the node's save while it has one submap)
@@ -326,14 +452,15 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   ASSERT_NO_FATAL_FAILURE(writeToolScene(dir, log));
   // The 80-frame arc looped for 8 s at 30 Hz: up to three laps, so the later
   // laps walk through areas that frozen submaps already hold. How many frames
-  // the stream gets through depends on the machine (a freeze waits for the
-  // one before it), so only what holds at any speed is asserted.
+  // the stream gets through depends on the machine (a full queue of freezes
+  // holds it up), so only what holds at any speed is asserted. Frozen
+  // submaps go to the working folder as they freeze, as in the node.
   ASSERT_EQ(relocalizer::testing::runTool(
                 "learn_benchmark",
                 "--dataset '" + dir.str() + "/scene/train' --learn-frames 0-79 --frames " +
                     "2,10,18,26,34,42,50,58,66,74 --submaps --max-keyframes 6 --seconds 8 " +
                     "--reloc-rate 5 --learn-config '" + dir.str() + "/small.yaml' --output '" +
-                    dir.str() + "/bench'",
+                    dir.str() + "/bench' --learn-folder '" + dir.str() + "/working'",
                 log, log),
             0)
       << relocalizer::testing::readBytes(log);
@@ -358,4 +485,14 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   // Relocalized across the submaps while they were learned.
   EXPECT_GT(summary.at("attempts").get<long>(), 10);
   EXPECT_GT(summary.at("correct").get<long>(), 0) << relocalizer::testing::readBytes(log);
+  EXPECT_LE(summary.at("freezes_pending_most").get<int>(), kMaxPendingFreezes);
+  // Every submap but the active one was frozen and written before the tool
+  // ended (pending freezes end first), each with its final model.
+  auto working = loadSavedSubmaps(dir.str() + "/working", "learned", "map", fastRelocalizer());
+  ASSERT_TRUE(working.ok()) << working.error();
+  EXPECT_TRUE(working->warnings.empty()) << working->warnings.front();
+  ASSERT_EQ(static_cast<int>(working->places.size()), summary.at("submaps").get<int>() - 1);
+  const std::vector<int> keyframes = summary.at("submap_keyframes").get<std::vector<int>>();
+  for (std::size_t i = 0; i < working->places.size(); ++i)
+    EXPECT_EQ(working->places[i].relocalizer->model().summary.images, keyframes[i]) << i;
 }

@@ -10,15 +10,20 @@
 //
 // Two modes, as OnlineLearner's. Inline (evaluate, the tests: deterministic):
 // a freeze retrains on the caller's thread. Background (the node): each
-// submap retrains on its own worker, and a freeze is handed to a freeze
-// thread, so addKeyFrame never waits for it unless a second freeze comes
-// while the first still runs (one at most: memory holds the freezing store
-// and the active's, never more). Until its freeze ends, the frozen submap
-// answers with the model it had. Bounding the resident frozen models follows
-// (docs/proposals/issue-26-submaps.md).
+// submap retrains on its own worker, and a full submap is handed to a queue
+// of freezes that one freeze thread works through in order, so the next
+// submap starts at once and addKeyFrame waits only when kMaxPendingFreezes
+// submaps are already waiting (counted: SubmapStatus::freeze_waits). A
+// submap handed over stops its own worker (a retrain it was running is
+// aborted), so training memory is at most two retrains, the freeze's and the
+// active's, as with one freeze at a time. Until its freeze ends, the frozen
+// submap answers with the model it had; its files are written by the freeze
+// thread outside the lock that models() takes. Bounding the resident frozen
+// models follows (docs/proposals/issue-26-submaps.md).
 
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -28,6 +33,7 @@
 #include "relocalizer/core/expected.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/online/online_learner.h"
+#include "relocalizer/online/submap_folder.h"
 #include "relocalizer/online/submap_rule.h"
 #include "relocalizer/relocalize/place_set.h"
 
@@ -38,6 +44,16 @@ struct SubmapNames {
   std::string place = "learned";
   std::string map_frame = "map";
 };
+
+// Submaps waiting for their last retrain (Background), the one being
+// retrained included, before addKeyFrame waits for room. A pending submap
+// holds its compressed key frames (on the 6-room walk at 320 x 240, 44 took
+// 1.9 MB, so ~2.8 MB for 64; ~12 MB for 64 at 640 x 480) beside its model,
+// which answers anyway: 8 of them cost at most what a working folder saves
+// by writing frozen key frames out (~60 MB for the walk's 22 submaps), and
+// absorb a burst of 8 x max_keyframes key frames.
+// docs/online_learning.md has the measurements.
+constexpr int kMaxPendingFreezes = 8;
 
 // `learned/3`: the place name of submap `index`.
 std::string submapPlaceName(const std::string& place, int index);
@@ -59,15 +75,21 @@ struct SubmapStatus {
   int keyframes_covered = 0;  // key frames a frozen submap already held one as good as: not stored
   size_t model_bytes = 0;     // every submap's model
   std::string last_error;     // the active's (online_learner.h), else of the last failed freeze
-  bool freezing = false;      // a full submap's last retrain is running
-  LearningStatus active;      // the active submap's learner (zeros before the first key frame)
+  bool freezing = false;      // a full submap waits for, or runs, its last retrain
+  int freezes_pending = 0;    // such submaps now (Background: at most kMaxPendingFreezes)
+  int freezes_pending_most = 0;      // most at once since start
+  int freeze_waits = 0;              // new submaps that waited for room in the queue, or for a save
+  double freeze_wait_seconds = 0.0;  // how long they waited, in all
+  LearningStatus active;  // the active submap's learner (zeros before the first key frame)
 };
 
 // Thread safety: addKeyFrame, resume and drain from one thread (the learning
 // loop), index() and active() from that thread only; models(), status(),
-// save() and the rest from any thread at any time. A save
-// waits for a freeze in progress (a retrain, seconds); a key frame waits for
-// a save (the active submap's files and the manifest).
+// save() and the rest from any thread at any time. A save waits for the
+// freezes pending when it starts (retrains, seconds each: a frozen submap is
+// written once, with its final model), and a new submap meanwhile waits for
+// the save; a key frame waits for a save's writes (the active submap's files
+// and the manifest).
 class SubmapLearner {
  public:
   // `learning.max_keyframes` caps each submap; `mode` is each submap
@@ -75,7 +97,8 @@ class SubmapLearner {
   // learningParamsError or submapParamsError says why.
   SubmapLearner(LearningParams learning, SubmapParams submaps, RelocalizerParams relocalizer_params,
                 SubmapNames names = {}, OnlineLearner::Mode mode = OnlineLearner::Mode::Inline);
-  // Background: waits for a freeze that is running (its retrain is not aborted).
+  // Background: waits for the pending freezes (their retrains are not
+  // aborted: a submap handed over has its final model and files).
   ~SubmapLearner();
   SubmapLearner(const SubmapLearner&) = delete;
   SubmapLearner& operator=(const SubmapLearner&) = delete;
@@ -124,8 +147,8 @@ class SubmapLearner {
   // thread); a failed freeze is returned (Inline) or in status().last_error.
   Expected<SubmapPlacement> addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world);
 
-  // Every submap's model trained on all its key frames: waits for a running
-  // freeze, then for the active's retrain (Inline: retrains now).
+  // Every submap's model trained on all its key frames: waits for the
+  // pending freezes, then for the active's retrain (Inline: retrains now).
   Status drain();
 
   // Every submap with a model, frozen ones first in order, then the active.
@@ -147,13 +170,39 @@ class SubmapLearner {
     ModelFileId model_id;                            // of its model file, once written
   };
 
-  // Background: the freeze thread's loop.
+  // A full submap waiting for its last retrain.
+  struct Pending {
+    int index = 0;
+    std::vector<KeyFrameStore::Entry> key_frames;  // all of them, in arrival order
+    std::shared_ptr<const Relocalizer> model;      // the one it had when handed over
+    bool learned_all = false;                      // that model knows every key frame
+  };
+
+  // Background: the freeze thread's loop, and the retiring thread's (a
+  // handed-over learner's worker is stopped there, off the learning thread).
   void freezeLoop();
-  // A freeze's end, under mutex_: the learner's last model becomes submap
-  // `index`'s, and with a working folder the submap is written there.
-  Status finishFreeze(int index, const OnlineLearner& learner, const Status& retrained);
+  void retireLoop();
+  // A freeze: the last retrain, then the files (into the working folder, if
+  // any) under files_mutex_, then the result under mutex_. Takes neither lock
+  // on entry. A failed retrain leaves the submap the model it had.
+  Status freeze(const Pending& pending);
+  bool pending(int index) const;  // under mutex_
   // resume() of one model file (a place learned before submaps), under mutex_.
   Status resumeModelFile(const std::string& path);
+  // Submap `index`'s key frames and model into `folder` (key frames first, as
+  // OnlineLearner::save: their model identity then tells a pair cut by a
+  // crash); `model_id` is the model file's. Touches no member.
+  Status writeFrozenPair(const std::string& folder, int index, const Relocalizer& model,
+                         const std::vector<KeyFrameStore::Entry>& key_frames,
+                         ModelFileId& model_id) const;
+  // The manifest's settings, and frozen submap `index`'s entry. Under mutex_.
+  SubmapManifest manifestHead() const;
+  SubmapEntry frozenEntry(int index) const;
+  // The manifest of the frozen submaps written into the working folder
+  // `folder`, `finished` among them though still pending (its freeze is
+  // ending), built under mutex_ and written outside it (the caller holds
+  // files_mutex_).
+  Status writeManifest(const std::string& folder, int finished);
   // Writes the frozen submaps not yet in `folder`, the active one too when
   // `with_active`, then the manifest; `folder` then becomes the working
   // folder when `adopt`, or when there was none. Under mutex_.
@@ -164,10 +213,16 @@ class SubmapLearner {
   const RelocalizerParams relocalizer_params_;
   const SubmapNames names_;
   const OnlineLearner::Mode mode_;
+  // Writers of folders (save, useFolder, a freeze's files); taken before
+  // mutex_, never while waiting for a freeze.
+  std::mutex files_mutex_;
   mutable std::mutex mutex_;  // everything below; never held across a retrain or compression
-  std::condition_variable freeze_cv_;        // a freeze handed over, ended, or stopping
-  std::shared_ptr<OnlineLearner> freezing_;  // Background: the submap being frozen
-  int freezing_index_ = -1;                  // the submap being frozen (either mode); -1: none
+  std::condition_variable freeze_cv_;  // a freeze handed over or ended, a save ended, or stopping
+  std::deque<Pending> pending_;        // in order; the front's freeze runs (Background)
+  std::vector<std::shared_ptr<OnlineLearner>> retiring_;  // Background: to be stopped
+  int saves_waiting_ = 0;  // saves waiting for the pending freezes: no hand-over meanwhile
+  int pending_most_ = 0, freeze_waits_ = 0;
+  double freeze_wait_seconds_ = 0.0;
   bool stopping_ = false;
   SubmapIndex index_;
   std::shared_ptr<OnlineLearner> active_;
@@ -177,7 +232,8 @@ class SubmapLearner {
   std::string freeze_error_;
   std::string folder_;  // the working folder; empty: none yet
   std::vector<std::string> warnings_;
-  std::thread freezer_;  // Background only; last, so it starts after the rest is built
+  // Background only; last, so they start after the rest is built.
+  std::thread freezer_, retirer_;
 };
 
 // Submaps' models as places `<group>/<index>` of `group` in `map_frame`: how
