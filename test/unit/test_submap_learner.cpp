@@ -169,12 +169,14 @@ TEST_F(SubmapRoom, BackgroundSubmapsCutAsInlineOnesWhileAnotherThreadReads) {
   reader.join();
   EXPECT_GT(reads, 0);
   EXPECT_FALSE(submaps.status().freezing);
-  // Full submaps queue for their freezes rather than wait (how many at once
-  // depends on the machine's speed).
+  // Full submaps queue for their freezes, and learning waits only when the
+  // queue is full (how many at once depends on the machine's speed).
   EXPECT_EQ(submaps.status().freezes_pending, 0);
   EXPECT_GE(submaps.status().freezes_pending_most, 1);
   EXPECT_LE(submaps.status().freezes_pending_most, kMaxPendingFreezes);
-  EXPECT_EQ(submaps.status().freeze_waits, 0);
+  if (submaps.status().freeze_waits > 0) {
+    EXPECT_EQ(submaps.status().freezes_pending_most, kMaxPendingFreezes);
+  }
   std::printf("at most %d freezes pending at once\n", submaps.status().freezes_pending_most);
 
   // The cut of CappedSubmapsKeepWhatOneCappedStoreThinsOut: the rule sees poses only.
@@ -480,8 +482,9 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   EXPECT_GE(summary.at("submaps").get<int>(), 2) << relocalizer::testing::readBytes(log);
   for (const auto& count : summary.at("submap_keyframes")) EXPECT_LE(count.get<int>(), 6);
   EXPECT_EQ(summary.at("keyframes_covered").get<long>(), summary.at("frames_covered").get<long>());
-  if (frames > 2 * 80)
+  if (frames > 2 * 80) {
     EXPECT_GT(summary.at("frames_covered").get<long>(), 0) << relocalizer::testing::readBytes(log);
+  }
   // Relocalized across the submaps while they were learned.
   EXPECT_GT(summary.at("attempts").get<long>(), 10);
   EXPECT_GT(summary.at("correct").get<long>(), 0) << relocalizer::testing::readBytes(log);

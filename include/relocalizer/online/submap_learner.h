@@ -49,11 +49,15 @@ struct SubmapNames {
 // retrained included, before addKeyFrame waits for room. A pending submap
 // holds its compressed key frames (on the 6-room walk at 320 x 240, 44 took
 // 1.9 MB, so ~2.8 MB for 64; ~12 MB for 64 at 640 x 480) beside its model,
-// which answers anyway: 8 of them cost at most what a working folder saves
-// by writing frozen key frames out (~60 MB for the walk's 22 submaps), and
-// absorb a burst of 8 x max_keyframes key frames.
-// docs/online_learning.md has the measurements.
-constexpr int kMaxPendingFreezes = 8;
+// which answers anyway. Memory would allow 8 (what a working folder saves by
+// writing frozen key frames out, ~60 MB for the walk's 22 submaps), but a
+// save, and so the node's shutdown with save_on_exit, waits for every pending
+// freeze (each ~50 s of CPU-starved retraining on a loaded robot), and
+// roslaunch kills a node 15 s after asking it to stop: 2 keeps that wait to
+// two freezes (one more than before the queue) and still starts the next
+// submap at once after a burst of one extra submap.
+// docs/online_learning.md has the measurements (taken with 8).
+constexpr int kMaxPendingFreezes = 2;
 
 // `learned/3`: the place name of submap `index`.
 std::string submapPlaceName(const std::string& place, int index);
