@@ -114,6 +114,16 @@ struct Solves {
   std::vector<size_t> skipped_for;
 };
 
+// A full solve's stages into the search's sums (its forests on shared samples:
+// sampling_and_forests is their wall time).
+void count(const StageTimings& solve, PlaceSearchTimings& timings) {
+  ++timings.solves;
+  timings.forest += solve.sampling_and_forests;
+  timings.ransac += solve.ransac;
+  timings.refinement += solve.refinement;
+  timings.surface += solve.surface;
+}
+
 // Full solves for the best screened place and the runners-up that screened
 // close to it: a look-alike place must not win by being asked alone. A place
 // that screened far below the best is not asked even when the best fails: its
@@ -124,7 +134,7 @@ struct Solves {
 Solves solveRanked(const std::vector<std::shared_ptr<const Place>>& places,
                    const Screened& screened, const PlaceSearchParams& params,
                    const RgbdFrame& frame, const FrameSamples& shared, const PoseHint* hint,
-                   std::vector<PlaceAttempt>& attempts) {
+                   std::vector<PlaceAttempt>& attempts, PlaceSearchTimings& timings) {
   Solves solves;
   solves.skipped_for.assign(places.size(), SIZE_MAX);
   const size_t best = screened.order.front();
@@ -155,6 +165,7 @@ Solves solveRanked(const std::vector<std::shared_ptr<const Place>>& places,
       }
     }
     Relocalization full = place.relocalizer->relocalize(frame, shared, hintFor(place, hint));
+    count(full.timings, timings);
     ++solved;
     attempt.solved = true;
     attempt.success = full.success;
@@ -387,6 +398,7 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) c
 
   // Sample once; a place whose recipe differs samples for itself (relocalize()).
   Expected<FrameSamples> shared = places.front()->relocalizer->sample(frame);
+  answer.search.sampling = secondsSince(start);
   if (!shared) {
     answer.relocalization.message = shared.error();
     answer.relocalization.timings.total = secondsSince(start);
@@ -412,7 +424,11 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) c
     screened.factors[i] = hintFactor(*places[i], hint, nullptr);
   screened.order = rankByScreen(answer.attempts, screened.factors);
 
-  Solves solves = solveRanked(places, screened, params_, frame, *shared, hint, answer.attempts);
+  answer.search.screening = screened.seconds;
+  const auto solve_start = Clock::now();
+  Solves solves =
+      solveRanked(places, screened, params_, frame, *shared, hint, answer.attempts, answer.search);
+  answer.search.solving = secondsSince(solve_start);
   judge(places, solves, screened.order, hint, params_, answer);
   // Move the attempts into rank order for the reader.
   std::vector<PlaceAttempt> ranked;

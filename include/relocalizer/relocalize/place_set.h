@@ -94,11 +94,24 @@ struct PlaceAttempt {
   bool agrees = false;
 };
 
+// Where a search across two or more places spent its time (one place alone
+// is a plain relocalization: its stages are in relocalization.timings).
+struct PlaceSearchTimings {  // seconds
+  double sampling = 0.0;     // the frame's shared samples and descriptors
+  double screening = 0.0;    // every place's screen (= relocalization.timings.screening)
+  double solving = 0.0;      // the full solves, wall time
+  int solves = 0;            // full solves run
+  // The full solves' own stages, summed over them (forest: both forests on the
+  // shared samples; ransac, refinement, surface as in StageTimings).
+  double forest = 0.0, ransac = 0.0, refinement = 0.0, surface = 0.0;
+};
+
 struct PlaceAnswer {
   std::string place;                   // the answering place; empty for "no pose"
   std::string map_frame;               // its frame; empty for "no pose"
   Relocalization relocalization;       // pose in map_frame, or the failure and its reason
   std::vector<PlaceAttempt> attempts;  // every place, best screened first
+  PlaceSearchTimings search;           // zero for one place
 };
 
 class PlaceSet {
