@@ -101,11 +101,11 @@ void printStages(const std::vector<PlaceCountRun>& runs, nlohmann::json& out) {
   };
   std::printf(
       "\nstages, median ms per call (one place: its relocalization's stages)\n"
-      "  places   total  sampling  screens  solving  solves/call  forests  ransac  refine  "
-      "surface\n");
+      "  places   total  sampling  screens  full screens/call  solving  solves/call  forests  "
+      "ransac  refine  surface\n");
   for (const PlaceCountRun& run : runs) {
     std::vector<double> total, sampling, screens, solving, forests, ransac, refine, surface;
-    double solves = 0.0;
+    double solves = 0.0, full_screens = 0.0;
     for (size_t k = 0; k < run.timings.size(); ++k) {
       const StageTimings& t = run.timings[k];
       total.push_back(t.total);
@@ -128,15 +128,19 @@ void printStages(const std::vector<PlaceCountRun>& runs, nlohmann::json& out) {
       refine.push_back(s.refinement);
       surface.push_back(s.surface);
       solves += s.solves;
+      full_screens += s.full_screens;
     }
-    const double per_call = run.timings.empty() ? 0.0 : solves / run.timings.size();
-    std::printf("  %6d  %6.2f  %8.2f  %7.2f  %7.2f  %11.2f  %7.2f  %6.2f  %6.2f  %7.2f\n",
-                run.places, median(total), median(sampling), median(screens), median(solving),
-                per_call, median(forests), median(ransac), median(refine), median(surface));
+    const double calls = std::max<size_t>(1, run.timings.size());
+    const double per_call = solves / calls;
+    std::printf("  %6d  %6.2f  %8.2f  %7.2f  %17.2f  %7.2f  %11.2f  %7.2f  %6.2f  %6.2f  %7.2f\n",
+                run.places, median(total), median(sampling), median(screens), full_screens / calls,
+                median(solving), per_call, median(forests), median(ransac), median(refine),
+                median(surface));
     out["stages"].push_back({{"places", run.places},
                              {"total_ms", median(total)},
                              {"sampling_ms", median(sampling)},
                              {"screens_ms", median(screens)},
+                             {"full_screens_per_call", full_screens / calls},
                              {"solving_ms", median(solving)},
                              {"solves_per_call", per_call},
                              {"forests_ms", median(forests)},
@@ -196,6 +200,11 @@ int main(int argc, char** argv) {
                  "NAME=FOLDER: a saved folder of learned submaps as the places, one group NAME "
                  "(places NAME/i in folder order; the first --test is taken in NAME)")
       ->excludes(place_option);
+  int lead = 0;
+  app.add_option("--lead", lead,
+                 "With --submaps: the submap (its number in the folder) that goes first, so the "
+                 "one timed alone (count 1): the one the timed frames are in")
+      ->capture_default_str();
   app.add_option("--test", test_arguments,
                  "NAME=DATASET or NAME=DATASET@FRAMES: frames taken in place NAME, repeated; "
                  "the first is timed")
@@ -246,6 +255,11 @@ int main(int argc, char** argv) {
     std::printf("submaps %s: %zu of %s, %.1f MiB resident\n", group.c_str(), saved->places.size(),
                 folder.c_str(), (trimmedResidentMemory().current - before.current) / 1048576.0);
     places = std::move(saved->places);
+    const std::string lead_name = group + "/" + std::to_string(lead);
+    const auto first = std::find_if(places.begin(), places.end(),
+                                    [&](const Place& place) { return place.name == lead_name; });
+    if (first == places.end()) return cli::fail(app, "--lead: no submap " + lead_name);
+    std::rotate(places.begin(), first, first + 1);
     if (Status put = all.putGroup(group, places); !put) return cli::fail(app, put.error());
   }
   for (const auto& [name, path] :
