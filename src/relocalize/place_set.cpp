@@ -127,6 +127,14 @@ void count(const StageTimings& solve, PlaceSearchTimings& timings) {
   timings.surface += solve.surface;
 }
 
+// A runner-up screened close enough to the best to be solved too. A place
+// left at its first look was judged far from the best there.
+bool closeRunnerUp(const PlaceAttempt& attempt, float factor, float best_screen,
+                   const PlaceSearchParams& params) {
+  return attempt.screened_fully && attempt.screen_inliers > 0 &&
+         attempt.screen_inliers * factor >= params.runner_up_ratio * best_screen;
+}
+
 // The places solveRanked solves when the best screened place answers (the
 // usual case), known from the screens alone: the best, and the close
 // runners-up that are not one map with it at its screen pose, up to
@@ -141,10 +149,7 @@ std::vector<size_t> solvedIfBestAnswers(const std::vector<std::shared_ptr<const 
        rank < screened.order.size() && static_cast<int>(solved.size()) < params.max_solved;
        ++rank) {
     const size_t i = screened.order[rank];
-    const bool close =
-        attempts[i].screen_inliers > 0 &&
-        attempts[i].screen_inliers * screened.factors[i] >= params.runner_up_ratio * best_screen;
-    if (!close) continue;
+    if (!closeRunnerUp(attempts[i], screened.factors[i], best_screen, params)) continue;
     if (oneMap(*places[best], *places[i]) &&
         posesAgree(screened.results[best].pose, screened.results[i].pose,
                    params.screen_agreement_metres, params.screen_agreement_degrees))
@@ -189,9 +194,7 @@ Solves solveRanked(const std::vector<std::shared_ptr<const Place>>& places,
   for (size_t rank = 0; rank < screened.order.size() && solved < params.max_solved; ++rank) {
     const size_t i = screened.order[rank];
     PlaceAttempt& attempt = attempts[i];
-    const float weighed = attempt.screen_inliers * screened.factors[i];
-    const bool close =
-        attempt.screen_inliers > 0 && weighed >= params.runner_up_ratio * best_screen;
+    const bool close = closeRunnerUp(attempt, screened.factors[i], best_screen, params);
     const Place& place = *places[i];
     // Neighbours as a fallback: while nothing has answered, a place of the
     // best's map (a neighbouring submap, whose area the frame may be in rather
@@ -496,6 +499,13 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) c
     std::vector<size_t> rescreened;
     for (size_t i = 0; i < places.size(); ++i)
       if (full[i]) rescreened.push_back(i);
+    // The lead alone came close: its full screen could change nothing (it
+    // ranks first and no runner-up is close), so the first look stands.
+    if (rescreened.size() == 1 && shared_recipe[rescreened.front()] &&
+        params_.first_look.samples > 0) {
+      full[rescreened.front()] = 0;
+      rescreened.clear();
+    }
     tbb::parallel_for(size_t{0}, rescreened.size(),
                       [&](size_t k) { screenPlace(rescreened[k], params_.screen); });
     screened.seconds = secondsSince(screen_start);
