@@ -7,10 +7,12 @@
 // Instead the frame is sampled once (samples and descriptors do not depend on
 // the model), every place is screened by a cheap pass (a few hundred of the
 // samples through its point forest and a short Kabsch-only RANSAC; its best
-// hypothesis' inlier count ranks the place), and only the best-ranked places
+// hypothesis' inlier count ranks the place; a first look at every place, the
+// full screen only where it comes close), and only the best-ranked places
 // get the full solve. A runner-up whose screen comes close to the best is
-// solved too, and when two places both hold up the answer is "no pose":
-// naming the wrong room would be worse than naming none.
+// solved too (beside it, on the other threads), and when two places both hold
+// up the answer is "no pose": naming the wrong room would be worse than
+// naming none.
 //
 // Unless they are one map: places of one group (the submaps of a map, in its
 // one frame) whose answers agree give one answer, that pose; and a runner-up
