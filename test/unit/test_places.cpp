@@ -625,3 +625,18 @@ TEST_F(Places, TheFirstLookAnswersAsScreeningEveryPlaceFully) {
   }
   EXPECT_GE(ambiguous, kTestFrames * 3 / 4);
 }
+
+TEST_F(Places, AFirstLookThatCannotFeedTheFullScreenIsRefused) {
+  PlaceSearchParams params;
+  EXPECT_EQ(params.validationError(), "");
+  params.first_look.samples = 0;  // no first look: every place screened fully
+  EXPECT_EQ(params.validationError(), "");
+  params.first_look.samples = params.screen.samples + 1;  // more than the screen it feeds
+  EXPECT_NE(params.validationError(), "");
+  params.first_look.samples = 100;
+  params.first_look.max_leaves = params.screen.max_leaves + 1;  // other predictions
+  EXPECT_NE(params.validationError(), "");
+  params.first_look.max_leaves = params.screen.max_leaves;
+  params.rescreen_ratio = 1.5f;
+  EXPECT_NE(params.validationError(), "");
+}
