@@ -22,7 +22,7 @@ std::vector<PlaceCountRun> timePlaceCounts(const std::vector<Place>& places,
   for (int count : counts) {
     auto set = std::make_unique<PlaceSet>();
     for (int i = 0; i < count && i < static_cast<int>(places.size()); ++i) set->put(places[i]);
-    runs.push_back({static_cast<int>(set->size()), {}, {}});
+    runs.push_back({static_cast<int>(set->size()), {}, {}, {}});
     sets.push_back(std::move(set));
   }
   if (frames.empty()) return runs;
@@ -36,6 +36,7 @@ std::vector<PlaceCountRun> timePlaceCounts(const std::vector<Place>& places,
       for (size_t s = 0; s < sets.size(); ++s) {
         const PlaceAnswer answer = sets[s]->relocalize(frame);
         runs[s].timings.push_back(answer.relocalization.timings);
+        runs[s].search.push_back(answer.search);
         if (pass == 0)
           first_pass[s].push_back(recordAttempt(
               frame.id, frame.stamp, frame.ground_truth.value_or(Pose::Identity()), answer));

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <numeric>
+#include <optional>
 
 namespace relocalizer {
 
@@ -38,12 +39,14 @@ float hintFactor(const Place& place, const PoseHint* hint, const Pose* pose) {
   return prior ? static_cast<float>(prior->factor(*pose, weight)) : 1.0f;
 }
 
-// The places, best screened first (ties: the order they were added).
+// The places, best screened first: the fully screened ones, then those that
+// had the first look only (ties: the order they were added).
 std::vector<size_t> rankByScreen(const std::vector<PlaceAttempt>& attempts,
                                  const std::vector<float>& factors) {
   std::vector<size_t> order(attempts.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    if (attempts[a].screened_fully != attempts[b].screened_fully) return attempts[a].screened_fully;
     return attempts[a].screen_inliers * factors[a] > attempts[b].screen_inliers * factors[b];
   });
   return order;
@@ -114,6 +117,48 @@ struct Solves {
   std::vector<size_t> skipped_for;
 };
 
+// A full solve's stages into the search's sums (its forests on shared samples:
+// sampling_and_forests is their wall time).
+void count(const StageTimings& solve, PlaceSearchTimings& timings) {
+  ++timings.solves;
+  timings.forest += solve.sampling_and_forests;
+  timings.ransac += solve.ransac;
+  timings.refinement += solve.refinement;
+  timings.surface += solve.surface;
+}
+
+// A runner-up screened close enough to the best to be solved too. A place
+// left at its first look was judged far from the best there.
+bool closeRunnerUp(const PlaceAttempt& attempt, float factor, float best_screen,
+                   const PlaceSearchParams& params) {
+  return attempt.screened_fully && attempt.screen_inliers > 0 &&
+         attempt.screen_inliers * factor >= params.runner_up_ratio * best_screen;
+}
+
+// The places solveRanked solves when the best screened place answers (the
+// usual case), known from the screens alone: the best, and the close
+// runners-up that are not one map with it at its screen pose, up to
+// max_solved.
+std::vector<size_t> solvedIfBestAnswers(const std::vector<std::shared_ptr<const Place>>& places,
+                                        const Screened& screened, const PlaceSearchParams& params,
+                                        const std::vector<PlaceAttempt>& attempts) {
+  const size_t best = screened.order.front();
+  const float best_screen = attempts[best].screen_inliers * screened.factors[best];
+  std::vector<size_t> solved{best};
+  for (size_t rank = 1;
+       rank < screened.order.size() && static_cast<int>(solved.size()) < params.max_solved;
+       ++rank) {
+    const size_t i = screened.order[rank];
+    if (!closeRunnerUp(attempts[i], screened.factors[i], best_screen, params)) continue;
+    if (oneMap(*places[best], *places[i]) &&
+        posesAgree(screened.results[best].pose, screened.results[i].pose,
+                   params.screen_agreement_metres, params.screen_agreement_degrees))
+      continue;
+    solved.push_back(i);
+  }
+  return solved;
+}
+
 // Full solves for the best screened place and the runners-up that screened
 // close to it: a look-alike place must not win by being asked alone. A place
 // that screened far below the best is not asked even when the best fails: its
@@ -124,18 +169,32 @@ struct Solves {
 Solves solveRanked(const std::vector<std::shared_ptr<const Place>>& places,
                    const Screened& screened, const PlaceSearchParams& params,
                    const RgbdFrame& frame, const FrameSamples& shared, const PoseHint* hint,
-                   std::vector<PlaceAttempt>& attempts) {
+                   std::vector<PlaceAttempt>& attempts, PlaceSearchTimings& timings) {
   Solves solves;
   solves.skipped_for.assign(places.size(), SIZE_MAX);
+  // Solve what the rule below will solve if the best answers all at once,
+  // each on its own thread: a solve's candidate draw, final refinement and
+  // surface check run on one core, so two solves side by side take little
+  // more than one. The rule then takes their answers as if it had solved
+  // them in turn (a solve depends on nothing but its place and the frame), so
+  // the answer is the same; when the best fails, what the rule solves next is
+  // solved then, and a place solved ahead that the rule skips is not used.
+  std::vector<std::optional<Relocalization>> ahead(places.size());
+  if (const std::vector<size_t> likely = solvedIfBestAnswers(places, screened, params, attempts);
+      likely.size() > 1) {
+    tbb::parallel_for(size_t{0}, likely.size(), [&](size_t k) {
+      const Place& place = *places[likely[k]];
+      ahead[likely[k]] = place.relocalizer->relocalize(frame, shared, hintFor(place, hint));
+    });
+    for (size_t i : likely) count(ahead[i]->timings, timings);
+  }
   const size_t best = screened.order.front();
   const float best_screen = attempts[best].screen_inliers * screened.factors[best];
   int solved = 0;
   for (size_t rank = 0; rank < screened.order.size() && solved < params.max_solved; ++rank) {
     const size_t i = screened.order[rank];
     PlaceAttempt& attempt = attempts[i];
-    const float weighed = attempt.screen_inliers * screened.factors[i];
-    const bool close =
-        attempt.screen_inliers > 0 && weighed >= params.runner_up_ratio * best_screen;
+    const bool close = closeRunnerUp(attempt, screened.factors[i], best_screen, params);
     const Place& place = *places[i];
     // Neighbours as a fallback: while nothing has answered, a place of the
     // best's map (a neighbouring submap, whose area the frame may be in rather
@@ -154,7 +213,13 @@ Solves solveRanked(const std::vector<std::shared_ptr<const Place>>& places,
         continue;
       }
     }
-    Relocalization full = place.relocalizer->relocalize(frame, shared, hintFor(place, hint));
+    Relocalization full;
+    if (ahead[i]) {
+      full = std::move(*ahead[i]);
+    } else {
+      full = place.relocalizer->relocalize(frame, shared, hintFor(place, hint));
+      count(full.timings, timings);
+    }
     ++solved;
     attempt.solved = true;
     attempt.success = full.success;
@@ -222,6 +287,14 @@ std::string PlaceSearchParams::validationError() const {
       screen.max_leaves < 1)
     return "screen.samples must be >= 3, screen.hypotheses, screen.sampling_attempts and "
            "screen.max_leaves >= 1";
+  if (first_look.samples != 0 &&
+      (first_look.samples < 3 || first_look.hypotheses < 1 || first_look.sampling_attempts < 1 ||
+       first_look.max_leaves != screen.max_leaves || first_look.samples > screen.samples))
+    return "first_look.samples must be 0 (no first look) or in 3..screen.samples, "
+           "first_look.hypotheses and first_look.sampling_attempts >= 1, and first_look.max_leaves "
+           "equal to screen.max_leaves (the screen reuses its predictions)";
+  if (!(rescreen_ratio >= 0 && rescreen_ratio <= 1))
+    return "rescreen_ratio must be a share between 0 and 1";
   if (max_solved < 1) return "max_solved must be >= 1";
   if (!(runner_up_ratio >= 0 && runner_up_ratio <= 1))
     return "runner_up_ratio must be a share between 0 and 1";
@@ -386,33 +459,79 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) c
   }
 
   // Sample once; a place whose recipe differs samples for itself (relocalize()).
-  Expected<FrameSamples> shared = places.front()->relocalizer->sample(frame);
+  // The screens need the point samples only: they run while LSD draws the
+  // line samples beside them.
+  Screened screened;
+  screened.results.resize(places.size());
+  screened.factors.resize(places.size());
+  for (size_t i = 0; i < places.size(); ++i)
+    screened.factors[i] = hintFactor(*places[i], hint, nullptr);
+  std::vector<char> full(places.size(), 1);
+  auto screen = [&](const FrameSamples& samples) {
+    const auto screen_start = Clock::now();
+    std::vector<std::vector<Prediction>> predicted(places.size());
+    std::vector<char> shared_recipe(places.size());
+    for (size_t i = 0; i < places.size(); ++i)
+      shared_recipe[i] = samples.recipe.sameAs(places[i]->relocalizer->samplingRecipe());
+    // A place whose recipe differs screens fully, on samples of its own.
+    auto screenPlace = [&](size_t i, const ScreenParams& budget) {
+      const Relocalizer& relocalizer = *places[i]->relocalizer;
+      if (shared_recipe[i]) {
+        screened.results[i] = relocalizer.screen(samples, budget, &predicted[i]);
+      } else if (Expected<FrameSamples> sampled = relocalizer.sample(frame)) {
+        screened.results[i] = relocalizer.screen(*sampled, params_.screen);
+      }
+    };
+    if (params_.first_look.samples > 0) {
+      tbb::parallel_for(size_t{0}, places.size(), [&](size_t i) {
+        if (shared_recipe[i]) screenPlace(i, params_.first_look);
+      });
+      float best = 0.0f;
+      for (size_t i = 0; i < places.size(); ++i)
+        if (shared_recipe[i])
+          best = std::max(best, screened.results[i].inliers * screened.factors[i]);
+      if (best >= params_.rescreen_all_below)
+        for (size_t i = 0; i < places.size(); ++i)
+          full[i] = !shared_recipe[i] || (screened.results[i].inliers > 0 &&
+                                          screened.results[i].inliers * screened.factors[i] >=
+                                              params_.rescreen_ratio * best);
+    }
+    std::vector<size_t> rescreened;
+    for (size_t i = 0; i < places.size(); ++i)
+      if (full[i]) rescreened.push_back(i);
+    // The lead alone came close: its full screen could change nothing (it
+    // ranks first and no runner-up is close), so the first look stands.
+    if (rescreened.size() == 1 && shared_recipe[rescreened.front()] &&
+        params_.first_look.samples > 0) {
+      full[rescreened.front()] = 0;
+      rescreened.clear();
+    }
+    tbb::parallel_for(size_t{0}, rescreened.size(),
+                      [&](size_t k) { screenPlace(rescreened[k], params_.screen); });
+    screened.seconds = secondsSince(screen_start);
+  };
+  Expected<FrameSamples> shared = places.front()->relocalizer->sample(frame, screen);
+  // The samples' own time: what the call waited for besides the screens.
+  answer.search.sampling = secondsSince(start) - screened.seconds;
   if (!shared) {
     answer.relocalization.message = shared.error();
     answer.relocalization.timings.total = secondsSince(start);
     return answer;
   }
-  Screened screened;
-  const auto screen_start = Clock::now();
   answer.attempts.resize(places.size());
-  screened.results.resize(places.size());
-  tbb::parallel_for(size_t{0}, places.size(), [&](size_t i) {
-    const Relocalizer& relocalizer = *places[i]->relocalizer;
+  for (size_t i = 0; i < places.size(); ++i) {
     answer.attempts[i].place = places[i]->name;
-    if (shared->recipe.sameAs(relocalizer.samplingRecipe())) {
-      screened.results[i] = relocalizer.screen(*shared, params_.screen);
-    } else if (Expected<FrameSamples> own = relocalizer.sample(frame)) {
-      screened.results[i] = relocalizer.screen(*own, params_.screen);
-    }
     answer.attempts[i].screen_inliers = screened.results[i].inliers;
-  });
-  screened.seconds = secondsSince(screen_start);
-  screened.factors.resize(places.size());
-  for (size_t i = 0; i < places.size(); ++i)
-    screened.factors[i] = hintFactor(*places[i], hint, nullptr);
+    answer.attempts[i].screened_fully = full[i];
+    answer.search.full_screens += full[i];
+  }
   screened.order = rankByScreen(answer.attempts, screened.factors);
 
-  Solves solves = solveRanked(places, screened, params_, frame, *shared, hint, answer.attempts);
+  answer.search.screening = screened.seconds;
+  const auto solve_start = Clock::now();
+  Solves solves =
+      solveRanked(places, screened, params_, frame, *shared, hint, answer.attempts, answer.search);
+  answer.search.solving = secondsSince(solve_start);
   judge(places, solves, screened.order, hint, params_, answer);
   // Move the attempts into rank order for the reader.
   std::vector<PlaceAttempt> ranked;

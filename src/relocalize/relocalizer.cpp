@@ -89,7 +89,8 @@ bool usesLines(const Model& model, const RelocalizerParams& params) {
 // are drawn first and the line branch has its own random stream forked from
 // the seed, so the answer does not depend on which branch runs first.
 void sampleFrame(const Model& model, const RelocalizerParams& params, const RgbdFrame& frame,
-                 FrameSamples& samples, ForestPredictions* predictions, StageTimings& timings) {
+                 FrameSamples& samples, ForestPredictions* predictions, StageTimings& timings,
+                 const std::function<void(const FrameSamples&)>* points_ready = nullptr) {
   const bool use_points = usesPoints(model, params), use_lines = usesLines(model, params);
   samples.rng.seed(params.seed);
   auto stage = Clock::now();
@@ -126,6 +127,7 @@ void sampleFrame(const Model& model, const RelocalizerParams& params, const Rgbd
                       prediction, predictions->points);
     }
     timings.forest_points = image_seconds + secondsSince(point_stage);
+    if (points_ready) (*points_ready)(samples);
   });
   branches.wait();
   timings.sampling = timings.sampling_points + timings.sampling_lines;
@@ -208,11 +210,17 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame, const PoseHint* h
 }
 
 Expected<FrameSamples> Relocalizer::sample(const RgbdFrame& frame) const {
+  return sample(frame, {});
+}
+
+Expected<FrameSamples> Relocalizer::sample(
+    const RgbdFrame& frame, const std::function<void(const FrameSamples&)>& points_ready) const {
   if (std::string refusal = frameRefusal(frame); !refusal.empty()) return makeError(refusal);
   FrameSamples samples;
   samples.recipe = samplingRecipe();
   StageTimings timings;
-  sampleFrame(model_, params_, frame, samples, nullptr, timings);
+  sampleFrame(model_, params_, frame, samples, nullptr, timings,
+              points_ready ? &points_ready : nullptr);
   return samples;
 }
 
@@ -227,21 +235,28 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame, const FrameSample
                hint);
 }
 
-ScreenResult Relocalizer::screen(const FrameSamples& samples, const ScreenParams& screen) const {
+ScreenResult Relocalizer::screen(const FrameSamples& samples, const ScreenParams& screen,
+                                 std::vector<Prediction>* predictions) const {
   if (model_.points.empty() || samples.points.empty()) return {};
   // The point samples are in random order: the first ones are a random subset.
   const size_t count = std::min(samples.points.size(), static_cast<size_t>(screen.samples));
-  const std::vector<Sample> subset(samples.points.begin(), samples.points.begin() + count);
-  const std::vector<Descriptor> descriptors(samples.point_descriptors.begin(),
-                                            samples.point_descriptors.begin() + count);
-  PredictionParams prediction;
-  prediction.max_leaves = screen.max_leaves;
-  std::vector<Prediction> predictions;
-  predictForest(model_.points, samples.image, subset, descriptors, prediction, predictions);
+  std::vector<Prediction> own;
+  std::vector<Prediction>& predicted = predictions ? *predictions : own;
+  if (predicted.size() < count) {
+    const size_t from = predicted.size();
+    const std::vector<Sample> subset(samples.points.begin() + from, samples.points.begin() + count);
+    const std::vector<Descriptor> descriptors(samples.point_descriptors.begin() + from,
+                                              samples.point_descriptors.begin() + count);
+    PredictionParams prediction;
+    prediction.max_leaves = screen.max_leaves;
+    std::vector<Prediction> more;
+    predictForest(model_.points, samples.image, subset, descriptors, prediction, more);
+    predicted.insert(predicted.end(), more.begin(), more.end());
+  }
   std::vector<SolverSample> inputs;
   inputs.reserve(count);
   for (size_t i = 0; i < count; ++i)
-    inputs.push_back({subset[i].camera_point, &predictions[i], nullptr});
+    inputs.push_back({samples.points[i].camera_point, &predicted[i], nullptr});
   // A stream of its own: the screen must not change what the full solve draws.
   std::mt19937 rng(params_.seed);
   return screenPose(inputs, params_.solver, screen.hypotheses, screen.sampling_attempts, rng);

@@ -15,6 +15,7 @@
 #include "relocalizer/data/frame_source.h"
 #include "relocalizer/eval/latency_benchmark.h"
 #include "relocalizer/eval/place_benchmark.h"
+#include "relocalizer/online/submap_learner.h"
 
 using namespace relocalizer;
 
@@ -72,8 +73,8 @@ Expected<std::vector<int>> parseCounts(const std::string& text, int places) {
 void printLatency(const std::vector<PlaceCountRun>& runs, const TestSet& timed, int repeat,
                   nlohmann::json& out) {
   std::printf(
-      "\nlatency on %s's %zu frames x %d passes\n  places  median ms  p95 ms  x one  "
-      "within 5cm/5deg  wrong place\n",
+      "\nlatency on %s's %zu frames x %d passes (wrong place: not the first place)\n"
+      "  places  median ms  p95 ms  x one  within 5cm/5deg  wrong place\n",
       timed.place.c_str(), timed.frames.size(), repeat);
   const double one = stageLatency(runs.front().timings, &StageTimings::total).median_ms;
   for (const PlaceCountRun& run : runs) {
@@ -89,15 +90,80 @@ void printLatency(const std::vector<PlaceCountRun>& runs, const TestSet& timed, 
   }
 }
 
+// Where each count's calls spend their time: one place alone by its own
+// stages, many places by the search's (sampling, screens, full solves and
+// their stages summed over the solves of a call).
+void printStages(const std::vector<PlaceCountRun>& runs, nlohmann::json& out) {
+  auto median = [](std::vector<double> values) {
+    if (values.empty()) return 0.0;
+    std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+    return 1000.0 * values[values.size() / 2];
+  };
+  std::printf(
+      "\nstages, median ms per call (one place: its relocalization's stages)\n"
+      "  places   total  sampling  screens  full screens/call  solving  solves/call  forests  "
+      "ransac  refine  surface\n");
+  for (const PlaceCountRun& run : runs) {
+    std::vector<double> total, sampling, screens, solving, forests, ransac, refine, surface;
+    double solves = 0.0, full_screens = 0.0;
+    for (size_t k = 0; k < run.timings.size(); ++k) {
+      const StageTimings& t = run.timings[k];
+      total.push_back(t.total);
+      if (run.places == 1) {
+        sampling.push_back(t.sampling_and_forests);  // with its forests: one pass here
+        solving.push_back(t.ransac + t.refinement + t.surface);
+        forests.push_back(t.sampling_and_forests);
+        ransac.push_back(t.ransac);
+        refine.push_back(t.refinement);
+        surface.push_back(t.surface);
+        solves += 1.0;
+        continue;
+      }
+      const PlaceSearchTimings& s = run.search[k];
+      sampling.push_back(s.sampling);
+      screens.push_back(s.screening);
+      solving.push_back(s.solving);
+      forests.push_back(s.forest);
+      ransac.push_back(s.ransac);
+      refine.push_back(s.refinement);
+      surface.push_back(s.surface);
+      solves += s.solves;
+      full_screens += s.full_screens;
+    }
+    const double calls = std::max<size_t>(1, run.timings.size());
+    const double per_call = solves / calls;
+    std::printf("  %6d  %6.2f  %8.2f  %7.2f  %17.2f  %7.2f  %11.2f  %7.2f  %6.2f  %6.2f  %7.2f\n",
+                run.places, median(total), median(sampling), median(screens), full_screens / calls,
+                median(solving), per_call, median(forests), median(ransac), median(refine),
+                median(surface));
+    out["stages"].push_back({{"places", run.places},
+                             {"total_ms", median(total)},
+                             {"sampling_ms", median(sampling)},
+                             {"screens_ms", median(screens)},
+                             {"full_screens_per_call", full_screens / calls},
+                             {"solving_ms", median(solving)},
+                             {"solves_per_call", per_call},
+                             {"forests_ms", median(forests)},
+                             {"ransac_ms", median(ransac)},
+                             {"refinement_ms", median(refine)},
+                             {"surface_ms", median(surface)}});
+  }
+}
+
 // Every test set against the whole set; returns the wrong-place answers in all.
-int printPlaceChoice(const PlaceSet& all, const std::vector<TestSet>& tests, nlohmann::json& out) {
+// Submaps of one group are one place: an answer by any of them is the group's.
+int printPlaceChoice(const PlaceSet& all, const std::vector<TestSet>& tests,
+                     const std::string& group, nlohmann::json& out) {
   std::printf(
       "\nagainst all %zu places\n  frames of    frames  own place  wrong place  no pose  "
       "within 5cm/5deg\n",
       all.size());
   int wrong_total = 0;
   for (const TestSet& test : tests) {
-    const std::vector<EvaluationRecord> records = relocalizeAgainstPlaces(all, test.frames);
+    std::vector<EvaluationRecord> records = relocalizeAgainstPlaces(all, test.frames);
+    if (!group.empty())
+      for (EvaluationRecord& record : records)
+        if (record.place.rfind(group + "/", 0) == 0) record.place = group;
     const EvaluationSummary summary = summarizeEvaluation(records, test.place);
     const int answered = summary.accuracy.frames_with_pose;
     wrong_total += summary.wrong_place;
@@ -126,9 +192,19 @@ int main(int argc, char** argv) {
   std::vector<std::string> place_arguments, test_arguments;
   std::string counts_text = "1,2,all", json_path, config;
   int repeat = 1, threads = 1;
-  app.add_option("--place", place_arguments,
-                 "NAME=MODEL, repeated; the first is the place whose frames are timed")
-      ->required();
+  std::string submaps_argument;
+  auto* place_option =
+      app.add_option("--place", place_arguments,
+                     "NAME=MODEL, repeated; the first is the place whose frames are timed");
+  app.add_option("--submaps", submaps_argument,
+                 "NAME=FOLDER: a saved folder of learned submaps as the places, one group NAME "
+                 "(places NAME/i in folder order; the first --test is taken in NAME)")
+      ->excludes(place_option);
+  int lead = 0;
+  app.add_option("--lead", lead,
+                 "With --submaps: the submap (its number in the folder) that goes first, so the "
+                 "one timed alone (count 1): the one the timed frames are in")
+      ->capture_default_str();
   app.add_option("--test", test_arguments,
                  "NAME=DATASET or NAME=DATASET@FRAMES: frames taken in place NAME, repeated; "
                  "the first is timed")
@@ -151,12 +227,14 @@ int main(int argc, char** argv) {
     if (!loaded) return cli::fail(app, loaded.error());
     params = *loaded;
   }
-  auto named_places = cli::parseNamedPaths(place_arguments, "--place");
+  if (place_arguments.empty() && submaps_argument.empty())
+    return cli::fail(app, "give --place NAME=MODEL (repeated) or --submaps NAME=FOLDER");
+  auto named_places = cli::parseNamedPaths(
+      submaps_argument.empty() ? place_arguments : std::vector<std::string>{submaps_argument},
+      submaps_argument.empty() ? "--place" : "--submaps");
   if (!named_places) return cli::fail(app, named_places.error());
   auto named_tests = cli::parseNamedPaths(test_arguments, "--test");
   if (!named_tests) return cli::fail(app, named_tests.error());
-  auto counts = parseCounts(counts_text, static_cast<int>(named_places->size()));
-  if (!counts) return cli::fail(app, counts.error());
   if (named_tests->front().name != named_places->front().name)
     return cli::fail(app, "the first --test must be taken in the first --place (" +
                               named_places->front().name + "), whose frames are timed");
@@ -167,7 +245,25 @@ int main(int argc, char** argv) {
   std::printf("CPU: %s; %d thread(s)\n", cpuModel().c_str(), threads);
   std::vector<Place> places;
   PlaceSet all;
-  for (const auto& [name, path] : *named_places) {
+  if (!submaps_argument.empty()) {
+    const auto& [group, folder] = named_places->front();
+    const ResidentMemory before = trimmedResidentMemory();
+    auto saved = loadSavedSubmaps(folder, group, group, params);
+    if (!saved) return cli::fail(app, saved.error());
+    for (const std::string& warning : saved->warnings)
+      std::printf("warning: %s\n", warning.c_str());
+    std::printf("submaps %s: %zu of %s, %.1f MiB resident\n", group.c_str(), saved->places.size(),
+                folder.c_str(), (trimmedResidentMemory().current - before.current) / 1048576.0);
+    places = std::move(saved->places);
+    const std::string lead_name = group + "/" + std::to_string(lead);
+    const auto first = std::find_if(places.begin(), places.end(),
+                                    [&](const Place& place) { return place.name == lead_name; });
+    if (first == places.end()) return cli::fail(app, "--lead: no submap " + lead_name);
+    std::rotate(places.begin(), first, first + 1);
+    if (Status put = all.putGroup(group, places); !put) return cli::fail(app, put.error());
+  }
+  for (const auto& [name, path] :
+       submaps_argument.empty() ? *named_places : std::vector<cli::NamedPath>{}) {
     const ResidentMemory before = trimmedResidentMemory();
     auto place = PlaceSet::load(name, path, name, params);
     if (!place) return cli::fail(app, place.error());
@@ -184,6 +280,8 @@ int main(int argc, char** argv) {
     if (Status added = all.put(*place); !added) return cli::fail(app, added.error());
     places.push_back(std::move(*place));
   }
+  auto counts = parseCounts(counts_text, static_cast<int>(places.size()));
+  if (!counts) return cli::fail(app, counts.error());
   std::vector<TestSet> tests;
   for (const cli::NamedPath& argument : *named_tests) {
     auto test = loadTestSet(argument);
@@ -192,9 +290,12 @@ int main(int argc, char** argv) {
   }
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
 
-  printLatency(timePlaceCounts(places, tests.front().frames, *counts, repeat), tests.front(),
-               repeat, out);
-  const int wrong_total = printPlaceChoice(all, tests, out);
+  const std::vector<PlaceCountRun> runs =
+      timePlaceCounts(places, tests.front().frames, *counts, repeat);
+  printLatency(runs, tests.front(), repeat, out);
+  printStages(runs, out);
+  const int wrong_total = printPlaceChoice(
+      all, tests, submaps_argument.empty() ? std::string() : named_places->front().name, out);
   const ResidentMemory end = residentMemory();
   std::printf("wrong-place answers in all: %d; peak resident memory %.0f MiB\n", wrong_total,
               end.peak / 1048576.0);

@@ -570,3 +570,107 @@ TEST_F(Places, EvaluateRelocalizesAgainstEveryModelAndNamesEachFramesPlace) {
             std::string::npos)
       << relocalizer::testing::readBytes(dir.path() / "twice.log");
 }
+
+TEST_F(Places, AScreenThatReusesAFirstLooksPredictionsScreensAsAFreshOne) {
+  // The second pass of the place screen predicts only the samples the first
+  // look did not: the screen it gives must be the one a fresh screen gives.
+  const PlaceSearchParams params;
+  for (const Room& room : rooms_) {
+    for (int i : {0, 3, 7}) {
+      auto samples = room.relocalizer->sample(room.test_frames[i]);
+      ASSERT_TRUE(samples.ok()) << samples.error();
+      std::vector<Prediction> predicted;
+      const ScreenResult first = room.relocalizer->screen(*samples, params.first_look, &predicted);
+      EXPECT_EQ(predicted.size(), static_cast<size_t>(params.first_look.samples));
+      const ScreenResult reused = room.relocalizer->screen(*samples, params.screen, &predicted);
+      EXPECT_EQ(predicted.size(), static_cast<size_t>(params.screen.samples));
+      const ScreenResult fresh = room.relocalizer->screen(*samples, params.screen);
+      EXPECT_EQ(reused.inliers, fresh.inliers);
+      EXPECT_TRUE(reused.pose.isApprox(fresh.pose, 1e-12));
+      EXPECT_GT(first.inliers, 0) << room.name << " frame " << i;
+    }
+  }
+}
+
+TEST_F(Places, PointsReadySeesThePointSamplesBeforeTheLinesAreDone) {
+  const Relocalizer& relocalizer = *rooms_[0].relocalizer;
+  const RgbdFrame& frame = rooms_[0].test_frames[2];
+  int calls = 0;
+  std::vector<Eigen::Vector3f> seen;
+  auto samples = relocalizer.sample(frame, [&](const FrameSamples& points) {
+    ++calls;
+    for (const Sample& s : points.points) seen.push_back(s.camera_point);
+    EXPECT_EQ(points.point_descriptors.size(), points.points.size());
+  });
+  ASSERT_TRUE(samples.ok()) << samples.error();
+  EXPECT_EQ(calls, 1);
+  ASSERT_EQ(seen.size(), samples->points.size());
+  ASSERT_FALSE(seen.empty());
+  for (size_t i = 0; i < seen.size(); ++i) EXPECT_EQ(seen[i], samples->points[i].camera_point);
+  EXPECT_FALSE(samples->lines.samples.empty());  // the lines were drawn all the same
+  // A refused frame never reaches the callback.
+  RgbdFrame refused = frame;
+  refused.depth = cv::Mat();  // a new header: the shared frame keeps its depth
+  EXPECT_FALSE(relocalizer.sample(refused, [&](const FrameSamples&) { ++calls; }).ok());
+  EXPECT_EQ(calls, 1);
+}
+
+TEST_F(Places, TheFirstLookAnswersAsScreeningEveryPlaceFully) {
+  // Two rooms, a twin of room 0 (ambiguous by design) and a part of room 0's
+  // map: with the first look (the default) and without it (every place
+  // screened fully), every frame gets the same answer, and the twin is
+  // still screened fully and solved: look-alikes are never left at a glance.
+  PlaceSearchParams without;
+  without.first_look.samples = 0;
+  PlaceSet looked, full(without);
+  for (PlaceSet* set : {&looked, &full}) {
+    ASSERT_TRUE(set->put(groupPlace(rooms_[0].relocalizer, "a/0", "a", "a_map")).ok());
+    ASSERT_TRUE(set->put(groupPlace(rooms_[0].relocalizer, "a/1", "a", "a_map")).ok());
+    ASSERT_TRUE(set->put(placeOf(rooms_[1])).ok());
+  }
+  int fewer_full_screens = 0;
+  for (const Room& room : rooms_)
+    for (const RgbdFrame& frame : room.test_frames) {
+      const PlaceAnswer a = looked.relocalize(frame), b = full.relocalize(frame);
+      EXPECT_EQ(a.place, b.place);
+      EXPECT_EQ(a.relocalization.success, b.relocalization.success);
+      EXPECT_EQ(a.relocalization.message, b.relocalization.message);
+      if (a.relocalization.success)
+        EXPECT_TRUE(a.relocalization.pose.isApprox(b.relocalization.pose, 1e-12));
+      EXPECT_EQ(b.search.full_screens, 3);
+      fewer_full_screens += a.search.full_screens < 3;
+      for (const PlaceAttempt& attempt : b.attempts) EXPECT_TRUE(attempt.screened_fully);
+    }
+  // Room 1's frames: room 0's places are far at the first look.
+  EXPECT_GE(fewer_full_screens, kTestFrames * 3 / 4);
+
+  PlaceSet twins;
+  ASSERT_TRUE(twins.put(placeOf(rooms_[0], "first")).ok());
+  ASSERT_TRUE(twins.put(placeOf(rooms_[0], "twin")).ok());
+  ASSERT_TRUE(twins.put(placeOf(rooms_[1])).ok());
+  int ambiguous = 0;
+  for (const RgbdFrame& frame : rooms_[0].test_frames) {
+    const PlaceAnswer answer = twins.relocalize(frame);
+    EXPECT_FALSE(answer.relocalization.success) << "answered by " << answer.place;
+    if (answer.relocalization.message.find("ambiguous place") == std::string::npos) continue;
+    ++ambiguous;
+    EXPECT_EQ(answer.search.solves, 2);  // the best and its twin, side by side
+    EXPECT_TRUE(answer.attempts[0].screened_fully && answer.attempts[1].screened_fully);
+  }
+  EXPECT_GE(ambiguous, kTestFrames * 3 / 4);
+}
+
+TEST_F(Places, AFirstLookThatCannotFeedTheFullScreenIsRefused) {
+  PlaceSearchParams params;
+  EXPECT_EQ(params.validationError(), "");
+  params.first_look.samples = 0;  // no first look: every place screened fully
+  EXPECT_EQ(params.validationError(), "");
+  params.first_look.samples = params.screen.samples + 1;  // more than the screen it feeds
+  EXPECT_NE(params.validationError(), "");
+  params.first_look.samples = 100;
+  params.first_look.max_leaves = params.screen.max_leaves + 1;  // other predictions
+  EXPECT_NE(params.validationError(), "");
+  params.first_look.max_leaves = params.screen.max_leaves;
+  params.rescreen_ratio = 1.5f;
+  EXPECT_NE(params.validationError(), "");
+}

@@ -15,8 +15,9 @@ namespace relocalizer {
 
 struct PlaceCountRun {
   int places = 0;
-  std::vector<StageTimings> timings;  // every call, every pass
-  EvaluationSummary summary;          // the first pass; wrong place against the first place
+  std::vector<StageTimings> timings;       // every call, every pass
+  std::vector<PlaceSearchTimings> search;  // the same calls' search stages (zero for one place)
+  EvaluationSummary summary;               // the first pass; wrong place against the first place
 };
 
 // For each count n, a set of the first n places relocalizes `frames` (taken in

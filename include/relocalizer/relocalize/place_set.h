@@ -7,10 +7,12 @@
 // Instead the frame is sampled once (samples and descriptors do not depend on
 // the model), every place is screened by a cheap pass (a few hundred of the
 // samples through its point forest and a short Kabsch-only RANSAC; its best
-// hypothesis' inlier count ranks the place), and only the best-ranked places
+// hypothesis' inlier count ranks the place; a first look at every place, the
+// full screen only where it comes close), and only the best-ranked places
 // get the full solve. A runner-up whose screen comes close to the best is
-// solved too, and when two places both hold up the answer is "no pose":
-// naming the wrong room would be worse than naming none.
+// solved too (beside it, on the other threads), and when two places both hold
+// up the answer is "no pose": naming the wrong room would be worse than
+// naming none.
 //
 // Unless they are one map: places of one group (the submaps of a map, in its
 // one frame) whose answers agree give one answer, that pose; and a runner-up
@@ -55,7 +57,20 @@ struct PlaceFigures {
 };
 
 struct PlaceSearchParams {
-  ScreenParams screen;  // the cheap pass every place gets
+  // The screen that ranks places (relocalizer.h), in two passes: a first look
+  // at every place, on fewer samples with a short draw, then `screen` for the
+  // places whose first look (inliers, weighed by the hint) reaches
+  // rescreen_ratio of the best's; the first look's predictions are reused, so
+  // those places screen exactly as with `screen` alone. The full budget costs
+  // most on the places a frame is not in (their draws find few rigid sets),
+  // which the first look leaves out. A best first look under
+  // rescreen_all_below inliers (a frame hard to screen, where the right place
+  // may look no better than the rest) gets `screen` on every place.
+  // first_look.samples 0: every place gets `screen`, as before the first look.
+  ScreenParams screen;
+  ScreenParams first_look{100, 32, 20, 1};
+  float rescreen_ratio = 0.25f;
+  int rescreen_all_below = 10;
   // Full solves per frame at most (the best and close runners-up); a group
   // runner-up left unsolved for its screen pose does not count.
   int max_solved = 3;
@@ -84,14 +99,30 @@ struct PlaceSearchParams {
 // How one place fared with one frame.
 struct PlaceAttempt {
   std::string place;
-  int screen_inliers = 0;  // the cheap pass's best hypothesis
-  bool solved = false;     // the full solve ran
-  bool success = false;    // and answered with a pose
-  std::string message;     // its reason when it ran and failed
+  // The screen's best hypothesis: the full screen's, or (screened_fully
+  // false) the first look's, on fewer samples; fully screened places rank first.
+  int screen_inliers = 0;
+  bool solved = false;   // the full solve ran
+  bool success = false;  // and answered with a pose
+  std::string message;   // its reason when it ran and failed
   // Same group as the strongest answer and the same pose (solved), or not
   // solved because its screen pose agreed with that answer's place's: not a
   // rival. The strongest answer is the answer unless the frame is ambiguous.
   bool agrees = false;
+  bool screened_fully = true;  // see screen_inliers
+};
+
+// Where a search across two or more places spent its time (one place alone
+// is a plain relocalization: its stages are in relocalization.timings).
+struct PlaceSearchTimings {  // seconds
+  double sampling = 0.0;     // the frame's shared samples and descriptors
+  double screening = 0.0;    // every place's screen (= relocalization.timings.screening)
+  int full_screens = 0;      // places that got the full screen after the first look
+  double solving = 0.0;      // the full solves, wall time
+  int solves = 0;            // full solves run
+  // The full solves' own stages, summed over them (forest: both forests on the
+  // shared samples; ransac, refinement, surface as in StageTimings).
+  double forest = 0.0, ransac = 0.0, refinement = 0.0, surface = 0.0;
 };
 
 struct PlaceAnswer {
@@ -99,6 +130,7 @@ struct PlaceAnswer {
   std::string map_frame;               // its frame; empty for "no pose"
   Relocalization relocalization;       // pose in map_frame, or the failure and its reason
   std::vector<PlaceAttempt> attempts;  // every place, best screened first
+  PlaceSearchTimings search;           // zero for one place
 };
 
 class PlaceSet {

@@ -4,6 +4,7 @@
 // this class; nothing outside the core reaches into forests or RANSAC.
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -118,13 +119,27 @@ class Relocalizer {
   // them; the answer equals relocalize(frame) when the samples' recipe is this
   // relocalizer's, and otherwise it samples the frame itself.
   Expected<FrameSamples> sample(const RgbdFrame& frame) const;
+  // The same, calling `points_ready` as soon as the point samples and their
+  // descriptors are drawn, while the line half (LSD) is still being drawn
+  // beside it: work that needs the points only (the place screens) overlaps
+  // LSD instead of waiting for it. `points_ready` may read the samples'
+  // points, point descriptors, image and recipe, nothing else; it is not
+  // called for a refused frame.
+  Expected<FrameSamples> sample(const RgbdFrame& frame,
+                                const std::function<void(const FrameSamples&)>& points_ready) const;
   Relocalization relocalize(const RgbdFrame& frame, const FrameSamples& samples,
                             const PoseHint* hint = nullptr) const;
   SamplingRecipe samplingRecipe() const;
   // How well the frame fits this place, cheaply: the inliers of a short
   // RANSAC on a few of the samples and its winner's pose in the model's world
   // (0 inliers when the model has no point forest).
-  ScreenResult screen(const FrameSamples& samples, const ScreenParams& params) const;
+  // `predictions` (optional) holds the one-leaf predictions of the first
+  // samples made by an earlier screen of this place on the same samples with
+  // the same max_leaves: only the samples it lacks are predicted, and added to
+  // it, so a first look on a few samples and a fuller screen after it predict
+  // each sample once and answer as a screen without it would.
+  ScreenResult screen(const FrameSamples& samples, const ScreenParams& params,
+                      std::vector<Prediction>* predictions = nullptr) const;
 
   // Samples the frame as relocalize() does and compares each sample's
   // predictions with its true world coordinate. Needs frame.ground_truth.
