@@ -635,8 +635,9 @@ TEST_F(Places, TheFirstLookAnswersAsScreeningEveryPlaceFully) {
       EXPECT_EQ(a.place, b.place);
       EXPECT_EQ(a.relocalization.success, b.relocalization.success);
       EXPECT_EQ(a.relocalization.message, b.relocalization.message);
-      if (a.relocalization.success)
+      if (a.relocalization.success) {
         EXPECT_TRUE(a.relocalization.pose.isApprox(b.relocalization.pose, 1e-12));
+      }
       EXPECT_EQ(b.search.full_screens, 3);
       fewer_full_screens += a.search.full_screens < 3;
       for (const PlaceAttempt& attempt : b.attempts) EXPECT_TRUE(attempt.screened_fully);
