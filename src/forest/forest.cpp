@@ -154,8 +154,10 @@ ModeCandidate noCandidate() {
 // model of tens of MB does not fit the cache), so one sample at a time leaves
 // the core waiting on DRAM. Here kLanes samples advance in turn, one memory
 // access each per round (a node, or a leaf's modes' descriptors) with the next access prefetched,
-// so up to kLanes misses are in flight. Each lane runs exactly predictInTree's steps in its order,
-// so every candidate is the one predictInTree gives. Writes candidates[slot] of each prediction.
+// so up to kLanes misses are in flight; a split node takes two turns, the
+// second reading the pixel the first located and prefetched. Each lane runs exactly predictInTree's
+// steps in its order, so every candidate is the one predictInTree gives. Writes candidates[slot] of
+// each prediction.
 class LockStepDescent {
  public:
   static constexpr int kLanes = 16;
@@ -179,12 +181,13 @@ class LockStepDescent {
   }
 
  private:
-  enum class Step : uint8_t { Descend, Modes, Idle };
+  enum class Step : uint8_t { Descend, Split, Modes, Idle };
   struct Lane {
     BranchQueue queue;
     size_t sample = 0;
     FeatureSite site;
     int32_t node = 0;
+    int qu = 0, qv = 0;  // the second pixel of `node`'s feature (Split)
     LeafRange range;
     int visited = 0;
     ModeCandidate best;
@@ -215,7 +218,15 @@ class LockStepDescent {
     switch (lane.step) {
       case Step::Descend:
         if (!nodes[lane.node].isLeaf()) {
-          lane.node = splitStep(nodes, lane.node, image_, lane.site, max_leaves_, lane.queue);
+          // The second pixel's address is known only now; it is read on the
+          // lane's next turn (Split), once the other lanes' steps have
+          // hidden its latency.
+          const SplitNode& node = nodes[lane.node];
+          __builtin_prefetch(&nodes[node.left]);
+          __builtin_prefetch(&nodes[node.left + 1]);
+          secondPixel(node.feature, image_, lane.site, lane.qu, lane.qv);
+          prefetchPixel(node.feature, image_, lane.qu, lane.qv);
+          lane.step = Step::Split;
         } else {
           lane.range = nodes[lane.node].leafModes();
           const LeafRange& r = lane.range;
@@ -227,6 +238,19 @@ class LockStepDescent {
           lane.step = Step::Modes;
         }
         return true;
+      case Step::Split: {
+        const SplitNode& node = nodes[lane.node];
+        const FeatureSite& p = lane.site;
+        const float f =
+            featureValueAt(node.feature, image_, p,
+                           image_.colour + p.v * image_.colour_stride + p.u * 3, lane.qu, lane.qv);
+        const bool go_left = f < node.threshold;
+        if (max_leaves_ > 1)
+          lane.queue.push(std::abs(f - node.threshold), node.left + (go_left ? 1 : 0));
+        lane.node = node.left + (go_left ? 0 : 1);
+        lane.step = Step::Descend;
+        return true;
+      }
       case Step::Modes:
         nearestMode(tree_, lane.range, descriptors_[lane.sample], lane.best);
         ++lane.visited;

@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -17,15 +18,60 @@ std::unique_ptr<ceres::LossFunction> robustLoss(const PoseSolverParams& params) 
   return std::make_unique<ceres::CauchyLoss>(params.robust_scale);
 }
 
-// The cost functions of a set of terms at one base pose, owned here rather
-// than by the problem: a problem that owns them keeps a reference count per
-// cost function (a map insert per term), which cost more than evaluating the
-// term.
+// The cost functions of a set of terms at one base pose.
 struct PerturbedCosts {
   PerturbedCosts(const std::vector<RefinementTerm>& terms, const Pose& base)
       : pose(base), costs(terms, pose) {}
   SharedPerturbation pose;  // declared first: the costs refer to it
   TermCosts costs;
+};
+
+// Every term of a solve as one Ceres residual block, robust loss included.
+// Ceres applies a loss to a whole block, so with a block per term its
+// per-block machinery (validity checks, loss and corrector calls, Jacobian
+// copies) cost several times the terms themselves. Here each term's loss is
+// applied as Ceres' corrector would apply it to the term's own block: for the
+// Cauchy loss (rho'' < 0 everywhere) residual and Jacobian scaled by
+// sqrt(rho'(|r|^2)). That makes the Gauss-Newton model, gradient and model
+// cost change the ones Ceres builds with a block per term; a last residual
+// with a zero Jacobian row, sqrt(sum(rho(|r|^2) - |scaled r|^2)), makes the
+// block's cost sum(rho(|r|^2)) / 2, the energy a block per term has. So the
+// solver takes the same steps on the same energy, up to rounding.
+class RobustTermsCost : public ceres::CostFunction {
+ public:
+  RobustTermsCost(const TermCosts& costs, const ceres::LossFunction* loss)
+      : costs_(costs), loss_(loss) {
+    set_num_residuals(static_cast<int>(3 * costs.size() + 1));
+    mutable_parameter_block_sizes()->push_back(6);
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    double* jacobian = jacobians ? jacobians[0] : nullptr;
+    double excess = 0.0;  // sum of rho(|r|^2) - |scaled r|^2
+    for (size_t i = 0; i < costs_.size(); ++i) {
+      double* r = residuals + 3 * i;
+      double* j = jacobian ? jacobian + 18 * i : nullptr;
+      if (!costs_[i].Evaluate(parameters, r, j ? &j : nullptr)) return false;
+      if (!loss_) continue;
+      const double squared = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+      double rho[3];
+      loss_->Evaluate(squared, rho);
+      const double scale = std::sqrt(rho[1]);
+      for (int k = 0; k < 3; ++k) r[k] *= scale;
+      if (j)
+        for (int k = 0; k < 18; ++k) j[k] *= scale;
+      excess += rho[0] - (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    }
+    // rho(s) >= s rho'(s) for the Cauchy loss; rounding may dip below.
+    residuals[3 * costs_.size()] = std::sqrt(std::max(0.0, excess));
+    if (jacobian) std::fill_n(jacobian + 18 * costs_.size(), 6, 0.0);
+    return true;
+  }
+
+ private:
+  const TermCosts& costs_;
+  const ceres::LossFunction* loss_;
 };
 
 Pose applyDelta(const double* delta, const Pose& base) {
@@ -65,18 +111,17 @@ Refinement refinePose(const Pose& initial, const std::vector<RefinementTerm>& te
   }
   const std::unique_ptr<ceres::LossFunction> loss = robustLoss(params);
   ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  // The problem is built here, one parameter block and well-formed terms: the
-  // per-term checks (a sort and allocation each) would find nothing.
+  // The problem is built here, one parameter block and one residual block: the
+  // checks would find nothing.
   problem_options.disable_all_safety_checks = true;
 
   std::vector<RefinementTerm> subset;
   double delta[6] = {0, 0, 0, 0, 0, 0};
   PerturbedCosts costs(solveTerms(terms, params, subset), initial);
+  RobustTermsCost all_terms(costs.costs, loss.get());
   ceres::Problem problem(problem_options);
-  for (size_t i = 0; i < costs.costs.size(); ++i)
-    problem.AddResidualBlock(&costs.costs[i], loss.get(), delta);
+  problem.AddResidualBlock(&all_terms, nullptr, delta);
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   options.minimizer_type = ceres::TRUST_REGION;

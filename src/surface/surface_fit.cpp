@@ -31,11 +31,14 @@ float surfaceAgreement(const SurfaceModel& surface,
                        const SurfaceFitParams& params) {
   if (camera_points.empty() || surface.empty()) return 0.0f;
   const Eigen::Isometry3f to_world = pose.cast<float>();
+  std::vector<Eigen::Vector3f> world(camera_points.size());
+  for (size_t i = 0; i < world.size(); ++i) world[i] = to_world * camera_points[i];
+  std::vector<const SurfaceElement*> elements(world.size());
+  surface.nearAll(world.data(), world.size(), elements.data());
   int agreeing = 0;
-  for (const Eigen::Vector3f& c : camera_points) {
-    const Eigen::Vector3f p = to_world * c;
-    const SurfaceElement* element = surface.near(p);
-    if (element && std::abs(element->normal.dot(p - element->point)) <= params.tolerance)
+  for (size_t i = 0; i < world.size(); ++i) {
+    const SurfaceElement* element = elements[i];
+    if (element && std::abs(element->normal.dot(world[i] - element->point)) <= params.tolerance)
       ++agreeing;
   }
   return static_cast<float>(agreeing) / static_cast<float>(camera_points.size());
@@ -51,12 +54,20 @@ SurfaceFit fitToSurface(const SurfaceModel& surface,
   fit.agreement = fit.initial_agreement;
   if (surface.empty()) return fit;
   Pose pose = initial;
+  std::vector<Eigen::Vector3d> world(camera_points.size());
+  std::vector<Eigen::Vector3f> world_f(camera_points.size());
+  std::vector<const SurfaceElement*> elements(camera_points.size());
   for (int it = 0; it < params.iterations; ++it) {
+    for (size_t i = 0; i < world.size(); ++i) {
+      world[i] = pose * camera_points[i].cast<double>();
+      world_f[i] = world[i].cast<float>();
+    }
+    surface.nearAll(world_f.data(), world_f.size(), elements.data());
     PointToPlaneSystem system(params.huber);
-    for (const Eigen::Vector3f& c : camera_points) {
-      const Eigen::Vector3d p = pose * c.cast<double>();
-      const SurfaceElement* element = surface.near(p.cast<float>());
+    for (size_t i = 0; i < world.size(); ++i) {
+      const SurfaceElement* element = elements[i];
       if (!element) continue;
+      const Eigen::Vector3d& p = world[i];
       const Eigen::Vector3d normal = element->normal.cast<double>();
       const double r = normal.dot(p - element->point.cast<double>());
       if (std::abs(r) > params.max_distance) continue;

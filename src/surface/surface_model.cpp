@@ -60,6 +60,14 @@ int32_t SurfaceModel::Index::find(uint64_t key) const {
   }
 }
 
+void SurfaceModel::Index::prefetch(uint64_t key) const {
+  if (!keys.empty()) {
+    const uint64_t slot = hashSlot(key, mask);
+    __builtin_prefetch(&keys[slot]);
+    __builtin_prefetch(&elements[slot]);
+  }
+}
+
 SurfaceModel::SurfaceModel(float voxel_size, std::vector<SurfaceElement> elements)
     : voxel_size_(voxel_size), elements_(std::move(elements)) {
   buildIndex();
@@ -117,6 +125,20 @@ void SurfaceModel::buildIndex() {
 const SurfaceElement* SurfaceModel::near(const Eigen::Vector3f& world) const {
   const int32_t i = index_.find(surfaceVoxelKey(world, voxel_size_));
   return i >= 0 ? &elements_[static_cast<size_t>(i)] : nullptr;
+}
+
+void SurfaceModel::nearAll(const Eigen::Vector3f* world, size_t count,
+                           const SurfaceElement** out) const {
+  std::vector<uint64_t> keys(count);
+  for (size_t i = 0; i < count; ++i) {
+    keys[i] = surfaceVoxelKey(world[i], voxel_size_);
+    index_.prefetch(keys[i]);
+  }
+  for (size_t i = 0; i < count; ++i) {
+    const int32_t element = index_.find(keys[i]);
+    out[i] = element >= 0 ? &elements_[static_cast<size_t>(element)] : nullptr;
+    if (out[i]) __builtin_prefetch(out[i]);
+  }
 }
 
 // --- Builder ----------------------------------------------------------------------------

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <ceres/autodiff_cost_function.h>
+#include <ceres/ceres.h>
 
 #include <Eigen/Cholesky>
 #include <cstdio>
@@ -271,6 +272,49 @@ TEST(Refinement, LowersTheErrorFromAPerturbedStart) {
   EXPECT_LT((covariance - covariance.transpose()).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_GT(covariance.diagonal().minCoeff(), 0.0);
   EXPECT_LT(std::sqrt(covariance(0, 0)), 0.01);
+}
+
+// refinePose puts every term in one residual block and applies the Cauchy
+// loss per term itself; Ceres with a block and a loss per term is the
+// reference it must follow step for step.
+TEST(Refinement, TakesTheStepsOfAResidualBlockPerTerm) {
+  const Pose truth = makePose(25, {1, 2, 3}, {0.4, 1.1, -0.3});
+  Scenario s(truth, 300, 0.3, 1, 5);
+  std::vector<RefinementTerm> terms = pointTerms(s);
+  for (size_t i = 0; i < terms.size(); i += 3) {  // a third on lines through their camera point
+    terms[i].on_line = true;
+    terms[i].line_direction = Eigen::Vector3d(1, 0.2 * (i % 5), 0.3).normalized();
+    terms[i].line_point = terms[i].camera_point - 0.4 * terms[i].line_direction;
+  }
+  const Pose start = truth * makePose(4, {0, 1, 1}, {0.06, -0.03, 0.04});
+  const PoseSolverParams params;
+  for (int iterations : {params.lm_loop_iterations, params.lm_iterations}) {
+    SharedPerturbation at(start);
+    const TermCosts costs(terms, at);
+    ceres::CauchyLoss loss(params.robust_scale);
+    ceres::Problem::Options problem_options;
+    problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    double delta[6] = {0, 0, 0, 0, 0, 0};
+    for (size_t i = 0; i < costs.size(); ++i) problem.AddResidualBlock(&costs[i], &loss, delta);
+    ceres::Solver::Options options;
+    options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+    options.max_num_iterations = iterations;
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    Eigen::Matrix3d r;
+    Eigen::Vector3d t;
+    perturbedPose(delta, start.linear(), start.translation(), r, t);
+
+    const Refinement refined = refinePose(start, terms, params, iterations);
+    ASSERT_TRUE(refined.solved) << refined.message;
+    EXPECT_EQ(refined.iterations, summary.num_successful_steps + summary.num_unsuccessful_steps);
+    EXPECT_LT((refined.pose.translation() - t).norm(), 1e-9) << iterations << " iterations";
+    EXPECT_LT((refined.pose.linear() - nearestRotation(r)).norm(), 1e-9);
+    // And the steps went somewhere: most of the start's error is gone.
+    EXPECT_LT(translationError(refined.pose, truth), 0.3 * translationError(start, truth));
+  }
 }
 
 TEST(Refinement, AnUnusableSolveKeepsTheStartAndSaysWhy) {

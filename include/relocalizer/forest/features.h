@@ -82,13 +82,11 @@ inline void secondPixel(const PixelFeature& feature, const FeatureImage& image,
   qv = qv < 0 ? 0 : (qv >= image.height ? image.height - 1 : qv);
 }
 
-// f at `p`, whose colour (BGR) the caller already holds in `colour_p`:
-// training keeps it with each sample, so a colour feature reads one image
-// pixel, not two.
-inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image,
-                             const FeatureSite& p, const uint8_t* colour_p) {
-  int qu, qv;
-  secondPixel(feature, image, p, qu, qv);
+// f at `p` with its second pixel (qu, qv) already found by secondPixel, for
+// callers that find q first and read it later (after prefetchPixel); `colour_p`
+// is p's colour (BGR).
+inline float featureValueAt(const PixelFeature& feature, const FeatureImage& image,
+                            const FeatureSite& p, const uint8_t* colour_p, int qu, int qv) {
   if (feature.type == FeatureType::Colour) {
     const int ip = colour_p[feature.channel_p];
     const int iq = image.colour[qv * image.colour_stride + qu * 3 + feature.channel_q];
@@ -96,6 +94,24 @@ inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& im
   }
   const float depth_q = image.depth[qv * image.depth_stride + qu];
   return (depth_q == depth_q ? depth_q : kFarDepth) - p.depth;  // NaN != NaN
+}
+
+// Starts loading the pixel q that featureValueAt will read.
+inline void prefetchPixel(const PixelFeature& feature, const FeatureImage& image, int qu, int qv) {
+  if (feature.type == FeatureType::Colour)
+    __builtin_prefetch(image.colour + qv * image.colour_stride + qu * 3);
+  else
+    __builtin_prefetch(image.depth + qv * image.depth_stride + qu);
+}
+
+// f at `p`, whose colour (BGR) the caller already holds in `colour_p`:
+// training keeps it with each sample, so a colour feature reads one image
+// pixel, not two.
+inline float evaluateFeature(const PixelFeature& feature, const FeatureImage& image,
+                             const FeatureSite& p, const uint8_t* colour_p) {
+  int qu, qv;
+  secondPixel(feature, image, p, qu, qv);
+  return featureValueAt(feature, image, p, colour_p, qu, qv);
 }
 
 // f at `p`.
@@ -125,10 +141,7 @@ inline void prefetchSecondPixel(const PixelFeature& feature, const FeatureImage&
                                 int v, float depth_p) {
   int qu, qv;
   secondPixel(feature, image, FeatureSite::at(u, v, depth_p), qu, qv);
-  if (feature.type == FeatureType::Colour)
-    __builtin_prefetch(image.colour + qv * image.colour_stride + qu * 3);
-  else
-    __builtin_prefetch(image.depth + qv * image.depth_stride + qu);
+  prefetchPixel(feature, image, qu, qv);
 }
 
 constexpr int kDescriptorPatch = 16;       // pixels per side

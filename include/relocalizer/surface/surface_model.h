@@ -51,6 +51,12 @@ class SurfaceModel {
   // when the model is made.
   const SurfaceElement* near(const Eigen::Vector3f& world) const;
 
+  // near() of each of `count` points into `out`. A model of millions of voxels
+  // misses the cache on nearly every probe; here all the probes are fetched
+  // before any is read, then all the elements, so the misses overlap instead
+  // of following one another.
+  void nearAll(const Eigen::Vector3f* world, size_t count, const SurfaceElement** out) const;
+
  private:
   // Open addressing from a packed voxel key to an element index.
   struct Index {
@@ -59,6 +65,7 @@ class SurfaceModel {
     uint64_t mask = 0;
     void insert(uint64_t key, int32_t element);
     int32_t find(uint64_t key) const;
+    void prefetch(uint64_t key) const;
   };
   void buildIndex();
 
