@@ -220,6 +220,12 @@ TEST(LearningParams, ReadOnceAndCheckedByName) {
   EXPECT_NE(
       readLearningParams(LearningParams{}, "0.05,5", "/nonexistent.yaml").error().find("config"),
       std::string::npos);
+  // The retrain preset reads as a learning config and scores fewer candidates.
+  auto fast = readLearningParams(LearningParams{}, "0.05,5",
+                                 std::string(RELOCALIZER_SOURCE_DIR) + "/config/learn_fast.yaml");
+  ASSERT_TRUE(fast.ok()) << fast.error();
+  EXPECT_LT(fast->training.points.feature_candidates, read->training.points.feature_candidates);
+  EXPECT_LT(fast->training.lines.feature_candidates, read->training.lines.feature_candidates);
   LearningParams few;
   few.max_keyframes = 1;
   EXPECT_NE(readLearningParams(few, "0.05,5", "").error().find("max_keyframes"), std::string::npos);
