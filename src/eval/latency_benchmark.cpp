@@ -1,6 +1,7 @@
 #include "relocalizer/eval/latency_benchmark.h"
 
 #include <tbb/global_control.h>
+#include <ctime>
 
 #include <algorithm>
 #include <cmath>
@@ -69,6 +70,12 @@ ResidentMemory residentMemory() {
     if (line.rfind("VmHWM:", 0) == 0) memory.peak = bytes();
   }
   return memory;
+}
+
+double processCpuSeconds() {
+  timespec now{};
+  if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now) != 0) return 0.0;
+  return static_cast<double>(now.tv_sec) + 1e-9 * static_cast<double>(now.tv_nsec);
 }
 
 std::string cpuModel() {

@@ -100,7 +100,9 @@ class TreeGrower {
                     std::uniform_int_distribution<size_t>& pick_value, SplitChoice& best);
 
   // Samples with f < threshold first; returns where the right child starts.
-  size_t partition(const NodeTask& task, const PixelFeature& feature, float threshold);
+  // `values`, when given, are f of every sample of the node, in order.
+  size_t partition(const NodeTask& task, const PixelFeature& feature, float threshold,
+                   const float* values);
 
   void makeLeaf(Tree& tree, const NodeTask& task);
 
@@ -123,6 +125,9 @@ class TreeGrower {
   const TrainingProgress& progress_;
   std::vector<FeatureImage> views_;
   std::vector<float> values_;
+  // The best feature's values so far, when the subset is the whole node: its
+  // partition then reads no image (at most split_sample_cap samples).
+  std::vector<float> best_values_;
   // Each scoring sample's label as LabelStats of one sample: its products are
   // formed once per node instead of once per candidate feature, and adding it
   // to a bin is the same arithmetic as LabelStats::add of the label.
@@ -146,6 +151,7 @@ TreeGrower::TreeGrower(const std::vector<TrainingImage>& images, TreeSamples& sa
   views_.reserve(images.size());
   for (const auto& image : images) views_.push_back(image.view());
   values_.resize(std::max(1, params.split_sample_cap));
+  best_values_.resize(values_.size());
   moments_.resize(values_.size());
   bin_of_.resize(values_.size());
   thresholds_.resize(std::max(1, params.threshold_candidates));
@@ -235,7 +241,8 @@ bool TreeGrower::trySplit(const NodeTask& task, PixelFeature& best_feature, floa
   for (int c = 0; c < params_.feature_candidates; ++c)
     scoreFeature(randomFeature(), task, subset, parent, parent_entropy, min_side, pick_value, best);
   if (!best.found) return false;
-  middle = partition(task, best.feature, best.threshold);
+  middle =
+      partition(task, best.feature, best.threshold, subset == n ? best_values_.data() : nullptr);
   best_feature = best.feature;
   best_threshold = best.threshold;
   return middle - task.begin >= min_leaf && task.end - middle >= min_leaf;
@@ -276,6 +283,7 @@ void TreeGrower::scoreFeature(const PixelFeature& feature, const NodeTask& task,
   }
   for (size_t i = 0; i < subset; ++i) bins_[bin_of_[i]].add(moments_[i]);
   LabelStats left;
+  bool kept_values = false;
   for (size_t k = 0; k < t_count; ++k) {
     left.add(bins_[k]);
     if (k + 1 < t_count && thresholds_[k + 1] == thresholds_[k]) continue;
@@ -288,6 +296,10 @@ void TreeGrower::scoreFeature(const PixelFeature& feature, const NodeTask& task,
     const double gain = parent_entropy - (left.count / parent.count) * left.entropy() -
                         (right_count / parent.count) * right.entropy();
     if (gain > best.gain) {
+      if (!kept_values && subset == task.end - task.begin) {
+        std::copy(values_.begin(), values_.begin() + subset, best_values_.begin());
+        kept_values = true;
+      }
       best.gain = gain;
       best.feature = feature;
       best.threshold = thresholds_[k];
@@ -296,15 +308,19 @@ void TreeGrower::scoreFeature(const PixelFeature& feature, const NodeTask& task,
   }
 }
 
-size_t TreeGrower::partition(const NodeTask& task, const PixelFeature& feature, float threshold) {
+size_t TreeGrower::partition(const NodeTask& task, const PixelFeature& feature, float threshold,
+                             const float* values) {
   // Each sample's side first, with the same prefetching as the split search,
   // then a two-ended swap pass over the sides: the moves std::partition makes,
   // as it too tests each sample once, so the order (and the tree) is the same.
   const size_t n = task.end - task.begin;
   TreeSamples::Item* items = items_.data() + task.begin;
   goes_left_.resize(n);
-  forEachValue(feature, items, n,
-               [this, threshold](size_t i, float value) { goes_left_[i] = value < threshold; });
+  if (values)
+    for (size_t i = 0; i < n; ++i) goes_left_[i] = values[i] < threshold;
+  else
+    forEachValue(feature, items, n,
+                 [this, threshold](size_t i, float value) { goes_left_[i] = value < threshold; });
   size_t first = 0, last = n;
   while (true) {
     while (first != last && goes_left_[first]) ++first;

@@ -12,6 +12,7 @@
 #include "place_arguments.h"
 #include "relocalizer/core/version.h"
 #include "relocalizer/eval/frame_evaluation.h"
+#include "relocalizer/eval/latency_benchmark.h"
 #include "relocalizer/eval/plot.h"
 #include "relocalizer/forest/training_config.h"
 #include "relocalizer/online/key_frame_feed.h"
@@ -161,10 +162,14 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
       compress_seconds += fed.store_seconds;
       ++learned;
       if (learned % l.curve_every != 0 && i + 1 != learn.size()) continue;
+      // Inline: the retrain runs inside drain(), on this thread and TBB's, so
+      // the process's CPU time over it is the retrain's.
       const auto start = std::chrono::steady_clock::now();
+      const double cpu_start = processCpuSeconds();
       if (Status drained = learner.drain(); !drained) return cli::fail(app, drained.error());
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double cpu_seconds = processCpuSeconds() - cpu_start;
       const LearningStatus status = learner.status();
       retrain_seconds = status.last_retrain_seconds;
       relocalizer = learner.current();
@@ -177,13 +182,22 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
         accuracy = summarizeEvaluation(out.evaluation.records).accuracy.within_5cm_5deg;
       }
       std::printf(
-          "after %4d frames: %3d key frames (%d stored), retrain %.1f s, %.1f %% within 5 cm / 5 "
-          "deg\n",
-          learned, status.keyframes_added, status.keyframes_stored, seconds, 100.0 * accuracy);
+          "after %4d frames: %3d key frames (%d stored), retrain %.2f s (%.2f CPU-s), %.1f %% "
+          "within 5 cm / 5 deg\n",
+          learned, status.keyframes_added, status.keyframes_stored, seconds, cpu_seconds,
+          100.0 * accuracy);
+      if (status.last_retrain_seconds > 0.0) {
+        const RetrainStages& t = status.last_retrain_stages;
+        std::printf(
+            "  last retrain %.2f s: decode %.2f, surface %.2f, sampling %.2f, growing %.2f, "
+            "serving %.2f\n",
+            status.last_retrain_seconds, t.decode, t.surface, t.sampling, t.growing, t.serving);
+      }
       curve.add(learned, accuracy,
                 {{"keyframes", status.keyframes_added},
                  {"keyframes_stored", status.keyframes_stored},
-                 {"retrain_seconds", seconds}});
+                 {"retrain_seconds", seconds},
+                 {"retrain_cpu_seconds", cpu_seconds}});
     }
     const LearningStatus status = learner.status();
     if (!relocalizer)

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -334,6 +335,39 @@ TEST_F(TrainedTree, GrowsWithinLimitsAndEveryLeafHasAMode) {
       if (n.isLeaf()) {
         EXPECT_GE(n.leafModes().mode_count, 1u);
       }
+  }
+}
+
+// The grower routes each sample by the values it scored the split on (nodes
+// of at most split_sample_cap samples) or evaluated again: either way the
+// training samples, descended as a test frame's are, reach the leaves they
+// were grown into, so every leaf gets at least min_samples_leaf of them.
+// cv::theRNG is put back after drawing the images: other tests' images come
+// from it, and some of their checks hold for the images they get today only.
+TEST(TreeGrowing, TrainingSamplesDescendToTheLeavesTheyWereGrownInto) {
+  const cv::RNG before = cv::theRNG();
+  const std::vector<TrainingImage> images = randomImages(6, 21);
+  cv::theRNG() = before;
+  const TrainingParams params = smallParams();
+  const Forest forest = trainForest(images, ForestKind::Points, params);
+  const std::vector<TreeSamples> drawn = drawTreeSamples(images, ForestKind::Points, params);
+  ASSERT_EQ(drawn.size(), forest.trees.size());
+  for (size_t t = 0; t < drawn.size(); ++t) {
+    const Tree& tree = forest.trees[t];
+    ASSERT_GT(drawn[t].items.size(), static_cast<size_t>(params.points.split_sample_cap));
+    // Leaves by their first mode; a leaf without modes (mean shift kept none)
+    // shares it with the next leaf, whose count it then adds to.
+    size_t leaves_with_modes = 0;
+    for (const SplitNode& node : tree.nodes)
+      if (node.isLeaf() && node.leafModes().mode_count > 0) ++leaves_with_modes;
+    std::map<uint32_t, int> per_leaf;
+    for (const TreeSamples::Item& item : drawn[t].items) {
+      const LeafRange leaf = tree.descend(images[item.image].view(), item.u, item.v, item.depth);
+      if (leaf.mode_count > 0) ++per_leaf[leaf.first_mode];
+    }
+    EXPECT_EQ(per_leaf.size(), leaves_with_modes);
+    for (const auto& [leaf, count] : per_leaf)
+      EXPECT_GE(count, params.points.min_samples_leaf) << "leaf with first mode " << leaf;
   }
 }
 

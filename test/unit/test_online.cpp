@@ -4,6 +4,7 @@
 // continuing a place.
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -219,6 +220,12 @@ TEST(LearningParams, ReadOnceAndCheckedByName) {
   EXPECT_NE(
       readLearningParams(LearningParams{}, "0.05,5", "/nonexistent.yaml").error().find("config"),
       std::string::npos);
+  // The retrain preset reads as a learning config and scores fewer candidates.
+  auto fast = readLearningParams(LearningParams{}, "0.05,5",
+                                 std::string(RELOCALIZER_SOURCE_DIR) + "/config/learn_fast.yaml");
+  ASSERT_TRUE(fast.ok()) << fast.error();
+  EXPECT_LT(fast->training.points.feature_candidates, read->training.points.feature_candidates);
+  EXPECT_LT(fast->training.lines.feature_candidates, read->training.lines.feature_candidates);
   LearningParams few;
   few.max_keyframes = 1;
   EXPECT_NE(readLearningParams(few, "0.05,5", "").error().find("max_keyframes"), std::string::npos);
@@ -363,6 +370,37 @@ TEST_F(OnlineRoom, LearnsThePlaceFromNothingSavesAndContinuesIt) {
 
 // The store's cap holds however many key frames arrive, and the model follows
 // the store.
+// The key frames are decoded in parallel but trained on in store order: the
+// model is the one ModelBuilder makes of them one by one, and the retrain's
+// stage times add up to at most its wall time.
+TEST_F(OnlineRoom, RetrainTrainsOnTheDecodedKeyFramesInStoreOrder) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+  OnlineLearner learner(smallLearning(), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  for (const RgbdFrame& frame : learn_)
+    ASSERT_TRUE(learner.addKeyFrame(frame, *frame.ground_truth).ok());
+  ASSERT_TRUE(learner.drain().ok());
+  const Model& learned = learner.current()->model();
+
+  ModelBuilder builder(learned.params);
+  for (const KeyFrameStore::Entry& entry : learner.keyFrames()) {
+    auto image = decompressKeyFrame(*entry);
+    ASSERT_TRUE(image.ok()) << image.error();
+    builder.add(std::move(*image));
+  }
+  auto serial = builder.build(learned.summary);
+  ASSERT_TRUE(serial.ok()) << serial.error();
+  serial->summary.seconds = learned.summary.seconds;
+  EXPECT_TRUE(serializeModel(*serial) == serializeModel(learned));
+
+  const LearningStatus status = learner.status();
+  const RetrainStages& t = status.last_retrain_stages;
+  for (double stage : {t.decode, t.surface, t.sampling, t.growing, t.serving})
+    EXPECT_GE(stage, 0.0);
+  EXPECT_GT(t.growing, 0.0);
+  EXPECT_LE(t.decode + t.surface + t.sampling + t.growing + t.serving,
+            status.last_retrain_seconds + 1e-6);
+}
+
 TEST_F(OnlineRoom, StoreStaysWithinItsCap) {
   LearningParams p = smallLearning();
   p.max_keyframes = 4;

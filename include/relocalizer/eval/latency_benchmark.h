@@ -25,6 +25,10 @@ struct ResidentMemory {
 };
 ResidentMemory residentMemory();
 
+// CPU seconds (user + system) this process's threads have used so far: with
+// a wall time, how much of a machine a piece of work took.
+double processCpuSeconds();
+
 // Every frame of `source`, in order, so timing never waits on the disk.
 Expected<std::vector<RgbdFrame>> loadAllFrames(const FrameSource& source);
 

@@ -99,6 +99,15 @@ constexpr double kMaxSlamPoseDistance = 1e4;
 // (orthonormal, det +1) and within kMaxSlamPoseDistance; otherwise why not.
 std::string slamPoseError(const Pose& camera_to_world);
 
+// Where a retrain's wall time went, in the order the stages run (seconds).
+struct RetrainStages {
+  double decode = 0.0;    // the stored key frames decompressed
+  double surface = 0.0;   // depth fused into the scene surface
+  double sampling = 0.0;  // each tree's samples drawn (line detection included)
+  double growing = 0.0;   // the trees grown: split search, leaves' mean shift and descriptors
+  double serving = 0.0;   // the Relocalizer built on the model and validated
+};
+
 struct LearningStatus {
   int keyframes_added = 0;   // accepted since start, resumed ones included
   int keyframes_stored = 0;  // in the store now (<= max_keyframes)
@@ -110,6 +119,7 @@ struct LearningStatus {
   int retrains = 0;           // completed
   bool retraining = false;
   double last_retrain_seconds = 0.0;  // wall time of the last completed retrain
+  RetrainStages last_retrain_stages;  // and its stages
   std::string last_error;  // of the last failed retrain or save, or of an interrupted save
                            // found by resume(); empty if none
 };
