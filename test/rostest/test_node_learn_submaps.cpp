@@ -41,7 +41,9 @@ TEST(LearnSubmaps, ALoopLearnedInSubmapsIsAnsweredInMapByItsSubmaps) {
     EXPECT_LT(rotationError(r.pose.pose.pose, frames[i].truth), 5.0) << "frame " << i;
     EXPECT_EQ(r.pose.header.frame_id, "map") << "frame " << i;
     EXPECT_EQ(r.place.rfind("learned/", 0), 0u) << "frame " << i << ": " << r.place;
-    if (i == 0) EXPECT_EQ(r.place, "learned/0") << "the loop's first key frame";
+    if (i == 0) {
+      EXPECT_EQ(r.place, "learned/0") << "the loop's first key frame";
+    }
     answering.insert(r.place);
   }
   std::printf("answering submaps:");
