@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_support.h"
+#include "evaluate_options.h"
 #include "learning_curve.h"
 #include "place_arguments.h"
 #include "relocalizer/core/version.h"
@@ -23,105 +24,11 @@
 #include "submap_places.h"
 
 using namespace relocalizer;
+using relocalizer::cli::Learned;
+using relocalizer::cli::LearnOptions;
+using relocalizer::cli::Options;
 
 namespace {
-
-struct Options {
-  std::vector<std::string> models;  // PATH, or NAME=PATH for each of many places
-  std::string model_path;           // the one model without place names
-  std::string expect_place;
-  std::string output, config, forests = "both";
-  int threads = 0;
-  bool prediction_quality = false;
-  cli::SourceOptions source;
-  std::string hint;  // --hint: every frame relocalized with a hint near its ground truth
-
-  // One evaluation's hints in map frame `frame` (each draws the same), or none.
-  std::unique_ptr<SimulatedHints> hints(const std::string& frame) const {
-    if (hint.empty()) return nullptr;
-    return std::make_unique<SimulatedHints>(*parseHintNoise(hint), frame);
-  }
-};
-
-// --learn-frames and the options that go with it.
-struct LearnOptions {
-  std::string learn_frames, learn_min_motion = formatMinMotion(KeyFrameMotion{}), learn_config,
-                            save_model;
-  int curve_every = 50;
-  bool submaps = false;
-  LearningParams learning;
-};
-
-// What learning online leaves for the evaluation: the model, the evaluation
-// of the last curve point, and the figures for summary.json.
-struct Learned {
-  std::shared_ptr<const Relocalizer> relocalizer;
-  FrameEvaluation evaluation;
-  nlohmann::json json;
-};
-
-void addOptions(CLI::App& app, Options& o, LearnOptions& l) {
-  app.add_option("-m,--model", o.models,
-                 "Model file written by train (required without --learn-frames); with "
-                 "--learn-frames a saved online model to continue (needs MODEL.keyframes). "
-                 "A folder of learned submaps (--submaps --save-model) is evaluated as its set "
-                 "of places, or continued with --learn-frames --submaps. "
-                 "Many places: repeat it as NAME=PATH; every frame is then relocalized against "
-                 "the whole set, and places.csv names each frame's answering place");
-  app.add_option("--expect-place", o.expect_place,
-                 "Many places: the place the frames were taken in; answers from any other "
-                 "place are counted as wrong-place answers");
-  o.source.add(app, "Dataset folder with ground truth",
-               "Frame ids to evaluate, e.g. 100-199,300-399 (default: all); for a bag, ids "
-               "are indices in its synchronized frame order");
-  app.add_option("-o,--output", o.output, "Folder for poses.txt, errors.csv, summary.json, plots");
-  app.add_option(
-      "-c,--config", o.config,
-      "YAML file whose 'relocalizer:' section overrides the defaults (config/default.yaml)");
-  app.add_option("--forests", o.forests, "points | lines | both")
-      ->check(CLI::IsMember({"points", "lines", "both"}))
-      ->capture_default_str();
-  app.add_option("-j,--threads", o.threads, "Worker threads inside each call (0 = every core)")
-      ->check(CLI::Range(0, 1024))
-      ->capture_default_str();
-  app.add_flag("--prediction-quality", o.prediction_quality,
-               "Also report the share of forest predictions within 10 cm of the truth");
-  app.add_option("--hint", o.hint,
-                 "ERROR_M,ERROR_DEG,SIGMA_M,SIGMA_DEG: each frame hinted (pose_hint.h) this far "
-                 "off its ground truth in random directions (seeded), declaring these sigmas; "
-                 "many places need --expect-place (the hint's map frame)");
-  const std::string group = "Online learning (--learn-frames)";
-  auto* learn_option =
-      app.add_option("--learn-frames", l.learn_frames,
-                     "Learn online from these frames of the --dataset folder, in order, using "
-                     "their ground truth as the SLAM pose; then relocalize --frames")
-          ->group(group);
-  const auto learn_only = [&](CLI::Option* option) { option->needs(learn_option)->group(group); };
-  learn_only(app.add_option("--learn-min-motion", l.learn_min_motion,
-                            "Key frames: METRES,DEGREES of motion since the last key frame "
-                            "(the node's learn_min_motion)")
-                 ->capture_default_str());
-  learn_only(app.add_option("--learn-config", l.learn_config,
-                            "Training YAML (as train --config) for the retrains"));
-  learn_only(app.add_option("--max-keyframes", l.learning.max_keyframes,
-                            "Cap on stored key frames (the node's learn_max_keyframes)")
-                 ->check(CLI::Range(2, 100000))
-                 ->capture_default_str());
-  learn_only(app.add_option("--curve-every", l.curve_every,
-                            "Learn frames between learning-curve points (each retrains and "
-                            "relocalizes every --frames frame)")
-                 ->check(CLI::Range(1, 1000000))
-                 ->capture_default_str());
-  learn_only(app.add_flag("--learn-surface-gate", l.learning.surface_gate,
-                          "Refuse poses off the learned surface (the node's learn_surface_gate)"));
-  learn_only(app.add_flag("--submaps", l.submaps,
-                          "Learn submaps (--max-keyframes each; a full one is frozen and a new "
-                          "one starts) and relocalize across them as places in one map frame"));
-  learn_only(app.add_option("--save-model", l.save_model,
-                            "Write the learned model and its key frames (MODEL.keyframes) here; "
-                            "with --submaps a folder (manifest.json and each submap's pair), "
-                            "which frozen submaps are written into as they freeze"));
-}
 
 // --learn-frames: learns the model online from the learn frames, evaluating
 // `data` at every curve point. Returns -1 to go on, otherwise the exit code.

@@ -14,6 +14,7 @@
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
 #include "cli_support.h"
@@ -247,6 +248,18 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
   std::ofstream(output + "/summary.json") << summary.dump(2) << '\n';
 }
 
+// Submaps learned as the node learns them, frozen ones written into
+// `learn_folder` when one is given.
+Expected<std::unique_ptr<SubmapLearner>> backgroundSubmaps(const LearningParams& learning,
+                                                           const std::string& learn_folder) {
+  auto learner = std::make_unique<SubmapLearner>(learning, SubmapParams{}, RelocalizerParams{},
+                                                 SubmapNames{}, OnlineLearner::Mode::Background);
+  if (!learn_folder.empty())
+    if (Status working = learner->useFolder(learn_folder); !working)
+      return makeError("--learn-folder: " + working.error());
+  return learner;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -317,12 +330,9 @@ int main(int argc, char** argv) {
   KeyFrameSelector selector(checked->min_motion);
   if (!learn_folder.empty() && !submaps) return cli::fail(app, "--learn-folder needs --submaps");
   if (submaps) {
-    submap_learner =
-        std::make_unique<SubmapLearner>(*checked, SubmapParams{}, RelocalizerParams{},
-                                        SubmapNames{}, OnlineLearner::Mode::Background);
-    if (!learn_folder.empty())
-      if (Status working = submap_learner->useFolder(learn_folder); !working)
-        return cli::fail(app, "--learn-folder: " + working.error());
+    auto made = backgroundSubmaps(*checked, learn_folder);
+    if (!made) return cli::fail(app, made.error());
+    submap_learner = std::move(*made);
   } else
     feed = std::make_unique<KeyFrameFeed>(*checked, RelocalizerParams{},
                                           OnlineLearner::Mode::Background);
@@ -365,11 +375,9 @@ int main(int argc, char** argv) {
   done = true;
   relocalizing.join();  // also on a failure: a running std::thread may not be destroyed
   if (!failure.empty()) return cli::fail(app, failure);
-  if (submaps) {
-    const SubmapStatus status = submap_learner->status();
-    report(stream, attempts, status.active, &status, output);
-  } else {
-    report(stream, attempts, feed->learner().status(), nullptr, output);
-  }
+  const std::optional<SubmapStatus> status =
+      submaps ? std::optional(submap_learner->status()) : std::nullopt;
+  report(stream, attempts, status ? status->active : feed->learner().status(),
+         status ? &*status : nullptr, output);
   return 0;
 }

@@ -180,6 +180,26 @@ int printPlaceChoice(const PlaceSet& all, const std::vector<TestSet>& tests,
   return wrong_total;
 }
 
+// --submaps GROUP=FOLDER: the saved submaps as `places` (submap `lead`
+// first, the one timed alone) and as one group of `all`.
+Status loadSubmaps(const cli::NamedPath& submaps, int lead, const RelocalizerParams& params,
+                   std::vector<Place>& places, PlaceSet& all) {
+  const auto& [group, folder] = submaps;
+  const ResidentMemory before = trimmedResidentMemory();
+  auto saved = loadSavedSubmaps(folder, group, group, params);
+  if (!saved) return makeError(saved.error());
+  for (const std::string& warning : saved->warnings) std::printf("warning: %s\n", warning.c_str());
+  std::printf("submaps %s: %zu of %s, %.1f MiB resident\n", group.c_str(), saved->places.size(),
+              folder.c_str(), (trimmedResidentMemory().current - before.current) / 1048576.0);
+  places = std::move(saved->places);
+  const std::string lead_name = group + "/" + std::to_string(lead);
+  const auto first = std::find_if(places.begin(), places.end(),
+                                  [&](const Place& place) { return place.name == lead_name; });
+  if (first == places.end()) return makeError("--lead: no submap " + lead_name);
+  std::rotate(places.begin(), first, first + 1);
+  return all.putGroup(group, places);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -245,23 +265,9 @@ int main(int argc, char** argv) {
   std::printf("CPU: %s; %d thread(s)\n", cpuModel().c_str(), threads);
   std::vector<Place> places;
   PlaceSet all;
-  if (!submaps_argument.empty()) {
-    const auto& [group, folder] = named_places->front();
-    const ResidentMemory before = trimmedResidentMemory();
-    auto saved = loadSavedSubmaps(folder, group, group, params);
-    if (!saved) return cli::fail(app, saved.error());
-    for (const std::string& warning : saved->warnings)
-      std::printf("warning: %s\n", warning.c_str());
-    std::printf("submaps %s: %zu of %s, %.1f MiB resident\n", group.c_str(), saved->places.size(),
-                folder.c_str(), (trimmedResidentMemory().current - before.current) / 1048576.0);
-    places = std::move(saved->places);
-    const std::string lead_name = group + "/" + std::to_string(lead);
-    const auto first = std::find_if(places.begin(), places.end(),
-                                    [&](const Place& place) { return place.name == lead_name; });
-    if (first == places.end()) return cli::fail(app, "--lead: no submap " + lead_name);
-    std::rotate(places.begin(), first, first + 1);
-    if (Status put = all.putGroup(group, places); !put) return cli::fail(app, put.error());
-  }
+  if (!submaps_argument.empty())
+    if (Status loaded = loadSubmaps(named_places->front(), lead, params, places, all); !loaded)
+      return cli::fail(app, loaded.error());
   for (const auto& [name, path] :
        submaps_argument.empty() ? *named_places : std::vector<cli::NamedPath>{}) {
     const ResidentMemory before = trimmedResidentMemory();

@@ -1,0 +1,380 @@
+// PlaceSet::relocalize: one frame searched across the set (place_set.h says
+// how it chooses): shared samples, every place screened, the best solved with
+// its close runners-up, and the answers judged. The set's bookkeeping is in
+// place_set.cpp.
+
+#include "relocalizer/relocalize/place_set.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <numeric>
+
+namespace relocalizer {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+int inliersOf(const Relocalization& answer) { return answer.point_inliers + answer.line_inliers; }
+
+// The hint for a place: only a place in the hint's frame hears it.
+const PoseHint* hintFor(const Place& place, const PoseHint* hint) {
+  return hint && hint->frame == place.map_frame ? hint : nullptr;
+}
+
+// What a place's evidence counts for against another place: its hint's factor
+// at the pose (the largest, 1 + hint_weight, for a screen that has no pose).
+// Float, as the ratios it meets are: without a hint every comparison is the
+// one made before hints existed.
+float hintFactor(const Place& place, const PoseHint* hint, const Pose* pose) {
+  const PoseHint* heard = hintFor(place, hint);
+  if (!heard) return 1.0f;
+  const double weight = place.relocalizer->params().solver.hint_weight;
+  if (!pose) return static_cast<float>(1.0 + weight);
+  const Expected<HintPrior> prior = HintPrior::make(*heard);
+  return prior ? static_cast<float>(prior->factor(*pose, weight)) : 1.0f;
+}
+
+// The places, best screened first: the fully screened ones, then those that
+// had the first look only (ties: the order they were added).
+std::vector<size_t> rankByScreen(const std::vector<PlaceAttempt>& attempts,
+                                 const std::vector<float>& factors) {
+  std::vector<size_t> order(attempts.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    if (attempts[a].screened_fully != attempts[b].screened_fully) return attempts[a].screened_fully;
+    return attempts[a].screen_inliers * factors[a] > attempts[b].screen_inliers * factors[b];
+  });
+  return order;
+}
+
+std::string ambiguityMessage(const std::string& a, const Relocalization& answer_a,
+                             const std::string& b, const Relocalization& answer_b) {
+  char buffer[400];
+  std::snprintf(buffer, sizeof buffer,
+                "ambiguous place: the frame fits %s (%d inliers) and %s (%d inliers) alike",
+                a.c_str(), inliersOf(answer_a), b.c_str(), inliersOf(answer_b));
+  return buffer;
+}
+
+// One map: answers of the two places are poses in one world, so agreeing
+// ones are one answer. Places of one group share their frame (put refuses
+// otherwise); the frame is checked again so that the rule never compares
+// poses of two worlds.
+bool oneMap(const Place& a, const Place& b) {
+  return !a.group.empty() && a.group == b.group && a.map_frame == b.map_frame;
+}
+
+bool posesAgree(const Pose& a, const Pose& b, double metres, double degrees) {
+  return translationError(a, b) <= metres && rotationErrorDegrees(a, b) <= degrees;
+}
+
+std::string disagreementMessage(const std::string& a, const Relocalization& answer_a,
+                                const std::string& b, const Relocalization& answer_b) {
+  char buffer[160];
+  std::snprintf(buffer, sizeof buffer, "; one map, but their poses are %.2f m and %.1f deg apart",
+                translationError(answer_a.pose, answer_b.pose),
+                rotationErrorDegrees(answer_a.pose, answer_b.pose));
+  return ambiguityMessage(a, answer_a, b, answer_b) + buffer;
+}
+
+// The frame screened: every place's screen, the hint's factor it was weighed
+// by, and the order they rank in.
+struct Screened {
+  std::vector<ScreenResult> results;
+  std::vector<float> factors;
+  std::vector<size_t> order;  // best screened first
+  double seconds = 0.0;
+};
+
+// A place that answered: its index among the places and its answer.
+using Answered = std::pair<size_t, Relocalization>;
+
+struct Solves {
+  std::vector<Answered> answered;  // in rank order
+  Relocalization first_failure;    // the best screened place's, when it failed
+  // Per place: the place that answered whose screen it agreed with, when it
+  // was not solved for that reason (SIZE_MAX: none).
+  std::vector<size_t> skipped_for;
+};
+
+// A full solve's stages into the search's sums (its forests on shared samples:
+// sampling_and_forests is their wall time).
+void count(const StageTimings& solve, PlaceSearchTimings& timings) {
+  ++timings.solves;
+  timings.forest += solve.sampling_and_forests;
+  timings.ransac += solve.ransac;
+  timings.refinement += solve.refinement;
+  timings.surface += solve.surface;
+}
+
+// A runner-up screened close enough to the best to be solved too. A place
+// left at its first look was judged far from the best there.
+bool closeRunnerUp(const PlaceAttempt& attempt, float factor, float best_screen,
+                   const PlaceSearchParams& params) {
+  return attempt.screened_fully && attempt.screen_inliers > 0 &&
+         attempt.screen_inliers * factor >= params.runner_up_ratio * best_screen;
+}
+
+// The places solveRanked solves when the best screened place answers (the
+// usual case), known from the screens alone: the best, and the close
+// runners-up that are not one map with it at its screen pose, up to
+// max_solved.
+std::vector<size_t> solvedIfBestAnswers(const std::vector<std::shared_ptr<const Place>>& places,
+                                        const Screened& screened, const PlaceSearchParams& params,
+                                        const std::vector<PlaceAttempt>& attempts) {
+  const size_t best = screened.order.front();
+  const float best_screen = attempts[best].screen_inliers * screened.factors[best];
+  std::vector<size_t> solved{best};
+  for (size_t rank = 1;
+       rank < screened.order.size() && static_cast<int>(solved.size()) < params.max_solved;
+       ++rank) {
+    const size_t i = screened.order[rank];
+    if (!closeRunnerUp(attempts[i], screened.factors[i], best_screen, params)) continue;
+    if (oneMap(*places[best], *places[i]) &&
+        posesAgree(screened.results[best].pose, screened.results[i].pose,
+                   params.screen_agreement_metres, params.screen_agreement_degrees))
+      continue;
+    solved.push_back(i);
+  }
+  return solved;
+}
+
+// Full solves for the best screened place and the runners-up that screened
+// close to it: a look-alike place must not win by being asked alone. A place
+// that screened far below the best is not asked even when the best fails: its
+// full solve would be the likeliest way to a wrong-place answer; except a part
+// of the best's own map, which can only answer in the right frame. A runner-up
+// of one map with a place that answered, screened at the same pose, is not
+// solved: it could only agree (and then a full solve of it is wasted).
+Solves solveRanked(const std::vector<std::shared_ptr<const Place>>& places,
+                   const Screened& screened, const PlaceSearchParams& params,
+                   const RgbdFrame& frame, const FrameSamples& shared, const PoseHint* hint,
+                   std::vector<PlaceAttempt>& attempts, PlaceSearchTimings& timings) {
+  Solves solves;
+  solves.skipped_for.assign(places.size(), SIZE_MAX);
+  // Solve what the rule below will solve if the best answers all at once,
+  // each on its own thread: a solve's candidate draw, final refinement and
+  // surface check run on one core, so two solves side by side take little
+  // more than one. The rule then takes their answers as if it had solved
+  // them in turn (a solve depends on nothing but its place and the frame), so
+  // the answer is the same; when the best fails, what the rule solves next is
+  // solved then, and a place solved ahead that the rule skips is not used.
+  std::vector<std::optional<Relocalization>> ahead(places.size());
+  if (const std::vector<size_t> likely = solvedIfBestAnswers(places, screened, params, attempts);
+      likely.size() > 1) {
+    tbb::parallel_for(size_t{0}, likely.size(), [&](size_t k) {
+      const Place& place = *places[likely[k]];
+      ahead[likely[k]] = place.relocalizer->relocalize(frame, shared, hintFor(place, hint));
+    });
+    for (size_t i : likely) count(ahead[i]->timings, timings);
+  }
+  const size_t best = screened.order.front();
+  const float best_screen = attempts[best].screen_inliers * screened.factors[best];
+  int solved = 0;
+  for (size_t rank = 0; rank < screened.order.size() && solved < params.max_solved; ++rank) {
+    const size_t i = screened.order[rank];
+    PlaceAttempt& attempt = attempts[i];
+    const bool close = closeRunnerUp(attempt, screened.factors[i], best_screen, params);
+    const Place& place = *places[i];
+    // Neighbours as a fallback: while nothing has answered, a place of the
+    // best's map (a neighbouring submap, whose area the frame may be in rather
+    // than the best screened one's) is solved however weakly it screened. It
+    // cannot answer in a wrong frame, and its own evidence thresholds still
+    // gate its pose.
+    const bool neighbour =
+        solves.answered.empty() && attempt.screen_inliers > 0 && oneMap(*places[best], place);
+    if (rank > 0 && !close && !neighbour) continue;
+    if (!solves.answered.empty()) {
+      const size_t lead = solves.answered.front().first;
+      if (oneMap(*places[lead], place) &&
+          posesAgree(screened.results[lead].pose, screened.results[i].pose,
+                     params.screen_agreement_metres, params.screen_agreement_degrees)) {
+        solves.skipped_for[i] = lead;
+        continue;
+      }
+    }
+    Relocalization full;
+    if (ahead[i]) {
+      full = std::move(*ahead[i]);
+    } else {
+      full = place.relocalizer->relocalize(frame, shared, hintFor(place, hint));
+      count(full.timings, timings);
+    }
+    ++solved;
+    attempt.solved = true;
+    attempt.success = full.success;
+    attempt.message = full.message;
+    if (full.success)
+      solves.answered.emplace_back(i, std::move(full));
+    else if (rank == 0)
+      solves.first_failure = std::move(full);
+  }
+  return solves;
+}
+
+// The answer from the places that answered: the strongest (inliers weighed by
+// the hint: a place in its frame, answering near it, counts up), unless
+// another comes within ambiguity_ratio of it and is a rival: of another map,
+// or of the same map at another pose. Then "no pose".
+void judge(const std::vector<std::shared_ptr<const Place>>& places, Solves& solves,
+           const std::vector<size_t>& order, const PoseHint* hint, const PlaceSearchParams& params,
+           PlaceAnswer& answer) {
+  std::vector<Answered>& answered = solves.answered;
+  if (answered.empty()) {
+    answer.relocalization = std::move(solves.first_failure);
+    const PlaceAttempt& best = answer.attempts[order.front()];
+    answer.relocalization.message = "no place fits; best screened " + best.place + ": " +
+                                    (best.message.empty() ? "not solved" : best.message);
+    return;
+  }
+  auto weighed = [&](const Answered& a) {
+    return inliersOf(a.second) * hintFactor(*places[a.first], hint, &a.second.pose);
+  };
+  std::stable_sort(answered.begin(), answered.end(),
+                   [&](const auto& a, const auto& b) { return weighed(a) > weighed(b); });
+  const auto& [winner, winning] = answered.front();
+  const Place& place = *places[winner];
+  std::string rivalry;
+  for (size_t k = 1; k < answered.size(); ++k) {
+    const auto& [other, answer_other] = answered[k];
+    const bool agrees = oneMap(place, *places[other]) &&
+                        posesAgree(winning.pose, answer_other.pose, params.agreement_metres,
+                                   params.agreement_degrees);
+    answer.attempts[other].agrees = agrees;
+    if (agrees || !rivalry.empty()) continue;
+    if (weighed(answered[k]) < params.ambiguity_ratio * weighed(answered.front())) continue;
+    rivalry = oneMap(place, *places[other])
+                  ? disagreementMessage(place.name, winning, places[other]->name, answer_other)
+                  : ambiguityMessage(place.name, winning, places[other]->name, answer_other);
+  }
+  for (size_t i = 0; i < places.size(); ++i)
+    if (solves.skipped_for[i] == winner) answer.attempts[i].agrees = true;
+  if (!rivalry.empty()) {
+    answer.relocalization = winning;
+    answer.relocalization.success = false;
+    answer.relocalization.message = rivalry;
+    return;
+  }
+  answer.place = place.name;
+  answer.map_frame = place.map_frame;
+  answer.relocalization = std::move(answered.front().second);
+}
+
+}  // namespace
+
+PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) const {
+  const auto start = Clock::now();
+  const std::vector<std::shared_ptr<const Place>> places = snapshot();
+  PlaceAnswer answer;
+  if (places.empty()) {
+    answer.relocalization.message = "no place is loaded";
+    answer.relocalization.timings.total = secondsSince(start);
+    return answer;
+  }
+  if (places.size() == 1) {
+    // Nothing to rank: the one-place path, with its line branch beside the point forest.
+    const Place& place = *places.front();
+    Relocalization alone = place.relocalizer->relocalize(frame, hintFor(place, hint));
+    answer.attempts.push_back({place.name, -1, true, alone.success, alone.message});
+    if (alone.success) {
+      answer.place = place.name;
+      answer.map_frame = place.map_frame;
+    }
+    answer.relocalization = std::move(alone);
+    return answer;
+  }
+
+  // Sample once; a place whose recipe differs samples for itself (relocalize()).
+  // The screens need the point samples only: they run while LSD draws the
+  // line samples beside them.
+  Screened screened;
+  screened.results.resize(places.size());
+  screened.factors.resize(places.size());
+  for (size_t i = 0; i < places.size(); ++i)
+    screened.factors[i] = hintFactor(*places[i], hint, nullptr);
+  std::vector<char> full(places.size(), 1);
+  auto screen = [&](const FrameSamples& samples) {
+    const auto screen_start = Clock::now();
+    std::vector<std::vector<Prediction>> predicted(places.size());
+    std::vector<char> shared_recipe(places.size());
+    for (size_t i = 0; i < places.size(); ++i)
+      shared_recipe[i] = samples.recipe.sameAs(places[i]->relocalizer->samplingRecipe());
+    // A place whose recipe differs screens fully, on samples of its own.
+    auto screenPlace = [&](size_t i, const ScreenParams& budget) {
+      const Relocalizer& relocalizer = *places[i]->relocalizer;
+      if (shared_recipe[i]) {
+        screened.results[i] = relocalizer.screen(samples, budget, &predicted[i]);
+      } else if (Expected<FrameSamples> sampled = relocalizer.sample(frame)) {
+        screened.results[i] = relocalizer.screen(*sampled, params_.screen);
+      }
+    };
+    if (params_.first_look.samples > 0) {
+      tbb::parallel_for(size_t{0}, places.size(), [&](size_t i) {
+        if (shared_recipe[i]) screenPlace(i, params_.first_look);
+      });
+      float best = 0.0f;
+      for (size_t i = 0; i < places.size(); ++i)
+        if (shared_recipe[i])
+          best = std::max(best, screened.results[i].inliers * screened.factors[i]);
+      if (best >= params_.rescreen_all_below)
+        for (size_t i = 0; i < places.size(); ++i)
+          full[i] = !shared_recipe[i] || (screened.results[i].inliers > 0 &&
+                                          screened.results[i].inliers * screened.factors[i] >=
+                                              params_.rescreen_ratio * best);
+    }
+    std::vector<size_t> rescreened;
+    for (size_t i = 0; i < places.size(); ++i)
+      if (full[i]) rescreened.push_back(i);
+    // The lead alone came close: its full screen could change nothing (it
+    // ranks first and no runner-up is close), so the first look stands.
+    if (rescreened.size() == 1 && shared_recipe[rescreened.front()] &&
+        params_.first_look.samples > 0) {
+      full[rescreened.front()] = 0;
+      rescreened.clear();
+    }
+    tbb::parallel_for(size_t{0}, rescreened.size(),
+                      [&](size_t k) { screenPlace(rescreened[k], params_.screen); });
+    screened.seconds = secondsSince(screen_start);
+  };
+  Expected<FrameSamples> shared = places.front()->relocalizer->sample(frame, screen);
+  // The samples' own time: what the call waited for besides the screens.
+  answer.search.sampling = secondsSince(start) - screened.seconds;
+  if (!shared) {
+    answer.relocalization.message = shared.error();
+    answer.relocalization.timings.total = secondsSince(start);
+    return answer;
+  }
+  answer.attempts.resize(places.size());
+  for (size_t i = 0; i < places.size(); ++i) {
+    answer.attempts[i].place = places[i]->name;
+    answer.attempts[i].screen_inliers = screened.results[i].inliers;
+    answer.attempts[i].screened_fully = full[i];
+    answer.search.full_screens += full[i];
+  }
+  screened.order = rankByScreen(answer.attempts, screened.factors);
+
+  answer.search.screening = screened.seconds;
+  const auto solve_start = Clock::now();
+  Solves solves =
+      solveRanked(places, screened, params_, frame, *shared, hint, answer.attempts, answer.search);
+  answer.search.solving = secondsSince(solve_start);
+  judge(places, solves, screened.order, hint, params_, answer);
+  // Move the attempts into rank order for the reader.
+  std::vector<PlaceAttempt> ranked;
+  for (size_t i : screened.order) ranked.push_back(std::move(answer.attempts[i]));
+  answer.attempts = std::move(ranked);
+  answer.relocalization.timings.screening = screened.seconds;
+  answer.relocalization.timings.total = secondsSince(start);
+  return answer;
+}
+
+}  // namespace relocalizer
