@@ -5,7 +5,9 @@
 # (redkitchen-dev protocol, default parameters) when present, else on a small
 # synthetic room.
 #
-# The previous release (BENCH_PREVIOUS, default the tag v0.1.0) is checked out
+# The previous release (BENCH_PREVIOUS, default 0.1.0: commit b4c4cae, the
+# first session's last, named by its hash because a clone of main carries no
+# tags and the v0.1.0 tag never reached one) is checked out
 # in a git worktree under BUILD/bench/.previous and built there with its own
 # `make build` (its devel space is BUILD/bench/.previous/build/devel); the first
 # run pays for that build, later runs only check it. Both versions train their
@@ -23,7 +25,7 @@ out="$root/$build_dir/bench"
 mkdir -p "$out"
 threads=$(nproc)
 rounds=${BENCH_ROUNDS:-3}
-previous=${BENCH_PREVIOUS:-v0.1.0}
+previous=${BENCH_PREVIOUS:-b4c4cae}
 
 data="$root/../shared/data/7scenes-redkitchen-dev"
 if [ -f "$data/frame-000000.pose.txt" ]; then
