@@ -32,10 +32,10 @@ const char* forestKindName(ForestKind kind);
 struct ForestParams {
   int trees = 5;
   int max_depth = 25;
-  int min_samples_leaf = 20;     // no split leaves a child with fewer samples
-  int images_per_tree = 500;     // capped by the number of training images
-  int samples_per_image = 5000;  // pixels (or line samples) drawn per image
-  int feature_candidates = 32;  // random features tried per node (64 until 0.2: docs/benchmarks.md)
+  int min_samples_leaf = 20;         // no split leaves a child with fewer samples
+  int images_per_tree = 500;         // capped by the number of training images
+  int samples_per_image = 5000;      // pixels (or line samples) drawn per image
+  int feature_candidates = 16;       // random features per node (32, 64 before: benchmarks.md)
   int threshold_candidates = 16;     // random thresholds tried per feature
   int split_sample_cap = 1000;       // samples used to score splits at a node
   float max_offset = 130.0f;         // |delta| per axis, pixel-metres
