@@ -104,6 +104,10 @@ size_t treeBytes(size_t nodes, size_t modes) {
   return nodes * sizeof(SplitNode) + modes * (sizeof(LeafMode) + sizeof(Descriptor));
 }
 
+// Writing ends train and every submap freeze: level 6 took 1.9 s of train's
+// 31 s for a file 5 % smaller than level 1's (docs/benchmarks.md).
+constexpr int kDeflateLevel = 1;
+
 // The deflated stream of one tree: uint32 nodes, uint32 modes, uint64 stored
 // size, then the stream.
 std::vector<uint8_t> packTree(const Tree& t) {
@@ -112,11 +116,10 @@ std::vector<uint8_t> packTree(const Tree& t) {
   appendPlanes(raw, t.nodes.data(), t.nodes.size(), sizeof(SplitNode));
   appendPlanes(raw, t.modes.data(), t.modes.size(), sizeof(LeafMode));
   appendPlanes(raw, t.descriptors.data(), t.descriptors.size(), sizeof(Descriptor));
-  // Level 1: writing ends train and every submap freeze, and level 6 took
-  // 1.9 s of train's 31 s for a file 5 % smaller (docs/benchmarks.md).
   uLongf stored = compressBound(static_cast<uLong>(raw.size()));
   std::vector<uint8_t> packed(16 + stored);
-  if (compress2(packed.data() + 16, &stored, raw.data(), static_cast<uLong>(raw.size()), 1) != Z_OK)
+  if (compress2(packed.data() + 16, &stored, raw.data(), static_cast<uLong>(raw.size()),
+                kDeflateLevel) != Z_OK)
     throw std::runtime_error("zlib could not deflate a tree");
   packed.resize(16 + stored);
   const uint32_t nodes = static_cast<uint32_t>(t.nodes.size()),
