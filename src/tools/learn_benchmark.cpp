@@ -46,6 +46,7 @@ struct Attempt {
   double at, latency;
   bool correct;
   int keyframes_learned;
+  int frame;  // its id, so that latency can be read per place
 };
 
 // What is learned so far, as the relocalizing thread sees it: one learner's
@@ -108,7 +109,7 @@ std::vector<Attempt> relocalizeUntilDone(const Dataset& test_data,
     const Relocalization r = learned.relocalize(frame);
     const EvaluationRecord record = recordAttempt(frame.id, frame.stamp, *frame.ground_truth, r);
     const bool correct = within(frameError(record.id, record.estimate, record.truth), kCorrectPose);
-    attempts.push_back({since(start), since(t0), correct, learned.keyFramesLearned()});
+    attempts.push_back({since(start), since(t0), correct, learned.keyFramesLearned(), frame.id});
     if (slot < Clock::now()) slot = Clock::now();
   }
   return attempts;
@@ -212,10 +213,10 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
     csv << row[0] << ',' << row[1] << ',' << row[2] << ',' << row[3] << ',' << row[4] << ','
         << row[5] << '\n';
   std::ofstream attempts_csv(output + "/relocalizations.csv");
-  attempts_csv << "seconds,latency_ms,correct,keyframes_learned\n";
+  attempts_csv << "seconds,latency_ms,correct,keyframes_learned,frame\n";
   for (const Attempt& a : attempts)
     attempts_csv << a.at << ',' << 1000.0 * a.latency << ',' << a.correct << ','
-                 << a.keyframes_learned << '\n';
+                 << a.keyframes_learned << ',' << a.frame << '\n';
   nlohmann::json summary = {{"frames", stream.frames},
                             {"rate", stream.rate},
                             {"late_frames", stream.late},

@@ -489,6 +489,18 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   EXPECT_GT(summary.at("attempts").get<long>(), 10);
   EXPECT_GT(summary.at("correct").get<long>(), 0) << relocalizer::testing::readBytes(log);
   EXPECT_LE(summary.at("freezes_pending_most").get<int>(), kMaxPendingFreezes);
+  // One row per relocalization, naming its frame: the test frames in turn.
+  std::istringstream rows(
+      relocalizer::testing::readBytes(dir.path() / "bench/relocalizations.csv"));
+  std::string row;
+  std::getline(rows, row);
+  EXPECT_EQ(row, "seconds,latency_ms,correct,keyframes_learned,frame");
+  const std::vector<std::string> test_frames{"2",  "10", "18", "26", "34",
+                                             "42", "50", "58", "66", "74"};
+  long attempts = 0;
+  for (; std::getline(rows, row); ++attempts)
+    EXPECT_EQ(row.substr(row.rfind(',') + 1), test_frames[attempts % test_frames.size()]) << row;
+  EXPECT_EQ(attempts, summary.at("attempts").get<long>());
   // Every submap but the active one was frozen and written before the tool
   // ended (pending freezes end first), each with its final model.
   auto working = loadSavedSubmaps(dir.str() + "/working", "learned", "map", fastRelocalizer());
