@@ -378,6 +378,9 @@ TEST_F(SubmapRoom, AOneFilePlaceResumesAsTheActiveSubmap) {
 
 namespace {
 
+// The tool tests' held-out frames: between the arc's key frames.
+const std::string kToolTestFrames = "2,10,18,26,34,42,50,58,66,74";
+
 // The tool tests' room: an 80-frame training arc in `dir`/scene, and the
 // small forests of the unit tests as a training YAML for the retrains
 // (`dir`/small.yaml). Tool output goes to `log`.
@@ -401,12 +404,10 @@ TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
   const std::string log = dir.str() + "/tool.log";
   ASSERT_NO_FATAL_FAILURE(writeToolScene(dir, log));
   // Learn the whole training arc; relocalize frames between its key frames.
-  const std::string arguments = "--dataset '" + dir.str() +
-                                "/scene/train' --learn-frames 0-79 --frames " +
-                                "2,10,18,26,34,42,50,58,66,74 --submaps --max-keyframes 6 "
-                                "--curve-every 1000 --learn-config '" +
-                                dir.str() + "/small.yaml' --output '" + dir.str() +
-                                "/out' --save-model '" + dir.str() + "/learned'";
+  const std::string arguments =
+      "--dataset '" + dir.str() + "/scene/train' --learn-frames 0-79 --frames " + kToolTestFrames +
+      " --submaps --max-keyframes 6 --curve-every 1000 --learn-config '" + dir.str() +
+      "/small.yaml' --output '" + dir.str() + "/out' --save-model '" + dir.str() + "/learned'";
   ASSERT_EQ(relocalizer::testing::runTool("evaluate", arguments, log, log), 0)
       << relocalizer::testing::readBytes(log);
   const nlohmann::json summary =
@@ -433,14 +434,12 @@ TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
   const nlohmann::json manifest =
       nlohmann::json::parse(relocalizer::testing::readBytes(dir.path() / "learned/manifest.json"));
   EXPECT_EQ(manifest.at("submaps").size(), learning.at("submaps").get<size_t>());
-  ASSERT_EQ(
-      relocalizer::testing::runTool("evaluate",
-                                    "--dataset '" + dir.str() +
-                                        "/scene/train' --frames 2,10,18,26,34,42,50,58,66,"
-                                        "74 --model '" +
-                                        dir.str() + "/learned' --output '" + dir.str() + "/again'",
-                                    log, log),
-      0)
+  ASSERT_EQ(relocalizer::testing::runTool("evaluate",
+                                          "--dataset '" + dir.str() + "/scene/train' --frames " +
+                                              kToolTestFrames + " --model '" + dir.str() +
+                                              "/learned' --output '" + dir.str() + "/again'",
+                                          log, log),
+            0)
       << relocalizer::testing::readBytes(log);
   EXPECT_EQ(relocalizer::testing::readBytes(dir.path() / "again/poses.txt"),
             relocalizer::testing::readBytes(dir.path() / "out/poses.txt"));
@@ -460,7 +459,7 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   ASSERT_EQ(relocalizer::testing::runTool(
                 "learn_benchmark",
                 "--dataset '" + dir.str() + "/scene/train' --learn-frames 0-79 --frames " +
-                    "2,10,18,26,34,42,50,58,66,74 --submaps --max-keyframes 6 --seconds 8 " +
+                    kToolTestFrames + " --submaps --max-keyframes 6 --seconds 8 " +
                     "--reloc-rate 5 --learn-config '" + dir.str() + "/small.yaml' --output '" +
                     dir.str() + "/bench' --learn-folder '" + dir.str() + "/working'",
                 log, log),
@@ -495,8 +494,9 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   std::string row;
   std::getline(rows, row);
   EXPECT_EQ(row, "seconds,latency_ms,correct,keyframes_learned,frame");
-  const std::vector<std::string> test_frames{"2",  "10", "18", "26", "34",
-                                             "42", "50", "58", "66", "74"};
+  std::vector<std::string> test_frames;
+  std::istringstream frame_list(kToolTestFrames);
+  for (std::string frame; std::getline(frame_list, frame, ',');) test_frames.push_back(frame);
   long attempts = 0;
   for (; std::getline(rows, row); ++attempts)
     EXPECT_EQ(row.substr(row.rfind(',') + 1), test_frames[attempts % test_frames.size()]) << row;
