@@ -3,6 +3,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "relocalizer/core/decimal_number.h"
+
 namespace relocalizer {
 
 Expected<std::vector<double>> parseNumberList(const std::string& text) {
@@ -15,16 +17,10 @@ Expected<std::vector<double>> parseNumberList(const std::string& text) {
     item.erase(0, item.find_first_not_of(" \t"));
     item.erase(item.find_last_not_of(" \t") + 1);
     if (item.empty()) return makeError("empty item");
-    size_t used = 0;
-    double value = 0;
-    try {
-      value = std::stod(item, &used);
-    } catch (const std::exception&) {
-      return makeError("'" + item + "' is not a number");
-    }
-    if (used != item.size()) return makeError("'" + item + "' is not a number");
-    if (!std::isfinite(value)) return makeError("'" + item + "' is not finite");
-    values.push_back(value);
+    const auto value = parseDecimal(item);
+    if (!value) return makeError("'" + item + "' is not a number");
+    if (!std::isfinite(*value)) return makeError("'" + item + "' is not finite");
+    values.push_back(*value);
   }
   return values;
 }

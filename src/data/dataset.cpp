@@ -3,11 +3,11 @@
 
 #include "relocalizer/data/dataset.h"
 
+#include "relocalizer/core/decimal_number.h"
 #include "relocalizer/core/id_ranges.h"
 
 #include <algorithm>
 #include <cctype>
-#include <charconv>
 #include <cstdio>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -304,15 +304,11 @@ Expected<std::vector<double>> parseNumbers(const std::string& line, const fs::pa
     if (p == end) break;
     const char* token_end = p;
     while (token_end < end && !is_space(*token_end)) ++token_end;
-    // from_chars is locale-independent (a ROS node may set a ',' decimal
-    // locale) but rejects the leading '+' that some writers emit.
-    const char* start = (*p == '+' && token_end - p > 1 && p[1] != '-') ? p + 1 : p;
-    double value = 0.0;
-    const auto [parsed_end, ec] = std::from_chars(start, token_end, value);
-    if (ec != std::errc() || parsed_end != token_end)
+    const auto value = parseDecimal(std::string_view(p, token_end - p));
+    if (!value)
       return makeError(file.string() + ": line " + std::to_string(line_number) + ": '" +
                        std::string(p, token_end) + "' is not a number");
-    numbers.push_back(value);
+    numbers.push_back(*value);
     p = token_end;
   }
   return numbers;

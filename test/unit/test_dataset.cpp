@@ -13,6 +13,7 @@
 #include <sstream>
 #include <thread>
 
+#include "relocalizer/core/decimal_number.h"
 #include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/dataset.h"
 #include "relocalizer/data/frame_selection.h"
@@ -111,6 +112,17 @@ std::unique_ptr<Dataset> openOrFail(const std::string& path, const DatasetOption
 }  // namespace
 
 // ---- frame selection ------------------------------------------------------------
+
+TEST(DecimalNumber, ReadsWhatStrtodReadsInTheCLocaleAndNothingAround) {
+  EXPECT_EQ(parseDecimal("0.25"), 0.25);
+  EXPECT_EQ(parseDecimal("-1.5e-3"), -1.5e-3);
+  EXPECT_EQ(parseDecimal("+2"), 2.0);
+  EXPECT_EQ(parseDecimal("7"), 7.0);
+  EXPECT_TRUE(std::isinf(*parseDecimal("-inf")));
+  EXPECT_TRUE(std::isnan(*parseDecimal("nan")));
+  for (const char* bad : {"", " 1", "1 ", "1,5", "0x10", "1.5.2", "+-1", "e3", "1e"})
+    EXPECT_FALSE(parseDecimal(bad)) << "'" << bad << "'";
+}
 
 TEST(FrameSelection, RangesAndSingleNumbers) {
   auto selection = FrameSelection::parse("0-99,200-299");
