@@ -11,6 +11,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/image_encodings.h>
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <mutex>
