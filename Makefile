@@ -28,13 +28,20 @@ all: build
 deps:
 	@./scripts/install_deps.sh
 
-$(BUILD_DIR)/CMakeCache.txt: CMakeLists.txt package.xml
+# A stamp written only when configure succeeds: cmake leaves a CMakeCache.txt
+# behind a failed configure, and a user who then installs what was missing must
+# get a new configure from the same `make demo`, not a stale build folder.
+CONFIGURED := .relocalizer-configured
+CMAKE_INPUTS := CMakeLists.txt package.xml $(wildcard cmake/*.cmake)
+
+$(BUILD_DIR)/$(CONFIGURED): $(CMAKE_INPUTS)
 	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) \
 	  -DPYTHON_EXECUTABLE=/usr/bin/python3 \
 	  -DCATKIN_DEVEL_PREFIX=$(CURDIR)/$(DEVEL_DIR) \
 	  -DCATKIN_ENABLE_TESTING=ON
+	touch $@
 
-build: deps $(BUILD_DIR)/CMakeCache.txt
+build: deps $(BUILD_DIR)/$(CONFIGURED)
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
 test: build
@@ -44,14 +51,15 @@ demo: build
 	@./scripts/demo.sh $(BUILD_DIR)
 
 # The same catkin configure as `build`, with the sanitizers on and ASAN_CXX_FLAGS.
-$(ASAN_BUILD_DIR)/CMakeCache.txt: CMakeLists.txt package.xml
+$(ASAN_BUILD_DIR)/$(CONFIGURED): $(CMAKE_INPUTS)
 	cmake -S . -B $(ASAN_BUILD_DIR) -DCMAKE_BUILD_TYPE=Asan \
 	  -DCMAKE_CXX_FLAGS_ASAN="$(ASAN_CXX_FLAGS)" \
 	  -DPYTHON_EXECUTABLE=/usr/bin/python3 \
 	  -DCATKIN_DEVEL_PREFIX=$(CURDIR)/$(ASAN_BUILD_DIR)/devel \
 	  -DCATKIN_ENABLE_TESTING=ON -DRELOCALIZER_SANITIZE=ON
+	touch $@
 
-test-asan: deps $(ASAN_BUILD_DIR)/CMakeCache.txt
+test-asan: deps $(ASAN_BUILD_DIR)/$(CONFIGURED)
 	@JOBS=$(JOBS) ./scripts/test_asan.sh $(ASAN_BUILD_DIR)
 
 # Standalone clang build of test/fuzz/ (no catkin); FUZZ_SECONDS per target.

@@ -36,10 +36,13 @@ fi
 command -v "$cxx" > /dev/null || { echo "fuzz: $cxx not found (make deps installs clang)"; exit 1; }
 
 start=$(date +%s)
-if [ ! -f "$build_dir/CMakeCache.txt" ]; then
+# The stamp, not CMakeCache.txt, says a configure succeeded (as in the Makefile).
+if [ ! -f "$build_dir/.relocalizer-configured" ]; then
+  mkdir -p "$(dirname "$build_dir")"
   cmake -S test/fuzz -B "$build_dir" -DCMAKE_CXX_COMPILER="$cxx" > "$build_dir.configure.log" 2>&1 ||
     { cat "$build_dir.configure.log"; echo "fuzz: configure failed"; exit 1; }
   rm -f "$build_dir.configure.log"
+  touch "$build_dir/.relocalizer-configured"
 fi
 mkdir -p "$build_dir/logs"
 if ! cmake --build "$build_dir" -j "$jobs" --target "${targets[@]}" fuzz_seed_models \
