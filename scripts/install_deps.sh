@@ -1,17 +1,30 @@
 #!/usr/bin/env bash
-# Installs the Debian bookworm packages that relocalizer builds, tests and runs
-# with: every package named in scripts/debian-dependencies.txt, the one table of
-# the package's dependencies (a unit test keeps it in step with package.xml and
-# CMakeLists.txt). Idempotent: asks apt only for what dpkg does not already have.
+# Installs the Debian packages that relocalizer builds, tests and runs with, on
+# Debian 11 (bullseye), 12 (bookworm) and 13 (trixie): every package named in
+# scripts/debian-dependencies.txt, the one table of the package's dependencies
+# (a unit test keeps it in step with package.xml and CMakeLists.txt). A package
+# written name@suite there is installed on that suite only (a package renamed
+# between releases has one such item per suite). Idempotent: asks apt only for
+# what dpkg does not already have.
 #   scripts/install_deps.sh           install what is missing (apt-get, via sudo when not root)
-#   scripts/install_deps.sh --list    print the packages, one per line, and exit
+#   scripts/install_deps.sh --list    print this suite's packages, one per line, and exit
+# RELOCALIZER_SUITE overrides the suite read from /etc/os-release.
 set -euo pipefail
 table="$(cd "$(dirname "$0")" && pwd)/debian-dependencies.txt"
 [ -r "$table" ] || { echo "deps: error: $table: cannot read the dependency table" >&2; exit 1; }
 
-# Columns 3 and 4 (build, run) of every row: comma-separated, "-" for none.
+suite=${RELOCALIZER_SUITE:-$(. /etc/os-release 2>/dev/null && echo "${VERSION_CODENAME:-}")}
+case $suite in
+  bullseye|bookworm|trixie) ;;
+  *) echo "deps: warning: '${suite:-an unknown release}' is not Debian 11, 12 or 13; installing the" \
+          "packages whose names hold on every release (on Ubuntu, use rosdep install instead)" >&2 ;;
+esac
+
+# Columns 3 and 4 (build, run) of every row: comma-separated, "-" for none;
+# name@suite items only on their suite.
 mapfile -t packages < <(awk '!/^[[:space:]]*(#|$)/ { print $3 "," $4 }' "$table" |
-  tr ',' '\n' | grep -v -e '^-$' -e '^$' | sort -u)
+  tr ',' '\n' | grep -v -e '^-$' -e '^$' |
+  awk -v suite="$suite" -F@ 'NF == 1 || $2 == suite { print $1 }' | sort -u)
 
 if [ "${1:-}" = "--list" ]; then
   printf '%s\n' "${packages[@]}"

@@ -87,7 +87,7 @@ Expected<std::vector<uint8_t>> readRegularFile(const std::string& path, const st
   // for good; the type is then checked on what was opened.
   const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) return makeError(path + ": cannot open " + what + ": " + systemReason(errno));
-  struct stat info {};
+  struct stat info = {};
   std::string refusal;
   if (::fstat(fd, &info) != 0)
     refusal = "cannot inspect " + what + ": " + systemReason(errno);
@@ -124,7 +124,7 @@ Expected<std::vector<uint8_t>> readRegularFile(const std::string& path, const st
 
 std::string replaceableError(const std::string& path, std::string_view magic,
                              const std::string& what) {
-  struct stat info {};
+  struct stat info = {};
   if (::lstat(path.c_str(), &info) != 0) {
     if (errno == ENOENT) return {};  // a new file; a missing folder is reported by the write
     return path + ": cannot check what is there: " + systemReason(errno);

@@ -57,7 +57,7 @@ int countWrongPlace(const std::vector<EvaluationRecord>& records, const std::str
   return wrong;
 }
 
-LatencySummary stageLatency(const std::vector<StageTimings>& timings, double StageTimings::*stage) {
+LatencySummary stageLatency(const std::vector<StageTimings>& timings, StageTimingsField stage) {
   std::vector<double> ms;
   for (const auto& t : timings) ms.push_back(1000.0 * (t.*stage));
   return {median(ms), percentile(ms, 95.0)};

@@ -20,7 +20,7 @@ namespace {
 
 struct Stage {
   const char* name;
-  double StageTimings::*member;
+  StageTimingsField member;
 };
 const Stage kStages[] = {{"sampling_points", &StageTimings::sampling_points},
                          {"sampling_lines", &StageTimings::sampling_lines},

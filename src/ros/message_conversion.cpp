@@ -97,9 +97,9 @@ std::string checkBuffer(const sensor_msgs::Image& image, const PixelLayout& layo
            "' (2 bytes a pixel) but its rows hold " + std::to_string(image.step / image.width) +
            " bytes a pixel (step " + std::to_string(image.step) + " for width " +
            std::to_string(image.width) + "): a colour image on the depth topic?";
-    // Multi-byte depth in the other byte order would be read as garbage
-    // distances, which is worse than no frame.
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+  // Multi-byte depth in the other byte order would be read as garbage
+  // distances, which is worse than no frame.
   constexpr bool host_big_endian = true;
 #else
   constexpr bool host_big_endian = false;

@@ -67,7 +67,9 @@ std::string readInt(const ros::NodeHandle& nh, const std::string& key, int& valu
 // they need a lower bound too; 0 keeps its meaning (off, or no limit).
 struct Bounded {
   const char* key;
-  double NodeParams::*field;
+  // A double of NodeParams; decltype, since clang-format 11-14 and 19 space the
+  // `T::*` declarator differently.
+  decltype(&NodeParams::tf_timeout) field;
   double min, max;
   const char* unit;
   const char* zero;  // what 0 means when min > 0, else nullptr

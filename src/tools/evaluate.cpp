@@ -179,8 +179,9 @@ int learnSubmaps(const CLI::App& app, const Options& o, LearnOptions l,
   cli::LearningCurve curve(data.path());
   int learned = 0, stored = 0, covered = 0;
   for (size_t i = 0; i < learn.size(); ++i) {
-    const KeyFrameFeed::Result fed = KeyFrameFeed::offerTo(
-        selector, learn.groundTruth(i), [&] { return learn.load(i); }, store);
+    const auto load_frame = [&] { return learn.load(i); };
+    const KeyFrameFeed::Result fed =
+        KeyFrameFeed::offerTo(selector, learn.groundTruth(i), load_frame, store);
     if (!fed.why.empty()) return cli::fail(app, fed.why);
     stored += fed.outcome == KeyFrameFeed::Result::Outcome::Learned;
     covered += fed.outcome == KeyFrameFeed::Result::Outcome::Covered;

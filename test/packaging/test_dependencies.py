@@ -17,7 +17,8 @@ import xml.etree.ElementTree as ET
 
 SOURCE = pathlib.Path(__file__).resolve().parents[2]
 TABLE = SOURCE / "scripts" / "debian-dependencies.txt"
-CMAKE_FILES = [SOURCE / "CMakeLists.txt", SOURCE / "test" / "fuzz" / "CMakeLists.txt"]
+CMAKE_FILES = [SOURCE / "CMakeLists.txt", SOURCE / "test" / "fuzz" / "CMakeLists.txt",
+               SOURCE / "cmake" / "relocalizer_dependencies.cmake"]
 DEPEND_TAGS = ("depend", "build_depend", "build_export_depend", "exec_depend",
                "test_depend", "buildtool_depend", "doc_depend")
 
@@ -36,13 +37,41 @@ COMMANDS = {
     "/usr/bin/rosbag": "rosbag",
     "/usr/bin/rostest": "rostest",
     "/usr/lib/nodelet/nodelet": "nodelet",
-    "/usr/bin/nosetests3": "python3-nose",
+    "/usr/lib/python3/dist-packages/pytest/__init__.py": "python3-pytest",
     "/usr/bin/time": "make:bench",
     "/usr/bin/clang-format": "make:test",  # test/packaging/test_format.py
     "/usr/bin/rviz": "rviz",               # launch/view.launch
     "/usr/bin/Xvfb": "make:test",          # scripts/render_rviz.sh, run by the README test
     "/usr/bin/xwd": "make:test",
+    "/usr/bin/rosdep": "make:test",        # ../shared/tools/rosdep-check, below
 }
+# Checks package.xml against the rosdep rules of every ROS 1 platform, offline.
+ROSDEP_CHECK = SOURCE.parent / "shared" / "tools" / "rosdep-check"
+
+
+SUITES = ("bullseye", "bookworm", "trixie")
+
+
+def this_suite():
+    """The Debian release here, as install_deps.sh reads it."""
+    if os.environ.get("RELOCALIZER_SUITE"):
+        return os.environ["RELOCALIZER_SUITE"]
+    for line in pathlib.Path("/etc/os-release").read_text().splitlines():
+        if line.startswith("VERSION_CODENAME="):
+            return line.partition("=")[2].strip().strip('"')
+    return ""
+
+
+def packages_here(cell):
+    """The packages of a table cell on this suite: name@suite items only on theirs."""
+    if cell == "-":
+        return []
+    names = []
+    for item in cell.split(","):
+        name, _, suite = item.partition("@")
+        if not suite or suite == this_suite():
+            names.append(name)
+    return names
 
 
 class Row:
@@ -50,8 +79,9 @@ class Row:
         self.line_number = line_number
         self.key = key
         self.cmake = None if cmake == "-" else cmake
-        self.build = [] if build == "-" else build.split(",")
-        self.run = [] if run == "-" else run.split(",")
+        self.cells = (build, run)
+        self.build = packages_here(build)
+        self.run = packages_here(run)
 
 
 def read_table():
@@ -107,6 +137,11 @@ class DependencyTableTest(unittest.TestCase):
     def setUpClass(cls):
         cls.rows = read_table()
         cls.by_key = {row.key: row for row in cls.rows}
+
+    def test_suite_items_name_a_supported_suite(self):
+        bad = [f"line {row.line_number}: {item}" for row in self.rows for cell in row.cells
+               for item in cell.split(",") if "@" in item and item.partition("@")[2] not in SUITES]
+        self.assertEqual(bad, [], f"{TABLE}: name@suite items must name one of {SUITES}")
 
     def test_keys_are_unique(self):
         keys = [row.key for row in self.rows]
@@ -204,6 +239,17 @@ class DependencyTableTest(unittest.TestCase):
                                 capture_output=True, text=True, check=True).stdout.split()
         expected = sorted({p for row in self.rows for p in row.build + row.run})
         self.assertEqual(listed, expected)
+
+
+class RosdepTest(unittest.TestCase):
+    def test_every_key_resolves_where_ros1_users_are(self):
+        # `rosdep install --from-paths src --ignore-src` is how a catkin user installs
+        # our dependencies: every key must resolve on Ubuntu 20.04-24.04 and Debian 11-13.
+        if not ROSDEP_CHECK.is_file():
+            self.skipTest(f"{ROSDEP_CHECK} is absent: the rosdep rules snapshot comes with ../shared")
+        done = subprocess.run([str(ROSDEP_CHECK), str(SOURCE / "package.xml")],
+                              capture_output=True, text=True, timeout=600)
+        self.assertEqual(done.returncode, 0, f"{ROSDEP_CHECK} package.xml:\n{done.stdout}{done.stderr}")
 
 
 if __name__ == "__main__":

@@ -419,7 +419,7 @@ TEST(BagDataset, BadBagsSayWhichTopicOrFrame) {
       << error;
 
   // An empty bag, a file that is no bag, no file.
-  { rosbag::Bag bag(bag_path("empty"), rosbag::bagmode::Write); }
+  rosbag::Bag(bag_path("empty"), rosbag::bagmode::Write).close();
   error = openError(bag_path("empty"));
   EXPECT_NE(error.find("empty.bag: the bag is empty"), std::string::npos) << error;
   std::ofstream(bag_path("text")) << "not a bag\n";

@@ -162,10 +162,8 @@ TEST(FuzzRegressionModel, HeaderNumbersMustFitTheirFields) {
                 model, [](json& h) { h["params"]["points"]["mean_shift"]["bandwidth"] = 1e300; })),
             "edited.model: model header is not valid: 'points.mean_shift.bandwidth' must be a "
             "finite number, got 1e+300");
-  EXPECT_EQ(loadError(withHeader(model,
-                                 [](json& h) {
-                                   h["training_set"]["scene_min"] = {1, 2};
-                                 })),
+  const auto two_numbers = [](json& h) { h["training_set"]["scene_min"] = {1, 2}; };
+  EXPECT_EQ(loadError(withHeader(model, two_numbers)),
             "edited.model: model header is not valid: 'training_set.scene_min' must be 3 numbers, "
             "got [1,2]");
   EXPECT_EQ(loadError(withHeader(model, [](json& h) { h["params"]["train_lines"] = 1; })),

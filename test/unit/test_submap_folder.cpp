@@ -41,7 +41,7 @@ std::unique_ptr<SubmapLearner> makeLearner() {
 }
 
 ino_t inode(const fs::path& path) {
-  struct stat st {};
+  struct stat st = {};
   return ::stat(path.c_str(), &st) == 0 ? st.st_ino : 0;
 }
 

@@ -43,7 +43,7 @@ struct LatencySummary {
 };
 
 // Median and 95th percentile of one stage's time, in milliseconds.
-LatencySummary stageLatency(const std::vector<StageTimings>& timings, double StageTimings::*stage);
+LatencySummary stageLatency(const std::vector<StageTimings>& timings, StageTimingsField stage);
 
 struct EvaluationSummary {
   AccuracySummary accuracy;

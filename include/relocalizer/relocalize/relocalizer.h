@@ -49,6 +49,9 @@ struct StageTimings {                 // seconds
   double screening = 0.0;             // ranking the places (place_set.h), before the full solve
   double total = 0.0;                 // the whole call
 };
+// One stage of StageTimings, as a pointer to its member. Spelt with decltype:
+// clang-format 11-14 and 19 space the `T::*` declarator differently.
+using StageTimingsField = decltype(&StageTimings::total);
 
 struct Relocalization {
   bool success = false;
