@@ -34,7 +34,7 @@ Expected<std::vector<int>> parseThreadCounts(const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Measures the latency of each relocalization stage (sampling: random pixels and LSD; "
       "forests: points and lines; preemptive RANSAC; Ceres refinement; whole call) on dataset "
       "frames for each thread count, prints medians and 95th percentiles, and writes them as "
@@ -44,17 +44,15 @@ int main(int argc, char** argv) {
   std::string model_path, config, json_path, threads_text = "1,2", sweep_dir;
   int repeat = 1;
   cli::SourceOptions source_options;
-  app.add_option("-m,--model", model_path, "Model file written by train")->required();
+  app.addOption("-m,--model", model_path, "Model file written by train")->required();
   source_options.add(app, "Dataset folder", "Frame ids (default: all)");
-  app.add_option("-c,--config", config,
-                 "YAML with a 'relocalizer:' section (default: compiled defaults)");
-  app.add_option("--threads", threads_text, "Comma-separated thread counts")->capture_default_str();
-  app.add_option("--repeat", repeat, "Passes over the frames")
-      ->check(CLI::Range(1, 100))
-      ->capture_default_str();
-  app.add_option("--json", json_path, "Write the figures to this JSON file");
-  app.add_option("--sweep", sweep_dir, "Run the speed-accuracy sweep (1 thread) into this folder");
-  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+  app.addOption("-c,--config", config,
+                "YAML with a 'relocalizer:' section (default: compiled defaults)");
+  app.addOption("--threads", threads_text, "Comma-separated thread counts")->showDefault();
+  app.addOption("--repeat", repeat, "Passes over the frames")->range(1, 100)->showDefault();
+  app.addOption("--json", json_path, "Write the figures to this JSON file");
+  app.addOption("--sweep", sweep_dir, "Run the speed-accuracy sweep (1 thread) into this folder");
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
 
   auto thread_counts = parseThreadCounts(threads_text);
   if (!thread_counts) return cli::fail(app, thread_counts.error());

@@ -15,7 +15,7 @@
 using namespace relocalizer;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Aligns the depth of each pair of consecutive selected frames (projective point-to-plane "
       "ICP from the ground-truth motion) and reports the pairs whose ground-truth motion "
       "disagrees with the depth images. Exit code 0 either way; flagged pairs are listed.",
@@ -25,19 +25,19 @@ int main(int argc, char** argv) {
   int threads = 0;
   MotionCheckThresholds thresholds;
   arguments.add(app, "Dataset folder", "Frame ids, e.g. 100-199 (default: all)");
-  app.add_option("-o,--output", output, "CSV file with every pair");
-  app.add_option("--max-translation", thresholds.translation,
-                 "Flag pairs whose motions differ by more (metres)")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  app.add_option("--max-rotation", thresholds.rotation_deg,
-                 "Flag pairs whose motions differ by more (degrees)")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  app.add_option("-j,--threads", threads, "Worker threads (0 = every core)")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 1024));
-  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+  app.addOption("-o,--output", output, "CSV file with every pair");
+  app.addOption("--max-translation", thresholds.translation,
+                "Flag pairs whose motions differ by more (metres)")
+      ->showDefault()
+      ->positive();
+  app.addOption("--max-rotation", thresholds.rotation_deg,
+                "Flag pairs whose motions differ by more (degrees)")
+      ->showDefault()
+      ->positive();
+  app.addOption("-j,--threads", threads, "Worker threads (0 = every core)")
+      ->showDefault()
+      ->range(0, 1024);
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
 
   auto source = arguments.open(/*register_colour=*/false);  // depth only
   if (!source) return cli::fail(app, source.error());

@@ -15,21 +15,21 @@ namespace relocalizer::cli {
 struct DatasetArguments {
   std::string path, format = "auto", frames, split = "all";
   // Set by add(), for options that exclude or need them.
-  CLI::Option* path_option = nullptr;
-  CLI::Option* format_option = nullptr;
-  CLI::Option* split_option = nullptr;
+  Option* path_option = nullptr;
+  Option* format_option = nullptr;
+  Option* split_option = nullptr;
 
   // -d/--dataset (required unless another source may replace it) and the
   // selection options, with the tool's help texts.
-  void add(CLI::App& app, const std::string& dataset_help, const std::string& frames_help,
+  void add(App& app, const std::string& dataset_help, const std::string& frames_help,
            bool required = true) {
-    path_option = app.add_option("-d,--dataset", path, dataset_help);
+    path_option = app.addOption("-d,--dataset", path, dataset_help);
     if (required) path_option->required();
-    format_option = app.add_option("--format", format, "auto | 7scenes | 12scenes | tum")
-                        ->capture_default_str();
-    app.add_option("--frames", frames, frames_help);
-    split_option = app.add_option("--split", split, "train | test | all (7-Scenes scenes)")
-                       ->capture_default_str();
+    format_option =
+        app.addOption("--format", format, "auto | 7scenes | 12scenes | tum")->showDefault();
+    app.addOption("--frames", frames, frames_help);
+    split_option =
+        app.addOption("--split", split, "train | test | all (7-Scenes scenes)")->showDefault();
   }
 
   // `register_colour` false: depth-only tools skip the colour resampling.

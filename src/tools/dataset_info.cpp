@@ -6,14 +6,14 @@
 using namespace relocalizer;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Opens a dataset folder (7-Scenes, 12-Scenes, TUM or synthesize output) or a rosbag the way "
       "train and evaluate do, prints its summary and checks that the first and last selected "
       "frames load.",
       "dataset_info"};
   cli::SourceOptions arguments;
   arguments.add(app, "Dataset folder", "Frame ids, e.g. 0-99,200-299 (default: all)");
-  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
 
   auto source = arguments.open();
   if (!source) return cli::fail(app, source.error());

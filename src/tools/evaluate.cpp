@@ -32,7 +32,7 @@ namespace {
 
 // --learn-frames: learns the model online from the learn frames, evaluating
 // `data` at every curve point. Returns -1 to go on, otherwise the exit code.
-int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
+int learnOnline(const cli::App& app, const Options& o, LearnOptions l,
                 const RelocalizerParams& params, const FrameSource& data, int thread_count,
                 Learned& out) {
   LearningParams& learning = l.learning;
@@ -147,7 +147,7 @@ int learnOnline(const CLI::App& app, const Options& o, LearnOptions l,
 // each (online/submap_learner.h), and `data` relocalized across all of them as
 // places in one map frame at every curve point. Returns -1 to go on (with the
 // last curve point's evaluation in `out`), otherwise the exit code.
-int learnSubmaps(const CLI::App& app, const Options& o, LearnOptions l,
+int learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
                  const RelocalizerParams& params, const FrameSource& data, Learned& out) {
   auto checked = readLearningParams(l.learning, l.learn_min_motion, l.learn_config);
   if (!checked) return cli::fail(app, "learning: " + checked.error());
@@ -316,7 +316,7 @@ std::string summaryFields(const Options& o, const FrameSource& data, const nlohm
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Relocalizes each selected frame of a dataset independently and prints the share within "
       "5 cm / 5 deg and 2 cm / 2 deg, median errors, ATE RMSE, frames without a pose and latency "
       "per stage. With --output it writes poses.txt (TUM format), errors.csv, summary.json, "
@@ -328,7 +328,7 @@ int main(int argc, char** argv) {
   Options o;
   LearnOptions learn;
   addOptions(app, o, learn);
-  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
   const bool many_places =
       o.models.size() > 1 || (o.models.size() == 1 && o.models[0].find('=') != std::string::npos);
   if (!many_places && !o.models.empty()) o.model_path = o.models[0];

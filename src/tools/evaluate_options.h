@@ -3,7 +3,6 @@
 // (LearnOptions, --learn-frames) and what learning leaves for the evaluation
 // (Learned), and the options that fill them (addOptions).
 
-#include <CLI/CLI.hpp>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -52,67 +51,67 @@ struct Learned {
   nlohmann::json json;
 };
 
-inline void addOptions(CLI::App& app, Options& o, LearnOptions& l) {
-  app.add_option("-m,--model", o.models,
-                 "Model file written by train (required without --learn-frames); with "
-                 "--learn-frames a saved online model to continue (needs MODEL.keyframes). "
-                 "A folder of learned submaps (--submaps --save-model) is evaluated as its set "
-                 "of places, or continued with --learn-frames --submaps. "
-                 "Many places: repeat it as NAME=PATH; every frame is then relocalized against "
-                 "the whole set, and places.csv names each frame's answering place");
-  app.add_option("--expect-place", o.expect_place,
-                 "Many places: the place the frames were taken in; answers from any other "
-                 "place are counted as wrong-place answers");
+inline void addOptions(App& app, Options& o, LearnOptions& l) {
+  app.addOption("-m,--model", o.models,
+                "Model file written by train (required without --learn-frames); with "
+                "--learn-frames a saved online model to continue (needs MODEL.keyframes). "
+                "A folder of learned submaps (--submaps --save-model) is evaluated as its set "
+                "of places, or continued with --learn-frames --submaps. "
+                "Many places: repeat it as NAME=PATH; every frame is then relocalized against "
+                "the whole set, and places.csv names each frame's answering place");
+  app.addOption("--expect-place", o.expect_place,
+                "Many places: the place the frames were taken in; answers from any other "
+                "place are counted as wrong-place answers");
   o.source.add(app, "Dataset folder with ground truth",
                "Frame ids to evaluate, e.g. 100-199,300-399 (default: all); for a bag, ids "
                "are indices in its synchronized frame order");
-  app.add_option("-o,--output", o.output, "Folder for poses.txt, errors.csv, summary.json, plots");
-  app.add_option(
+  app.addOption("-o,--output", o.output, "Folder for poses.txt, errors.csv, summary.json, plots");
+  app.addOption(
       "-c,--config", o.config,
       "YAML file whose 'relocalizer:' section overrides the defaults (config/default.yaml)");
-  app.add_option("--forests", o.forests, "points | lines | both")
-      ->check(CLI::IsMember({"points", "lines", "both"}))
-      ->capture_default_str();
-  app.add_option("-j,--threads", o.threads, "Worker threads inside each call (0 = every core)")
-      ->check(CLI::Range(0, 1024))
-      ->capture_default_str();
-  app.add_flag("--prediction-quality", o.prediction_quality,
-               "Also report the share of forest predictions within 10 cm of the truth");
-  app.add_option("--hint", o.hint,
-                 "ERROR_M,ERROR_DEG,SIGMA_M,SIGMA_DEG: each frame hinted (pose_hint.h) this far "
-                 "off its ground truth in random directions (seeded), declaring these sigmas; "
-                 "many places need --expect-place (the hint's map frame)");
+  app.addOption("--forests", o.forests, "points | lines | both")
+      ->oneOf({"points", "lines", "both"})
+      ->showDefault();
+  app.addOption("-j,--threads", o.threads, "Worker threads inside each call (0 = every core)")
+      ->range(0, 1024)
+      ->showDefault();
+  app.addFlag("--prediction-quality", o.prediction_quality,
+              "Also report the share of forest predictions within 10 cm of the truth");
+  app.addOption("--hint", o.hint,
+                "ERROR_M,ERROR_DEG,SIGMA_M,SIGMA_DEG: each frame hinted (pose_hint.h) this far "
+                "off its ground truth in random directions (seeded), declaring these sigmas; "
+                "many places need --expect-place (the hint's map frame)");
   const std::string group = "Online learning (--learn-frames)";
   auto* learn_option =
-      app.add_option("--learn-frames", l.learn_frames,
-                     "Learn online from these frames of the --dataset folder, in order, using "
-                     "their ground truth as the SLAM pose; then relocalize --frames")
+      app.addOption("--learn-frames", l.learn_frames,
+                    "Learn online from these frames of the --dataset folder, in order, using "
+                    "their ground truth as the SLAM pose; then relocalize --frames")
           ->group(group);
-  const auto learn_only = [&](CLI::Option* option) { option->needs(learn_option)->group(group); };
-  learn_only(app.add_option("--learn-min-motion", l.learn_min_motion,
-                            "Key frames: METRES,DEGREES of motion since the last key frame "
-                            "(the node's learn_min_motion)")
-                 ->capture_default_str());
-  learn_only(app.add_option("--learn-config", l.learn_config,
-                            "Training YAML (as train --config) for the retrains"));
-  learn_only(app.add_option("--max-keyframes", l.learning.max_keyframes,
-                            "Cap on stored key frames (the node's learn_max_keyframes)")
-                 ->check(CLI::Range(2, 100000))
-                 ->capture_default_str());
-  learn_only(app.add_option("--curve-every", l.curve_every,
-                            "Learn frames between learning-curve points (each retrains and "
-                            "relocalizes every --frames frame)")
-                 ->check(CLI::Range(1, 1000000))
-                 ->capture_default_str());
-  learn_only(app.add_flag("--learn-surface-gate", l.learning.surface_gate,
-                          "Refuse poses off the learned surface (the node's learn_surface_gate)"));
-  learn_only(app.add_flag("--submaps", l.submaps,
-                          "Learn submaps (--max-keyframes each; a full one is frozen and a new "
-                          "one starts) and relocalize across them as places in one map frame"));
-  learn_only(app.add_option("--save-model", l.save_model,
-                            "Write the learned model and its key frames (MODEL.keyframes) here; "
-                            "with --submaps a folder (manifest.json and each submap's pair), "
-                            "which frozen submaps are written into as they freeze"));
+  const auto learn_only = [&](Option* option) { option->needs(learn_option)->group(group); };
+  learn_only(app.addOption("--learn-min-motion", l.learn_min_motion,
+                           "Key frames: METRES,DEGREES of motion since the last key frame "
+                           "(the node's learn_min_motion)")
+                 ->showDefault());
+  learn_only(app.addOption("--learn-config", l.learn_config,
+                           "Training YAML (as train --config) for the retrains"));
+  learn_only(app.addOption("--max-keyframes", l.learning.max_keyframes,
+                           "Cap on stored key frames (the node's learn_max_keyframes)")
+                 ->range(2, 100000)
+                 ->showDefault());
+  learn_only(app.addOption("--curve-every", l.curve_every,
+                           "Learn frames between learning-curve points (each retrains and "
+                           "relocalizes every --frames frame)")
+                 ->range(1, 1000000)
+                 ->showDefault());
+  learn_only(app.addFlag("--learn-surface-gate", l.learning.surface_gate,
+                         "Refuse poses off the learned surface (the node's learn_surface_gate)"));
+  learn_only(app.addFlag("--submaps", l.submaps,
+                         "Learn submaps (--max-keyframes each; a full one is frozen and a new "
+                         "one starts) and relocalize across them as places in one map frame"));
+  learn_only(app.addOption("--save-model", l.save_model,
+                           "Write the learned model and its key frames (MODEL.keyframes) here; "
+                           "with --submaps a folder (manifest.json and each submap's pair), "
+                           "which frozen submaps are written into as they freeze"));
 }
 
 }  // namespace relocalizer::cli

@@ -264,7 +264,7 @@ Expected<std::unique_ptr<SubmapLearner>> backgroundSubmaps(const LearningParams&
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Streams --learn-frames of a dataset at --rate Hz (looped for --seconds) into a background "
       "online learner, as the node in learn mode receives them, while relocalizing --frames "
       "round-robin at --reloc-rate Hz on the current model. Prints whether the stream kept its "
@@ -280,33 +280,31 @@ int main(int argc, char** argv) {
   bool submaps = false;
   LearningParams learning;
   arguments.add(app, "Dataset folder with ground truth", "Held-out frames to relocalize");
-  app.add_option("--learn-frames", learn_frames, "Frames streamed to the learner, in order")
+  app.addOption("--learn-frames", learn_frames, "Frames streamed to the learner, in order")
       ->required();
-  app.add_option("--rate", rate, "Stream rate, Hz")
-      ->check(CLI::Range(0.1, 1000.0))
-      ->capture_default_str();
-  app.add_option("--seconds", seconds, "Stream length, s (the learn frames loop)")
-      ->check(CLI::Range(1.0, 1e6))
-      ->capture_default_str();
-  app.add_option("--reloc-rate", reloc_rate, "Relocalizations per second (the node's max_rate)")
-      ->check(CLI::Range(0.01, 100.0))
-      ->capture_default_str();
-  app.add_option("--min-motion", min_motion, "Key frames: METRES,DEGREES")->capture_default_str();
-  app.add_flag("--submaps", submaps,
-               "Learn submaps (--max-keyframes each) and relocalize across them, as the node");
-  app.add_option("--learn-folder", learn_folder,
-                 "With --submaps: the working folder, where frozen submaps are written as they "
-                 "freeze and their key frames leave memory, as in the node");
-  app.add_option("--max-keyframes", learning.max_keyframes,
-                 "Cap on stored key frames (with --submaps: per submap)")
-      ->check(CLI::Range(2, 100000))
-      ->capture_default_str();
-  app.add_option("--learn-config", learn_config, "Training YAML for the retrains");
-  app.add_option("-j,--threads", threads, "Threads of one relocalization")
-      ->check(CLI::Range(1, 1024))
-      ->capture_default_str();
-  app.add_option("-o,--output", output, "Folder for timeline.csv and summary.json");
-  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+  app.addOption("--rate", rate, "Stream rate, Hz")->range(0.1, 1000.0)->showDefault();
+  app.addOption("--seconds", seconds, "Stream length, s (the learn frames loop)")
+      ->range(1.0, 1e6)
+      ->showDefault();
+  app.addOption("--reloc-rate", reloc_rate, "Relocalizations per second (the node's max_rate)")
+      ->range(0.01, 100.0)
+      ->showDefault();
+  app.addOption("--min-motion", min_motion, "Key frames: METRES,DEGREES")->showDefault();
+  app.addFlag("--submaps", submaps,
+              "Learn submaps (--max-keyframes each) and relocalize across them, as the node");
+  app.addOption("--learn-folder", learn_folder,
+                "With --submaps: the working folder, where frozen submaps are written as they "
+                "freeze and their key frames leave memory, as in the node");
+  app.addOption("--max-keyframes", learning.max_keyframes,
+                "Cap on stored key frames (with --submaps: per submap)")
+      ->range(2, 100000)
+      ->showDefault();
+  app.addOption("--learn-config", learn_config, "Training YAML for the retrains");
+  app.addOption("-j,--threads", threads, "Threads of one relocalization")
+      ->range(1, 1024)
+      ->showDefault();
+  app.addOption("-o,--output", output, "Folder for timeline.csv and summary.json");
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
   auto checked = readLearningParams(learning, min_motion, learn_config);
   if (!checked) return cli::fail(app, "learning: " + checked.error());
   auto test = arguments.open();

@@ -178,7 +178,7 @@ void printWritten(const BagSettings& settings, int written, int with_truth, doub
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Writes the selected frames of a dataset as a rosbag: /camera/rgb/image_raw (bgr8), "
       "/camera/depth/image_raw (16UC1 millimetres or 32FC1 metres, registered to colour), "
       "/camera/rgb/camera_info, the camera-to-world ground truth on /ground_truth/pose "
@@ -192,32 +192,31 @@ int main(int argc, char** argv) {
   BagSettings settings;
   arguments.add(app, "Dataset folder (7-Scenes, 12-Scenes, TUM, synthetic)",
                 "Frame ids to write, e.g. 100-199,300-399 (default: all)");
-  app.add_option("-o,--output", settings.output, "Bag file to write (replaced if it exists)")
+  app.addOption("-o,--output", settings.output, "Bag file to write (replaced if it exists)")
       ->required();
   auto* rate_option =
-      app.add_option("--rate", settings.rate, "Synthesize stamps at this many frames per second")
-          ->check(CLI::Range(0.001, 10000.0));
-  app.add_option("--depth-encoding", settings.depth_encoding,
-                 "16UC1 (millimetres) | 32FC1 (metres)")
-      ->check(CLI::IsMember({"16UC1", "32FC1"}))
-      ->capture_default_str();
-  app.add_option("--frame-id", settings.frame_id, "frame_id of the colour and depth images")
-      ->capture_default_str();
-  app.add_flag("--tf", settings.tf,
-               "Also write the ground truth on /tf as a SLAM system with odometry publishes it: "
-               "map -> odom (fixed, not the identity) and odom -> FRAME_ID at each frame's stamp");
-  app.add_option("--tf-trajectory", settings.tf_trajectory,
-                 "With --tf: write /tf at every pose of this TUM trajectory file (timestamp tx "
-                 "ty tz qx qy qz qw), frames or not, instead of at the frames, as SLAM keeps "
-                 "tracking between images (synthesize --rooms writes walk/walk_poses.txt, a "
-                 "pose at every tick of the walk, corridor included). With synthesized stamps "
-                 "the file's stamps are on the dataset's clock, frame id / --rate, and the bag "
-                 "starts at the earlier of the first frame and the first pose")
-      ->check(CLI::ExistingFile);
-  app.add_option("--compression", settings.compression, "none | lz4 | bz2")
-      ->check(CLI::IsMember({"none", "lz4", "bz2"}))
-      ->capture_default_str();
-  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+      app.addOption("--rate", settings.rate, "Synthesize stamps at this many frames per second")
+          ->range(0.001, 10000.0);
+  app.addOption("--depth-encoding", settings.depth_encoding, "16UC1 (millimetres) | 32FC1 (metres)")
+      ->oneOf({"16UC1", "32FC1"})
+      ->showDefault();
+  app.addOption("--frame-id", settings.frame_id, "frame_id of the colour and depth images")
+      ->showDefault();
+  app.addFlag("--tf", settings.tf,
+              "Also write the ground truth on /tf as a SLAM system with odometry publishes it: "
+              "map -> odom (fixed, not the identity) and odom -> FRAME_ID at each frame's stamp");
+  app.addOption("--tf-trajectory", settings.tf_trajectory,
+                "With --tf: write /tf at every pose of this TUM trajectory file (timestamp tx "
+                "ty tz qx qy qz qw), frames or not, instead of at the frames, as SLAM keeps "
+                "tracking between images (synthesize --rooms writes walk/walk_poses.txt, a "
+                "pose at every tick of the walk, corridor included). With synthesized stamps "
+                "the file's stamps are on the dataset's clock, frame id / --rate, and the bag "
+                "starts at the earlier of the first frame and the first pose")
+      ->existingFile();
+  app.addOption("--compression", settings.compression, "none | lz4 | bz2")
+      ->oneOf({"none", "lz4", "bz2"})
+      ->showDefault();
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
   if (settings.frame_id.empty() || settings.frame_id[0] == '/')
     return cli::fail(app, "--frame-id must be a non-empty tf2 frame id without a leading slash");
 

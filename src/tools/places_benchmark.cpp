@@ -203,7 +203,7 @@ Status loadSubmaps(const cli::NamedPath& submaps, int lead, const RelocalizerPar
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Measures many places: the resident memory each place adds, the latency of relocalizing "
       "the first --test's frames against the first n places for each n of --counts (medians, "
       "measured side by side), and, against the whole set, the share of each --test's frames "
@@ -214,32 +214,30 @@ int main(int argc, char** argv) {
   int repeat = 1, threads = 1;
   std::string submaps_argument;
   auto* place_option =
-      app.add_option("--place", place_arguments,
-                     "NAME=MODEL, repeated; the first is the place whose frames are timed");
-  app.add_option("--submaps", submaps_argument,
-                 "NAME=FOLDER: a saved folder of learned submaps as the places, one group NAME "
-                 "(places NAME/i in folder order; the first --test is taken in NAME)")
+      app.addOption("--place", place_arguments,
+                    "NAME=MODEL, repeated; the first is the place whose frames are timed");
+  app.addOption("--submaps", submaps_argument,
+                "NAME=FOLDER: a saved folder of learned submaps as the places, one group NAME "
+                "(places NAME/i in folder order; the first --test is taken in NAME)")
       ->excludes(place_option);
   int lead = 0;
-  app.add_option("--lead", lead,
-                 "With --submaps: the submap (its number in the folder) that goes first, so the "
-                 "one timed alone (count 1): the one the timed frames are in")
-      ->capture_default_str();
-  app.add_option("--test", test_arguments,
-                 "NAME=DATASET or NAME=DATASET@FRAMES: frames taken in place NAME, repeated; "
-                 "the first is timed")
+  app.addOption("--lead", lead,
+                "With --submaps: the submap (its number in the folder) that goes first, so the "
+                "one timed alone (count 1): the one the timed frames are in")
+      ->showDefault();
+  app.addOption("--test", test_arguments,
+                "NAME=DATASET or NAME=DATASET@FRAMES: frames taken in place NAME, repeated; "
+                "the first is timed")
       ->required();
-  app.add_option("--counts", counts_text, "Place counts to time, comma-separated ('all')")
-      ->capture_default_str();
-  app.add_option("-c,--config", config, "YAML with a 'relocalizer:' section");
-  app.add_option("--repeat", repeat, "Timed passes over the frames")
-      ->check(CLI::Range(1, 100))
-      ->capture_default_str();
-  app.add_option("-j,--threads", threads, "Worker threads inside each call")
-      ->check(CLI::Range(1, 1024))
-      ->capture_default_str();
-  app.add_option("--json", json_path, "Write the figures to this JSON file");
-  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+  app.addOption("--counts", counts_text, "Place counts to time, comma-separated ('all')")
+      ->showDefault();
+  app.addOption("-c,--config", config, "YAML with a 'relocalizer:' section");
+  app.addOption("--repeat", repeat, "Timed passes over the frames")->range(1, 100)->showDefault();
+  app.addOption("-j,--threads", threads, "Worker threads inside each call")
+      ->range(1, 1024)
+      ->showDefault();
+  app.addOption("--json", json_path, "Write the figures to this JSON file");
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
 
   RelocalizerParams params;
   if (!config.empty()) {

@@ -15,11 +15,11 @@ namespace relocalizer::cli {
 struct SourceOptions : DatasetArguments {
   std::string bag, min_motion;
   relocalizer_ros::BagOptions bag_options;
-  CLI::Option* bag_option = nullptr;
+  Option* bag_option = nullptr;
 
-  void add(CLI::App& app, const std::string& dataset_help, const std::string& frames_help) {
+  void add(App& app, const std::string& dataset_help, const std::string& frames_help) {
     DatasetArguments::add(app, dataset_help, frames_help, /*required=*/false);
-    bag_option = app.add_option(
+    bag_option = app.addOption(
         "--bag", bag,
         "Rosbag with RGB-D topics and camera poses on /tf (or --pose-topic), e.g. recorded "
         "while a SLAM stack ran; instead of --dataset");
@@ -31,44 +31,44 @@ struct SourceOptions : DatasetArguments {
 
   // The topic, pose and key-frame options of a bag, needing `bag_option`
   // (nullptr: a tool with several bag options, any of which they apply to).
-  static void addBagOptions(CLI::App& app, CLI::Option* bag_option, relocalizer_ros::BagOptions& b,
+  static void addBagOptions(App& app, Option* bag_option, relocalizer_ros::BagOptions& b,
                             std::string& min_motion) {
     const std::string group = "Rosbag (--bag)";
-    const auto bag_only = [&](CLI::Option* option) {
+    const auto bag_only = [&](Option* option) {
       if (bag_option) option->needs(bag_option);
       option->group(group);
     };
-    bag_only(app.add_option("--rgb-topic", b.rgb_topic, "Colour sensor_msgs/Image topic")
-                 ->capture_default_str());
     bag_only(
-        app.add_option("--depth-topic", b.depth_topic,
-                       "Depth sensor_msgs/Image topic, registered to colour (16UC1 mm or 32FC1 m)")
-            ->capture_default_str());
+        app.addOption("--rgb-topic", b.rgb_topic, "Colour sensor_msgs/Image topic")->showDefault());
     bag_only(
-        app.add_option("--camera-info-topic", b.camera_info_topic, "sensor_msgs/CameraInfo topic")
-            ->capture_default_str());
-    bag_only(app.add_option("--sync-tolerance", b.sync_tolerance,
-                            "Largest colour-depth and colour-camera_info stamp difference, s")
-                 ->capture_default_str());
-    bag_only(app.add_option(
-                    "--map-frame", b.map_frame,
-                    "World frame of the model: TF lookups start here; a pose topic must be in it")
-                 ->capture_default_str());
-    bag_only(app.add_option("--camera-frame", b.camera_frame,
-                            "Camera frame for TF lookups (default: the colour images' frame_id)"));
+        app.addOption("--depth-topic", b.depth_topic,
+                      "Depth sensor_msgs/Image topic, registered to colour (16UC1 mm or 32FC1 m)")
+            ->showDefault());
     bag_only(
-        app.add_option("--pose-topic", b.pose_topic,
-                       "Camera poses from this PoseStamped, PoseWithCovarianceStamped, Odometry or "
-                       "TransformStamped topic instead of TF"));
-    bag_only(app.add_option(
-                    "--pose-tolerance", b.pose_tolerance,
-                    "A frame has a pose when every pose stream it needs has samples at most this "
-                    "many s before and after its stamp (interpolated); others are skipped")
-                 ->capture_default_str());
+        app.addOption("--camera-info-topic", b.camera_info_topic, "sensor_msgs/CameraInfo topic")
+            ->showDefault());
+    bag_only(app.addOption("--sync-tolerance", b.sync_tolerance,
+                           "Largest colour-depth and colour-camera_info stamp difference, s")
+                 ->showDefault());
     bag_only(
-        app.add_option("--min-motion", min_motion,
-                       "Key frames: keep a frame when it moved METRES or turned DEGREES since the "
-                       "last kept one, e.g. 0.05,5 (default: every frame with a pose)"));
+        app.addOption("--map-frame", b.map_frame,
+                      "World frame of the model: TF lookups start here; a pose topic must be in it")
+            ->showDefault());
+    bag_only(app.addOption("--camera-frame", b.camera_frame,
+                           "Camera frame for TF lookups (default: the colour images' frame_id)"));
+    bag_only(
+        app.addOption("--pose-topic", b.pose_topic,
+                      "Camera poses from this PoseStamped, PoseWithCovarianceStamped, Odometry or "
+                      "TransformStamped topic instead of TF"));
+    bag_only(
+        app.addOption("--pose-tolerance", b.pose_tolerance,
+                      "A frame has a pose when every pose stream it needs has samples at most this "
+                      "many s before and after its stamp (interpolated); others are skipped")
+            ->showDefault());
+    bag_only(
+        app.addOption("--min-motion", min_motion,
+                      "Key frames: keep a frame when it moved METRES or turned DEGREES since the "
+                      "last kept one, e.g. 0.05,5 (default: every frame with a pose)"));
   }
 
   // After parsing: the opened source, or a one-line reason.

@@ -3,7 +3,6 @@
 // building of such rooms.
 
 #include <algorithm>
-#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -17,7 +16,7 @@
 using relocalizer::cli::fail;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  relocalizer::cli::App app{
       "Writes a synthetic RGB-D relocalization dataset of a procedurally generated room: "
       "OUTPUT/train and OUTPUT/test in the 7-Scenes layout (frame-XXXXXX.color.png, "
       ".depth.png in millimetres, .pose.txt camera-to-world), OUTPUT/scene.json and "
@@ -26,60 +25,53 @@ int main(int argc, char** argv) {
   relocalizer::SyntheticSceneOptions options;
   std::string output;
   int width = 0, height = 0;
-  app.add_option("-o,--output", output, "Folder to write (created if missing)")->required();
-  // Read as text: CLI11 would wrap "-1" round to 2^64 - 1 and saturate
-  // overflowing values instead of rejecting them.
-  std::string seed_text = "1";
-  app.add_option("--seed", seed_text, "Room and noise seed (0 to 2^64 - 1)")->capture_default_str();
-  app.add_option("--train-frames", options.train_frames, "Training frames")
-      ->check(CLI::Range(1, 1000000))
-      ->capture_default_str();
-  app.add_option("--test-frames", options.test_frames, "Test frames")
-      ->check(CLI::Range(0, 1000000))
-      ->capture_default_str();
+  app.addOption("-o,--output", output, "Folder to write (created if missing)")->required();
+  app.addOption("--seed", options.seed, "Room and noise seed")->showDefault();
+  app.addOption("--train-frames", options.train_frames, "Training frames")
+      ->range(1, 1000000)
+      ->showDefault();
+  app.addOption("--test-frames", options.test_frames, "Test frames")
+      ->range(0, 1000000)
+      ->showDefault();
   auto* width_option =
-      app.add_option("--width", width, "Image width (default 640)")->check(CLI::Range(16, 4096));
+      app.addOption("--width", width, "Image width (default 640)")->range(16, 4096);
   auto* height_option =
-      app.add_option("--height", height, "Image height (default 480)")->check(CLI::Range(16, 4096));
+      app.addOption("--height", height, "Image height (default 480)")->range(16, 4096);
   width_option->needs(height_option);
   height_option->needs(width_option);
-  app.add_flag("--motion-blur", options.motion_blur, "Blur colour along the camera path");
-  app.add_flag("--illumination-change", options.illumination_change,
-               "Vary exposure, colour cast and lights from frame to frame");
-  app.add_flag("--moving-objects", options.moving_objects,
-               "Add moving distractors (not part of the static ground truth)");
+  app.addFlag("--motion-blur", options.motion_blur, "Blur colour along the camera path");
+  app.addFlag("--illumination-change", options.illumination_change,
+              "Vary exposure, colour cast and lights from frame to frame");
+  app.addFlag("--moving-objects", options.moving_objects,
+              "Add moving distractors (not part of the static ground truth)");
   int rooms = 0;
   auto* rooms_option =
-      app.add_option("--rooms", rooms,
-                     "Write a building of this many rooms instead of one room: OUTPUT/room-0 ... "
-                     "OUTPUT/room-(N-1), each a dataset as above (room i has seed SEED + i), and "
-                     "OUTPUT/building.json (names, seeds, the look-alike pair, placement in one "
-                     "building frame). The rooms differ; from 3 rooms on, the last one looks like "
-                     "room-0 (the same furniture and textures, placed differently). The other "
-                     "options apply to every room. Also writes OUTPUT/walk: one walk through "
-                     "all rooms in the building frame (see --no-walk).")
-          ->check(CLI::Range(relocalizer::kMinBuildingRooms, relocalizer::kMaxBuildingRooms));
+      app.addOption("--rooms", rooms,
+                    "Write a building of this many rooms instead of one room: OUTPUT/room-0 ... "
+                    "OUTPUT/room-(N-1), each a dataset as above (room i has seed SEED + i), and "
+                    "OUTPUT/building.json (names, seeds, the look-alike pair, placement in one "
+                    "building frame). The rooms differ; from 3 rooms on, the last one looks like "
+                    "room-0 (the same furniture and textures, placed differently). The other "
+                    "options apply to every room. Also writes OUTPUT/walk: one walk through "
+                    "all rooms in the building frame (see --no-walk).")
+          ->range(relocalizer::kMinBuildingRooms, relocalizer::kMaxBuildingRooms);
   bool no_walk = false;
   relocalizer::BuildingWalkOptions walk;
-  app.add_flag("--no-walk", no_walk,
-               "With --rooms, do not write OUTPUT/walk: one 7-Scenes folder of a walk at " +
-                   std::to_string(static_cast<int>(walk.rate)) +
-                   " Hz in through each room's door, once round its training loop (at least " +
-                   std::to_string(relocalizer::kSyntheticLoopFrames) +
-                   " frames long) and out along the corridor; rendered frames are "
-                   "frame-<tick> in the building frame, room r's test frame i is frame-(" +
-                   std::to_string(relocalizer::kWalkTestFirstId) + " + " +
-                   std::to_string(relocalizer::kWalkTestIdsPerRoom) +
-                   " r + i), walk.json says which is which, walk_poses.txt has a pose at "
-                   "every tick")
+  app.addFlag("--no-walk", no_walk,
+              "With --rooms, do not write OUTPUT/walk: one 7-Scenes folder of a walk at " +
+                  std::to_string(static_cast<int>(walk.rate)) +
+                  " Hz in through each room's door, once round its training loop (at least " +
+                  std::to_string(relocalizer::kSyntheticLoopFrames) +
+                  " frames long) and out along the corridor; rendered frames are "
+                  "frame-<tick> in the building frame, room r's test frame i is frame-(" +
+                  std::to_string(relocalizer::kWalkTestFirstId) + " + " +
+                  std::to_string(relocalizer::kWalkTestIdsPerRoom) +
+                  " r + i), walk.json says which is which, walk_poses.txt has a pose at "
+                  "every tick")
       ->needs(rooms_option);
 
-  if (const int code = relocalizer::cli::parse(app, argc, argv); code >= 0) return code;
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
 
-  const char* seed_end = seed_text.data() + seed_text.size();
-  const auto [parsed_end, parse_error] = std::from_chars(seed_text.data(), seed_end, options.seed);
-  if (seed_text.empty() || parse_error != std::errc() || parsed_end != seed_end)
-    return fail(app, "--seed: " + seed_text + " is not an integer in [0, 2^64 - 1]");
   options.camera = relocalizer::CameraIntrinsics::kinectDefault();
   if (width > 0) options.camera = options.camera.scaledTo(width, height);
   const std::string invalid = options.validationError();

@@ -15,7 +15,7 @@
 using namespace relocalizer;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Draws the trade-off behind the relocalizer's 'no pose' thresholds (solver.min_inlier_ratio "
       "and, for models with a scene surface, surface.min_agreement): for each threshold, the share "
       "of in-scene frames answered correctly (within 5 cm / 5 deg), answered wrongly, and the "
@@ -27,24 +27,24 @@ int main(int argc, char** argv) {
   std::vector<std::string> out_of_scene, out_of_scene_bags;
   int threads = 0;
   cli::SourceOptions bags;  // topic and pose options shared by every bag
-  app.add_option("-m,--model", model_path, "Model file")->required();
+  app.addOption("-m,--model", model_path, "Model file")->required();
   auto* in_folder =
-      app.add_option("--in-scene", in_scene, "Dataset of the model's scene, with ground truth");
+      app.addOption("--in-scene", in_scene, "Dataset of the model's scene, with ground truth");
   auto* in_bag_option =
-      app.add_option("--bag", in_bag, "Rosbag of the model's scene, instead of --in-scene");
+      app.addOption("--bag", in_bag, "Rosbag of the model's scene, instead of --in-scene");
   in_folder->excludes(in_bag_option);
-  app.add_option("--in-frames", in_frames,
-                 "Frame ids of the in-scene dataset or bag (default: all)");
+  app.addOption("--in-frames", in_frames,
+                "Frame ids of the in-scene dataset or bag (default: all)");
   auto* out_folders =
-      app.add_option("--out-of-scene", out_of_scene, "Datasets of other scenes (repeatable)");
-  auto* out_bags = app.add_option("--out-of-scene-bag", out_of_scene_bags,
-                                  "Rosbags of other scenes (repeatable; frames need poses too)");
+      app.addOption("--out-of-scene", out_of_scene, "Datasets of other scenes (repeatable)");
+  auto* out_bags = app.addOption("--out-of-scene-bag", out_of_scene_bags,
+                                 "Rosbags of other scenes (repeatable; frames need poses too)");
   cli::SourceOptions::addBagOptions(app, nullptr, bags.bag_options, bags.min_motion);
-  app.add_option("-c,--config", config, "YAML with a 'relocalizer:' section");
-  app.add_option("-o,--output", output, "Folder for curves.csv, curves.png, curves.json")
+  app.addOption("-c,--config", config, "YAML with a 'relocalizer:' section");
+  app.addOption("-o,--output", output, "Folder for curves.csv, curves.png, curves.json")
       ->required();
-  app.add_option("-j,--threads", threads, "Threads (0 = every core)")->check(CLI::Range(0, 1024));
-  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+  app.addOption("-j,--threads", threads, "Threads (0 = every core)")->range(0, 1024);
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
   if (in_folder->count() + in_bag_option->count() == 0)
     return cli::fail(app, "one of --in-scene or --bag is required");
   if (out_folders->count() + out_bags->count() == 0)

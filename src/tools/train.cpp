@@ -104,7 +104,7 @@ int main(int argc, char** argv) {
   // 390 MB of the 1 GB peak on the 300 redkitchen frames.
   mallopt(M_MMAP_THRESHOLD, 256 * 1024);
 #endif
-  CLI::App app{
+  cli::App app{
       "Trains a PLForests model (point forest + line forest) on the posed RGB-D frames of one "
       "scene and writes it to one versioned binary file. The frames come from a dataset folder "
       "(--dataset) or a rosbag (--bag) whose camera poses are on /tf (e.g. from a SLAM stack) or "
@@ -117,15 +117,15 @@ int main(int argc, char** argv) {
   source_options.add(app, "Dataset folder (7-Scenes, 12-Scenes, TUM)",
                      "Frame ids to train on, e.g. 0-99,200-299 (default: all); for a bag, ids are "
                      "indices in its synchronized frame order");
-  app.add_option("-o,--output", output, "Model file to write")->required();
-  app.add_option("-c,--config", config, "YAML file overriding config/forest.yaml defaults");
-  app.add_option("-j,--threads", threads, "Worker threads (0 = every core)")
-      ->check(CLI::Range(0, 1024))
-      ->capture_default_str();
-  auto* seed_option = app.add_option("--seed", seed, "Random seed (overrides the config)");
-  app.add_option("--forests", forests, "Forests to grow: points, lines or points,lines")
-      ->check(CLI::IsMember({"points", "lines", "points,lines", "lines,points", "both"}));
-  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+  app.addOption("-o,--output", output, "Model file to write")->required();
+  app.addOption("-c,--config", config, "YAML file overriding config/forest.yaml defaults");
+  app.addOption("-j,--threads", threads, "Worker threads (0 = every core)")
+      ->range(0, 1024)
+      ->showDefault();
+  auto* seed_option = app.addOption("--seed", seed, "Random seed (overrides the config)");
+  app.addOption("--forests", forests, "Forests to grow: points, lines or points,lines")
+      ->oneOf({"points", "lines", "points,lines", "lines,points", "both"});
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
 
   TrainingParams params;
   if (!config.empty()) {

@@ -12,6 +12,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "relocalizer/core/frame.h"
 #include "relocalizer/core/pose.h"
@@ -603,20 +605,49 @@ TEST(SyntheticScene, ShortSequencesKeepTestInsideTrainingCoverage) {
 
 // ------------------------------------------------------------------ tool
 
-TEST(SyntheticSceneTool, RejectsBadArgumentsWithOneLine) {
+TEST(SyntheticSceneTool, RejectsBadArgumentsWithOneLineNamingTheOptionAndWhatItExpects) {
   relocalizer::testing::TempDir dir;
   const fs::path err = dir.path() / "stderr.txt";
   const std::string out = "--output '" + (dir.path() / "scene").string() + "'";
-  for (const std::string& arguments :
-       {out + " --train-frames -3", out + " --no-such-option", std::string("--seed 4"),
-        out + " --width 320", out + " --test-frames many", out + " --seed -1",
-        out + " --seed 99999999999999999999"}) {
-    EXPECT_NE(relocalizer::testing::runTool("synthesize", arguments, err), 0) << arguments;
+  const std::string seed = "--seed: expected a whole number from 0 to 18446744073709551615, got ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {out + " --train-frames -3",
+       "--train-frames: expected a whole number from 1 to 1000000, got '-3'"},
+      {out + " --train-frames 2.5",
+       "--train-frames: expected a whole number from 1 to 1000000, got '2.5'"},
+      {out + " --no-such-option", "'--no-such-option'"},
+      {out + " --train", "'--train'"},  // no guessing at an abbreviation
+      {"--seed 4", "'--output' is required"},
+      {out + " --width 320", "--width requires --height"},
+      {out + " --test-frames many",
+       "--test-frames: expected a whole number from 0 to 1000000, got 'many'"},
+      {out + " --seed -1", seed + "'-1'"},
+      {out + " --seed 99999999999999999999", seed + "'99999999999999999999'"},
+      {out + " --no-walk", "--no-walk requires --rooms"}};
+  for (const auto& [arguments, reason] : cases) {
+    EXPECT_EQ(relocalizer::testing::runTool("synthesize", arguments, err), 2) << arguments;
     const std::string message = relocalizer::testing::readBytes(err);
     EXPECT_EQ(lineCount(message), 1) << arguments << ": " << message;
+    EXPECT_EQ(message.rfind("synthesize: error: ", 0), 0u) << message;
+    EXPECT_NE(message.find(reason), std::string::npos) << arguments << ": " << message;
   }
   EXPECT_FALSE(fs::exists(dir.path() / "scene"));
-  EXPECT_EQ(relocalizer::testing::runTool("synthesize", "--help", err), 0);
+  // --help: usage, every option with its description, default and what it takes.
+  const fs::path help = dir.path() / "help.txt";
+  EXPECT_EQ(relocalizer::testing::runTool("synthesize", "--help", err, help), 0);
+  // Read with each run of spaces and line breaks as one space: --help wraps descriptions.
+  std::istringstream words(relocalizer::testing::readBytes(help));
+  std::string text;
+  for (std::string word; words >> word;) text += word + " ";
+  for (const std::string& part :
+       {std::string("Usage: synthesize [OPTIONS]"), std::string("procedurally generated room"),
+        std::string("-o [ --output ] TEXT"), std::string("[required]"),
+        std::string("--train-frames INT (=300)"),
+        std::string("Training frames [a whole number "
+                    "from 1 to 1000000]"),
+        std::string("--seed UINT (=1)"), std::string("--no-walk"), std::string("needs --rooms")})
+    EXPECT_NE(text.find(part), std::string::npos) << part << " not in:\n" << text;
+  EXPECT_EQ(relocalizer::testing::readBytes(err), "");
 }
 
 TEST(SyntheticSceneTool, WritesASmallScene) {
