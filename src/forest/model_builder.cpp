@@ -17,6 +17,10 @@ bool ModelBuilder::add(const RgbdFrame& frame) { return appendTrainingImage(fram
 Expected<Model> ModelBuilder::build(TrainingSummary provenance,
                                     const ModelBuildProgress& progress) {
   if (images_.empty()) return makeError("no posed frame to train on");
+  if (params_.train_lines) {
+    const std::string missing = lineDetectorMissing(params_.line_sampling.line_detector);
+    if (!missing.empty()) return makeError(missing + "; use line_detector: own");
+  }
   const auto start = std::chrono::steady_clock::now();
   Model model;
   model.params = params_;

@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "relocalizer/forest/line_segment_detector.h"
 
 namespace relocalizer {
 
@@ -20,7 +23,60 @@ Sample makeSample(const RgbdFrame& frame, int u, int v, float depth) {
   return s;
 }
 
+// Segment endpoints in the detector input's pixels, as (x1, y1, x2, y2).
+std::vector<cv::Vec4f> openCvLsdSegments(const cv::Mat& colour, float scale) {
+  cv::Mat gray;
+  cv::cvtColor(colour, gray, cv::COLOR_BGR2GRAY);
+  cv::Mat lsd_input = gray;
+  if (scale < 1.0f) cv::resize(gray, lsd_input, cv::Size(), scale, scale, cv::INTER_AREA);
+  std::vector<cv::Vec4f> segments;
+  try {
+    // LSD's own internal scaling is disabled (scale 1): we control it above.
+    cv::Ptr<cv::LineSegmentDetector> lsd = cv::createLineSegmentDetector(cv::LSD_REFINE_NONE, 1.0);
+    lsd->detect(lsd_input, segments);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error("line_sampling.line_detector: opencv_lsd, but OpenCV " CV_VERSION
+                             " has no working LSD (4.1.0 to 4.5.3 ship a stub that throws)");
+  }
+  return segments;
+}
+
+std::vector<cv::Vec4f> ownSegments(const cv::Mat& colour, float scale) {
+  std::vector<cv::Vec4f> segments;
+  for (const LineSegment& s : detectLineSegments(lineDetectorInput(colour, scale)))
+    segments.emplace_back(static_cast<float>(s.x1), static_cast<float>(s.y1),
+                          static_cast<float>(s.x2), static_cast<float>(s.y2));
+  return segments;
+}
+
 }  // namespace
+
+const char* lineDetectorName(LineDetector detector) {
+  return detector == LineDetector::kOwn ? "own" : "opencv_lsd";
+}
+
+std::optional<LineDetector> lineDetectorNamed(const std::string& name) {
+  for (LineDetector d : {LineDetector::kOwn, LineDetector::kOpenCvLsd})
+    if (name == lineDetectorName(d)) return d;
+  return std::nullopt;
+}
+
+std::vector<cv::Vec4f> detectSegments(const cv::Mat& colour, LineDetector detector, float scale) {
+  return detector == LineDetector::kOwn ? ownSegments(colour, scale)
+                                        : openCvLsdSegments(colour, scale);
+}
+
+std::string lineDetectorMissing(LineDetector detector) {
+  static const std::string opencv_missing = [] {
+    try {
+      openCvLsdSegments(cv::Mat(8, 8, CV_8UC3, cv::Scalar::all(0)), 1.0f);
+      return std::string();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  }();
+  return detector == LineDetector::kOpenCvLsd ? opencv_missing : std::string();
+}
 
 void samplePoints(const RgbdFrame& frame, int count, std::mt19937& rng, std::vector<Sample>& out) {
   const cv::Mat& depth = frame.depth;
@@ -92,15 +148,8 @@ float lsdScaleFor(const LineSamplingParams& params, int image_width) {
 LineSamples sampleLines(const RgbdFrame& frame, const LineSamplingParams& params, int max_samples,
                         std::mt19937& rng) {
   LineSamples result;
-  cv::Mat gray;
-  cv::cvtColor(frame.colour, gray, cv::COLOR_BGR2GRAY);
-  const float scale = lsdScaleFor(params, gray.cols);
-  cv::Mat lsd_input = gray;
-  if (scale < 1.0f) cv::resize(gray, lsd_input, cv::Size(), scale, scale, cv::INTER_AREA);
-  // LSD's own internal scaling is disabled (scale 1): we control it above.
-  cv::Ptr<cv::LineSegmentDetector> lsd = cv::createLineSegmentDetector(cv::LSD_REFINE_NONE, 1.0);
-  std::vector<cv::Vec4f> segments;
-  lsd->detect(lsd_input, segments);
+  const float scale = lsdScaleFor(params, frame.colour.cols);
+  const std::vector<cv::Vec4f> segments = detectSegments(frame.colour, params.line_detector, scale);
   result.segments_detected = static_cast<int>(segments.size());
 
   const int width = frame.depth.cols, height = frame.depth.rows;

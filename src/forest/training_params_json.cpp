@@ -51,7 +51,8 @@ json trainingParamsJson(const TrainingParams& p) {
           {"points", forestJson(p.points)},
           {"lines", forestJson(p.lines)},
           {"line_sampling",
-           {{"min_segment_length_px", l.min_segment_length_px},
+           {{"line_detector", lineDetectorName(l.line_detector)},
+            {"min_segment_length_px", l.min_segment_length_px},
             {"spacing_px", l.spacing_px},
             {"lsd_scale", l.lsd_scale},
             {"lsd_min_width_px", l.lsd_min_width_px},
@@ -119,6 +120,18 @@ void readTrainingParams(const json& j, TrainingParams& p) {
   const json& l = j.at("line_sampling");
   auto& s = p.line_sampling;
   const std::string prefix = "line_sampling.";
+  // Models written before our own detector existed used OpenCV's LSD: they
+  // keep it, whatever today's default.
+  s.line_detector = LineDetector::kOpenCvLsd;
+  if (l.contains("line_detector")) {
+    const json& name = l.at("line_detector");
+    const auto detector =
+        name.is_string() ? lineDetectorNamed(name.get<std::string>()) : std::nullopt;
+    if (!detector)
+      throw std::out_of_range(
+          "'" + prefix + "line_detector' must be \"own\" or \"opencv_lsd\", got " + name.dump());
+    s.line_detector = *detector;
+  }
   readField(l, prefix, "min_segment_length_px", s.min_segment_length_px);
   readField(l, prefix, "spacing_px", s.spacing_px);
   readField(l, prefix, "lsd_scale", s.lsd_scale);

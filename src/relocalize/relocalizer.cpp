@@ -49,6 +49,11 @@ std::string Relocalizer::validationError() const {
     return "solver.hypotheses and solver.batch_size must be >= 1";
   if (!(params_.solver.hint_weight >= 0 && params_.solver.hint_weight <= 1))
     return "solver.hint_weight must be a share between 0 and 1";
+  if (const std::string missing = lineDetectorMissing(model_.params.line_sampling.line_detector);
+      lines && !missing.empty())
+    return "the model's line forest was trained with " + missing +
+           "; relocalize with the point forest alone (use_lines: false) or retrain the model "
+           "(the default line detector is our own)";
   const SurfaceFitParams& s = params_.surface;
   if (s.points < 1 || s.iterations < 0 || s.min_correspondences < 0)
     return "surface.points must be >= 1, surface.iterations and surface.min_correspondences >= 0";
@@ -326,11 +331,11 @@ bool SamplingRecipe::sameAs(const SamplingRecipe& other) const {
   return use_points == other.use_points && use_lines == other.use_lines &&
          point_samples == other.point_samples && line_samples == other.line_samples &&
          min_valid_depth == other.min_valid_depth && seed == other.seed &&
-         a.min_segment_length_px == b.min_segment_length_px && a.spacing_px == b.spacing_px &&
-         a.lsd_scale == b.lsd_scale && a.lsd_min_width_px == b.lsd_min_width_px &&
-         a.edge_offset_px == b.edge_offset_px && a.ransac_inlier_m == b.ransac_inlier_m &&
-         a.ransac_iterations == b.ransac_iterations && a.min_inliers == b.min_inliers &&
-         a.min_inlier_ratio == b.min_inlier_ratio;
+         a.line_detector == b.line_detector && a.min_segment_length_px == b.min_segment_length_px &&
+         a.spacing_px == b.spacing_px && a.lsd_scale == b.lsd_scale &&
+         a.lsd_min_width_px == b.lsd_min_width_px && a.edge_offset_px == b.edge_offset_px &&
+         a.ransac_inlier_m == b.ransac_inlier_m && a.ransac_iterations == b.ransac_iterations &&
+         a.min_inliers == b.min_inliers && a.min_inlier_ratio == b.min_inlier_ratio;
 }
 
 std::string Relocalizer::limitations() const {

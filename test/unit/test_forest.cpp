@@ -751,6 +751,36 @@ TEST(Config, ModelsWithoutTheLsdFloorKeepTheirOwnLsdScale) {
   EXPECT_EQ(read_back->line_sampling.lsd_min_width_px, 0);
 }
 
+TEST(Config, ModelsWithoutALineDetectorKeepOpenCvsLsd) {
+  // Headers written before our own detector existed were trained on OpenCV's
+  // LSD: they keep it, so their line forests see what they were trained on.
+  const TrainingParams today;
+  ASSERT_EQ(today.line_sampling.line_detector, LineDetector::kOwn);
+  nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(today));
+  EXPECT_EQ(header["line_sampling"]["line_detector"], "own");
+  auto read = trainingParamsFromJson(header.dump());
+  ASSERT_TRUE(read.ok()) << read.error();
+  EXPECT_EQ(read->line_sampling.line_detector, LineDetector::kOwn);
+  ASSERT_EQ(header["line_sampling"].erase("line_detector"), 1u);
+  read = trainingParamsFromJson(header.dump());
+  ASSERT_TRUE(read.ok()) << read.error();
+  EXPECT_EQ(read->line_sampling.line_detector, LineDetector::kOpenCvLsd);
+  auto opencv = parseTrainingParams("line_sampling:\n  line_detector: opencv_lsd\n", "c.yaml");
+  ASSERT_TRUE(opencv.ok()) << opencv.error();
+  EXPECT_EQ(opencv->line_sampling.line_detector, LineDetector::kOpenCvLsd);
+  const auto wrong = parseTrainingParams("line_sampling:\n  line_detector: hough\n", "c.yaml");
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.error().find("'line_sampling.line_detector' must be \"own\" or \"opencv_lsd\", "
+                               "got \"hough\""),
+            std::string::npos)
+      << wrong.error();
+  // Frames sampled for one detector are not another's.
+  SamplingRecipe a, b;
+  b.line_sampling.line_detector = LineDetector::kOpenCvLsd;
+  EXPECT_TRUE(a.sameAs(a));
+  EXPECT_FALSE(a.sameAs(b));
+}
+
 TEST(Config, OverridesAndRejectsUnknownKeysAndWrongTypes) {
   auto p =
       parseTrainingParams("points:\n  trees: 3\nline_sampling:\n  spacing_px: 4\n", "test.yaml");

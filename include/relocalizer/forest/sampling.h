@@ -7,7 +7,9 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "relocalizer/core/frame.h"
@@ -28,7 +30,21 @@ struct Line3D {
   float distance(const Eigen::Vector3f& p) const { return (p - point).cross(direction).norm(); }
 };
 
+// Which line segment detector finds the segments. Our own
+// (line_segment_detector.h) gives the same segments on every platform and
+// OpenCV version; OpenCV's LSD is what models trained before it used (and
+// keep using: a model header without the key reads as OpenCV's), and OpenCV
+// 4.1.0 to 4.5.3 do not have it.
+enum class LineDetector { kOwn, kOpenCvLsd };
+const char* lineDetectorName(LineDetector detector);  // "own", "opencv_lsd"
+std::optional<LineDetector> lineDetectorNamed(const std::string& name);
+// Empty where `detector` works here; otherwise why not, naming the setting
+// (OpenCV's LSD is a stub that throws in 4.1.0 to 4.5.3: checked once, on a
+// tiny image).
+std::string lineDetectorMissing(LineDetector detector);
+
 struct LineSamplingParams {
+  LineDetector line_detector = LineDetector::kOwn;
   float min_segment_length_px = 20.0f;  // shorter LSD segments carry little structure
   float spacing_px = 5.0f;              // between samples along a segment
   // LSD on a downscaled image: far faster, and segments shorter than the
@@ -54,6 +70,11 @@ struct LineSamplingParams {
 // The factor LSD's input is scaled by for an image `image_width` pixels wide:
 // lsd_scale, raised so that the scaled image keeps lsd_min_width_px, at most 1.
 float lsdScaleFor(const LineSamplingParams& params, int image_width);
+
+// The segments (x1, y1, x2, y2) that `detector` finds in a BGR8 image scaled
+// by `scale`, in the scaled image's pixels. Throws std::runtime_error naming
+// the setting for OpenCV's LSD where this OpenCV does not have it.
+std::vector<cv::Vec4f> detectSegments(const cv::Mat& colour, LineDetector detector, float scale);
 
 // Up to `count` distinct pixels with valid depth, uniformly at random. Appends.
 void samplePoints(const RgbdFrame& frame, int count, std::mt19937& rng, std::vector<Sample>& out);
