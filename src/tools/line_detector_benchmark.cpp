@@ -29,7 +29,7 @@ double percentile(std::vector<double> values, double share) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Times the line detector stage of line sampling (grey, downscale, segments) on dataset "
       "frames, our own LSD and OpenCV's (where this OpenCV has it), alternating frame by "
       "frame on one thread; prints median / 95th percentile ms per frame and the segments found "
@@ -38,10 +38,10 @@ int main(int argc, char** argv) {
   cli::SourceOptions source_options;
   source_options.add(app, "Dataset folder", "Frame ids (default: all)");
   int rounds = 5;
-  app.add_option("--rounds", rounds, "Timed runs of each detector per frame (the median is kept)")
-      ->check(CLI::Range(1, 100))
-      ->capture_default_str();
-  if (const int code = cli::parse(app, argc, argv); code >= 0) return code;
+  app.addOption("--rounds", rounds, "Timed runs of each detector per frame (the median is kept)")
+      ->range(1, 100)
+      ->showDefault();
+  if (const int code = app.parse(argc, argv); code >= 0) return code;
   auto source = source_options.open();
   if (!source) return cli::fail(app, source.error());
   const FrameSource& data = **source;
