@@ -17,7 +17,7 @@ std::vector<Place> submapPlaces(const std::vector<SubmapModel>& models, const st
                                 const std::string& map_frame) {
   std::vector<Place> places;
   for (const SubmapModel& m : models)
-    places.push_back({submapPlaceName(group, m.index), map_frame, "", m.relocalizer, group});
+    places.push_back({submapPlaceName(group, m.index), map_frame, "", m.relocalizer, group, {}});
   return places;
 }
 

@@ -5,7 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <fstream>
 #include <optional>
+
+#include "relocalizer/forest/model_io.h"
 
 namespace relocalizer {
 
@@ -24,6 +28,74 @@ std::string placeError(const Place& place) {
 std::string groupFrameError(const Place& place, const std::string& frame) {
   return "place " + place.name + ": in " + place.map_frame + ", but group " + place.group +
          " is in " + frame + " (a group is one map)";
+}
+
+using PlaceList = std::vector<std::shared_ptr<const Place>>;
+
+bool under(const std::string& name, const std::string& group) {
+  return name.size() > group.size() && name.compare(0, group.size(), group) == 0 &&
+         name[group.size()] == '/';
+}
+
+// Why a place on its own cannot take its name in `places` (namespace rules in
+// place_set.h); empty when it can.
+std::string soloNameError(const PlaceList& places, const std::string& name) {
+  for (const auto& existing : places) {
+    if (existing->group.empty()) continue;
+    if (existing->group == name)
+      return "'" + name + "' is the name of a group of places (a folder of submaps); unload it " +
+             "first or choose another name";
+    if (existing->name == name || under(name, existing->group))
+      return "'" + name + "' is a name of group " + existing->group +
+             "'s places; choose another name";
+  }
+  return {};
+}
+
+// Why `group` cannot be a group's name in `places`; empty when it can.
+std::string groupNameError(const PlaceList& places, const std::string& group) {
+  for (const auto& existing : places)
+    if (existing->group.empty() && (existing->name == group || under(existing->name, group)))
+      return existing->name == group
+                 ? "'" + group + "' is a place on its own (a model file); unload it first or " +
+                       "choose another name"
+                 : "place '" + existing->name + "' (on its own) is under the name '" + group +
+                       "'; unload it first or choose another name";
+  return {};
+}
+
+// The place other than `place` (and outside its group) that holds its model
+// file in its frame, or null.
+const Place* sameModel(const PlaceList& places, const Place& place) {
+  if (place.model_id.empty()) return nullptr;
+  for (const auto& existing : places)
+    if (existing->name != place.name && existing->model_id == place.model_id &&
+        existing->map_frame == place.map_frame &&
+        (place.group.empty() || existing->group != place.group))
+      return existing.get();
+  return nullptr;
+}
+
+std::string sameModelError(const Place& place, const Place& holder) {
+  return "place " + place.name + ": its model (" + place.source + ") is already loaded as place " +
+         holder.name + " (" + holder.source + ") in " + place.map_frame +
+         "; two places of one model in one frame would make every frame an ambiguous place: " +
+         "unload " + holder.name + " first, or give another map_frame";
+}
+
+// The model file's identity (Place::model_id): CRC-32 and size. Empty when
+// it cannot be read again (then nothing is compared).
+std::string fileIdentity(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  const std::streamoff size = in.tellg();
+  if (!in || size < 0) return {};
+  std::vector<uint8_t> bytes(static_cast<size_t>(size));
+  in.seekg(0);
+  if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) return {};
+  char id[48];
+  std::snprintf(id, sizeof id, "crc32 %08x, %zu bytes", crc32Of(bytes.data(), bytes.size()),
+                bytes.size());
+  return id;
 }
 
 }  // namespace
@@ -88,6 +160,7 @@ Expected<Place> PlaceSet::load(const std::string& name, const std::string& model
   place.map_frame = map_frame;
   place.source = model_path;
   place.relocalizer = std::move(*relocalizer);
+  place.model_id = fileIdentity(model_path);
   return place;
 }
 
@@ -95,6 +168,11 @@ Status PlaceSet::put(Place place) {
   if (std::string why = placeError(place); !why.empty()) return makeError(why);
   auto shared = std::make_shared<const Place>(std::move(place));
   std::lock_guard<std::mutex> lock(mutex_);
+  if (shared->group.empty())
+    if (std::string why = soloNameError(places_, shared->name); !why.empty())
+      return makeError("place " + shared->name + ": " + why);
+  if (const Place* holder = sameModel(places_, *shared))
+    return makeError(sameModelError(*shared, *holder));
   if (!shared->group.empty())
     for (const auto& existing : places_)
       if (existing->group == shared->group && existing->name != shared->name &&
@@ -131,6 +209,10 @@ Status PlaceSet::putGroup(const std::string& group, std::vector<Place> places) {
   for (const auto& existing : places_)
     if (existing->group != group && memberNamed(existing->name) != members.end())
       return makeError("place " + existing->name + " is not of group " + group);
+  if (std::string why = groupNameError(places_, group); !why.empty()) return makeError(why);
+  for (const auto& member : members)
+    if (const Place* holder = sameModel(places_, *member))
+      return makeError(sameModelError(*member, *holder));
   std::vector<std::shared_ptr<const Place>> updated;
   for (const auto& existing : places_) {
     if (existing->group != group) {

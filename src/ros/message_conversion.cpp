@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
+#include "relocalizer/core/outside_text.h"
 #include "relocalizer/core/statistics.h"
 
 namespace relocalizer_ros {
@@ -213,13 +214,7 @@ std::string checkMetres(const cv::Mat& metres) {
 }  // namespace
 
 std::string messageExcerpt(const std::string& text, size_t max_bytes) {
-  const bool cut = text.size() > max_bytes;
-  std::string excerpt = cut ? text.substr(0, max_bytes) : text;
-  // A newline or escape sequence would split or garble the one log line.
-  for (char& c : excerpt)
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
-  if (cut) excerpt += "... (" + std::to_string(text.size()) + " bytes)";
-  return excerpt;
+  return relocalizer::textExcerpt(text, max_bytes);
 }
 
 bool colourEncodingSupported(const std::string& encoding) {

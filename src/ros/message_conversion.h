@@ -34,7 +34,8 @@ const char* intrinsicsMatrixName(const sensor_msgs::CameraInfo& info);
 
 // Text taken from a message (an encoding, a frame_id), or an exception text
 // that repeats one, as it may be quoted in a reason or a log line: at most
-// max_bytes of it followed by "... (N bytes)", control characters as '?'.
+// max_bytes of it followed by "... (N bytes)", control characters and bytes
+// that are not UTF-8 as '?' (core/outside_text.h).
 // Publishers decide how long these strings are; a 1 MB encoding must not
 // become a 1 MB log line, nor a newline in a frame_id a second line.
 constexpr size_t kMessageExcerptBytes = 64;

@@ -8,6 +8,7 @@
 
 #include "message_conversion.h"
 #include "node_text.h"
+#include "relocalizer/core/outside_text.h"
 
 namespace relocalizer_ros {
 
@@ -57,6 +58,32 @@ Eigen::Matrix3d levelCameraAlong(const Eigen::Matrix3d& arrow) {
   return Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * optical;
 }
 
+// Beyond this, an entry is no covariance but a unit or overflow mistake
+// (1e300 was read as "all zero", issue 38 W4); a free axis is 0.
+constexpr double kMaxCovarianceEntry = 1e9;
+
+// What is wrong with the message's covariance as given (before it is rotated
+// into a map frame, which would turn a huge entry into a free axis or into
+// infinity); empty when nothing is.
+std::string messageCovarianceError(const Matrix6d& c) {
+  static const char* const kAxes[6] = {"x", "y", "z", "roll", "pitch", "yaw"};
+  char buffer[200];
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j) {
+      const char* what = !std::isfinite(c(i, j))                   ? "is not finite"
+                         : std::abs(c(i, j)) > kMaxCovarianceEntry ? "is too large"
+                         : i == j && c(i, i) < 0                   ? "is negative"
+                                                                   : nullptr;
+      if (!what) continue;
+      std::snprintf(buffer, sizeof buffer,
+                    "the hint's covariance %s: %g at %s, %s (entries must be finite, at most %g "
+                    "in size, variances >= 0; 0 leaves an axis free)",
+                    what, c(i, j), kAxes[i], kAxes[j], kMaxCovarianceEntry);
+      return buffer;
+    }
+  return {};
+}
+
 std::string joined(const std::vector<std::string>& frames) {
   std::string text;
   for (const std::string& f : frames) text += (text.empty() ? "" : ", ") + f;
@@ -77,6 +104,8 @@ relocalizer::Expected<PoseHint> NodeHints::read(const HintMsg& msg) const {
   const std::string source = withoutSlash(msg.header.frame_id);
   if (source.empty())
     return relocalizer::makeError("the hint has no header.frame_id (the frame its pose is in)");
+  if (std::string why = relocalizer::nameError(source, "the hint's header.frame_id"); !why.empty())
+    return relocalizer::makeError(why);
   const geometry_msgs::Pose& p = msg.pose.pose;
   const Eigen::Vector4d q(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w);
   if (!std::isfinite(p.position.x) || !std::isfinite(p.position.y) ||
@@ -107,7 +136,7 @@ relocalizer::Expected<PoseHint> NodeHints::read(const HintMsg& msg) const {
         target = frame;
         break;
       } catch (const tf2::TransformException& e) {
-        why = e.what();
+        why = messageExcerpt(e.what(), 256);
       }
     }
     if (target.empty())
@@ -115,10 +144,18 @@ relocalizer::Expected<PoseHint> NodeHints::read(const HintMsg& msg) const {
                                     joined(frames) + ") and TF brings it into none of them" +
                                     (why.empty() ? "" : ": " + why));
   }
+  const Matrix6d covariance = covarianceFromMsg(msg.pose);
+  if (std::string why = messageCovarianceError(covariance); !why.empty())
+    return relocalizer::makeError(why);
   PoseHint hint;
   hint.frame = target;
   hint.pose = map_from_source * fromPoseMsg(p);
-  hint.covariance = rotateCovariance(covarianceFromMsg(msg.pose), map_from_source.linear());
+  hint.covariance = rotateCovariance(covariance, map_from_source.linear());
+  if (covariance.diagonal().any() && !hint.covariance.diagonal().any())
+    return relocalizer::makeError(
+        "the hint's covariance constrains nothing: every variance is 0 (free) or at least " +
+        std::to_string(static_cast<long>(0.5 * kFreeVariance)) +
+        " (as good as free); give variances for x, y and yaw below that");
   if (hint.covariance(3, 3) == 0 && hint.covariance(4, 4) == 0)
     hint.pose.linear() = levelCameraAlong(hint.pose.linear());
   if (std::string why = relocalizer::poseHintError(hint); !why.empty())

@@ -10,6 +10,7 @@
 #include "message_conversion.h"
 #include "relocalizer/core/config.h"
 #include "relocalizer/core/file_io.h"
+#include "relocalizer/core/outside_text.h"
 
 namespace relocalizer_ros {
 
@@ -196,6 +197,10 @@ std::string placeEntry(XmlRpc::XmlRpcValue& entry, const std::string& entry_name
   if (place.model.empty()) return "'" + entry_name + "' has no model; expected " + kPlaceForm;
   place.map_frame = stripLeadingSlashes(place.map_frame);
   if (place.map_frame.empty()) place.map_frame = map_frame;
+  for (auto [key, field] : {std::pair{"name", &place.name}, {"map_frame", &place.map_frame}})
+    if (std::string why = relocalizer::nameError(*field, "'" + entry_name + "/" + key + "'");
+        !why.empty())
+      return why;
   return {};
 }
 
@@ -224,10 +229,20 @@ Expected<std::vector<PlaceSpec>> readPlaces(const ros::NodeHandle& nh,
   return places;
 }
 
-// The place names and frames together: unique names, no place in odom_frame.
+// The place names and frames together: each a name (core/outside_text.h),
+// unique names, no place in odom_frame.
 std::string checkPlaces(const ros::NodeHandle& nh, const NodeParams& p) {
   const bool model_place = p.learn || !p.model.empty();
   const std::string own = placeName(p);
+  const auto ns = [&nh](const std::string& key) { return "'" + nh.resolveName(key) + "'"; };
+  for (auto [key, frame] : {std::pair{"map_frame", &p.map_frame},
+                            {"odom_frame", &p.odom_frame},
+                            {"handoff_frame", &p.handoff_frame}})
+    if (!frame->empty())
+      if (std::string why = relocalizer::nameError(*frame, ns(key)); !why.empty()) return why;
+  if (model_place)
+    if (std::string why = relocalizer::nameError(own, ns("place_name")); !why.empty())
+      return why + (p.place_name.empty() ? " (the model file's stem; set place_name)" : "");
   for (size_t i = 0; i < p.places.size(); ++i) {
     const std::string entry = "'" + nh.resolveName("places") + "[" + std::to_string(i) + "]'";
     if ((model_place && p.places[i].name == own) || isLearnedPlaceName(p, p.places[i].name))

@@ -66,6 +66,8 @@ class NodePlaces {
   void followLearner();
   // A name of the learned group's (placeName(), or placeName()/i).
   bool learnedName(const std::string& name) const;
+  // Loads the spec's model or folder and puts it, saying how in `response`.
+  void loadAndPut(const PlaceSpec& spec, relocalizer::LoadPlace::Response& response);
   bool onLoad(relocalizer::LoadPlace::Request& request, relocalizer::LoadPlace::Response& response);
   bool onUnload(relocalizer::UnloadPlace::Request& request,
                 relocalizer::UnloadPlace::Response& response);

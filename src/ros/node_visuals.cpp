@@ -86,11 +86,53 @@ NodeVisuals::NodeVisuals(ros::NodeHandle private_nh, std::string map_frame,
     : map_frame_(std::move(map_frame)), places_(std::move(places)) {
   surface_pub_ = private_nh.advertise<sensor_msgs::PointCloud2>("surface", 1, true);
   inliers_pub_ = private_nh.advertise<sensor_msgs::PointCloud2>("inliers", 1, true);
+  surface_thread_ = std::thread(&NodeVisuals::surfaceLoop, this);
+}
+
+NodeVisuals::~NodeVisuals() {
+  {
+    std::lock_guard<std::mutex> lock(surface_mutex_);
+    stopping_ = true;
+  }
+  surface_wake_.notify_all();
+  surface_thread_.join();
 }
 
 void NodeVisuals::placesChanged() {
-  std::lock_guard<std::mutex> lock(surface_mutex_);
-  surface_pub_.publish(surfaceCloud(places_(), map_frame_));
+  {
+    std::lock_guard<std::mutex> lock(surface_mutex_);
+    changed_ = true;
+  }
+  surface_wake_.notify_all();
+}
+
+bool NodeVisuals::sameAsLastCloud(const PlaceList& drawn) const {
+  if (!sent_any_ || drawn.size() != last_drawn_.size()) return false;
+  for (size_t i = 0; i < drawn.size(); ++i)
+    if (last_drawn_[i].lock() != drawn[i]) return false;
+  return true;
+}
+
+void NodeVisuals::surfaceLoop() {
+  std::unique_lock<std::mutex> lock(surface_mutex_);
+  while (true) {
+    surface_wake_.wait(lock, [this] { return stopping_ || changed_; });
+    if (stopping_) return;
+    changed_ = false;
+    PlaceList drawn;
+    for (auto& place : places_())
+      if (place->map_frame == map_frame_) drawn.push_back(std::move(place));
+    if (sameAsLastCloud(drawn)) continue;
+    lock.unlock();
+    surface_pub_.publish(surfaceCloud(drawn, map_frame_));
+    lock.lock();
+    sent_any_ = true;
+    last_drawn_.assign(drawn.begin(), drawn.end());
+    drawn.clear();
+    // Changes that come meanwhile wait for the interval's end, then are one cloud.
+    surface_wake_.wait_for(lock, std::chrono::duration<double>(kSurfaceInterval),
+                           [this] { return stopping_; });
+  }
 }
 
 void NodeVisuals::onPublished(const NodeOutput::Published& published) {

@@ -7,9 +7,12 @@
 // latched topic keeps only its last message, so a late subscriber (RViz
 // started after the node) would see one place of many. A place loaded into
 // another frame is not drawn on it. It is published at start and again after
-// every change of the places (~load_place, ~unload_place, a retrained learned
-// model), always from the places as they are when it is built, so the last
-// cloud is never older than the last change. Each point is coloured by its
+// a change of the places drawn (~load_place, ~unload_place, a retrained learned
+// model in map_frame), always from the places as they are when it is built, so
+// the last cloud is never older than the last change; a change elsewhere
+// (another frame) sends nothing. At most one cloud per kSurfaceInterval: the
+// changes of a storm of loads are one cloud (issue 38, R2: every load and
+// unload sent every place's surface, 722 MB in 30 s). Each point is coloured by its
 // normal (|x|, |y|, |z| as red, green, blue), so walls, floor and furniture
 // tell apart in a flat-shaded view.
 //
@@ -23,10 +26,12 @@
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <condition_variable>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "node_output.h"
@@ -43,22 +48,41 @@ sensor_msgs::PointCloud2 surfaceCloud(const PlaceList& places, const std::string
 sensor_msgs::PointCloud2 inlierCloud(const relocalizer::Relocalization& answer,
                                      const std_msgs::Header& header);
 
+// The shortest time between two ~surface clouds, s.
+constexpr double kSurfaceInterval = 1.0;
+
 class NodeVisuals {
  public:
   // `places` gives the places as they are now.
   NodeVisuals(ros::NodeHandle private_nh, std::string map_frame, std::function<PlaceList()> places);
+  ~NodeVisuals();
+  NodeVisuals(const NodeVisuals&) = delete;
+  NodeVisuals& operator=(const NodeVisuals&) = delete;
 
-  // ~surface again, from the places as they are now.
+  // ~surface again, from the places as they are then, if those drawn changed:
+  // returns at once; the cloud is built and sent on a thread of its own.
   void placesChanged();
   // The NodeOutput listener: ~inliers of each answer with a pose.
   void onPublished(const NodeOutput::Published& published);
 
  private:
+  void surfaceLoop();
+  // Whether `drawn` (places in map_frame now) are the places of the last cloud.
+  bool sameAsLastCloud(const PlaceList& drawn) const;
+
   const std::string map_frame_;
   const std::function<PlaceList()> places_;
-  std::mutex surface_mutex_;  // one build at a time, in the order of the changes
   ros::Publisher surface_pub_;
   ros::Publisher inliers_pub_;
+
+  std::mutex surface_mutex_;
+  std::condition_variable surface_wake_;
+  bool changed_ = false;
+  bool stopping_ = false;
+  bool sent_any_ = false;
+  // The last cloud's places, weakly: an unloaded place's memory goes.
+  std::vector<std::weak_ptr<const relocalizer::Place>> last_drawn_;
+  std::thread surface_thread_;
 };
 
 }  // namespace relocalizer_ros

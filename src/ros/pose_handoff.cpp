@@ -2,6 +2,8 @@
 
 #include <relocalizer/SetPose.h>
 
+#include <algorithm>
+
 #include "message_conversion.h"
 #include "node_text.h"
 
@@ -26,6 +28,7 @@ PoseHandoff::PoseHandoff(ros::NodeHandle nh, const NodeParams& params)
   if (!params_.handoff_frame.empty()) {
     buffer_ = std::make_unique<tf2_ros::Buffer>();
     listener_ = std::make_unique<tf2_ros::TransformListener>(*buffer_, nh_);
+    looker_ = std::thread(&PoseHandoff::lookupLoop, this);
   }
   if (!params_.set_pose_service.empty()) caller_ = std::thread(&PoseHandoff::callLoop, this);
   ROS_INFO("relocalizer: accepted poses (of %s) go to %s%s%s",
@@ -38,9 +41,12 @@ PoseHandoff::PoseHandoff(ros::NodeHandle nh, const NodeParams& params)
 }
 
 PoseHandoff::~PoseHandoff() {
+  stopping_ = true;
+  { std::lock_guard<std::mutex> lock(lookup_mutex_); }
+  lookup_wake_.notify_all();
+  if (looker_.joinable()) looker_.join();
   {
     std::lock_guard<std::mutex> lock(call_mutex_);
-    stopping_ = true;
     // A persistent client's shutdown drops its connection, which ends a call
     // that waits for a service that does not answer.
     client_.shutdown();
@@ -61,23 +67,28 @@ bool PoseHandoff::claim(uint64_t epoch, const ros::Time& stamp) {
   return true;
 }
 
+void PoseHandoff::waitForTransform(const std::string& camera_frame, const ros::Time& stamp) const {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(params_.tf_timeout);
+  const ros::Duration slice(std::min(0.1, params_.tf_timeout));
+  while (!stopping_ && !buffer_->canTransform(camera_frame, params_.handoff_frame, stamp, slice) &&
+         ros::WallTime::now() < deadline) {
+  }
+}
+
 relocalizer::Expected<geometry_msgs::PoseWithCovarianceStamped> PoseHandoff::handedPose(
-    const NodeOutput::ResultMsg& result, const FrameInput& input) const {
-  geometry_msgs::PoseWithCovarianceStamped pose = result.pose;
-  if (!buffer_) return pose;
-  const std::string camera_frame = stripLeadingSlashes(input.colour->header.frame_id);
+    const Answer& answer) const {
+  geometry_msgs::PoseWithCovarianceStamped pose = answer.pose;
   Pose camera_T_frame;
   try {
-    camera_T_frame =
-        fromTransformMsg(buffer_
-                             ->lookupTransform(camera_frame, params_.handoff_frame,
-                                               pose.header.stamp, ros::Duration(params_.tf_timeout))
-                             .transform);
+    waitForTransform(answer.camera_frame, pose.header.stamp);
+    camera_T_frame = fromTransformMsg(
+        buffer_->lookupTransform(answer.camera_frame, params_.handoff_frame, pose.header.stamp)
+            .transform);
   } catch (const tf2::TransformException& e) {
-    return relocalizer::makeError("no TF " + camera_frame + " -> " + params_.handoff_frame +
-                                  " at the answer's stamp within " +
-                                  secondsText(params_.tf_timeout) +
-                                  " s (tf_timeout): " + messageExcerpt(e.what(), 256));
+    return relocalizer::makeError(
+        "no TF " + messageExcerpt(answer.camera_frame) + " -> " +
+        messageExcerpt(params_.handoff_frame) + " at the answer's stamp within " +
+        secondsText(params_.tf_timeout) + " s (tf_timeout): " + messageExcerpt(e.what(), 256));
   }
   const Pose map_T_camera = fromPoseMsg(pose.pose.pose);
   const Matrix6d covariance = covarianceFromMsg(pose.pose);
@@ -91,21 +102,44 @@ void PoseHandoff::onPublished(const NodeOutput::Published& published) {
   // Only whole answers: a pose whose TF could not be prepared is a failure.
   if (!result.success || !published.input) return;
   if (!claim(published.input->epoch, result.header.stamp)) return;
-  auto pose = handedPose(result, *published.input);
-  if (!pose) {
-    if (log_.allow("handoff frame"))
-      ROS_WARN("relocalizer: the pose at %.3f is not handed off: %s", result.header.stamp.toSec(),
-               pose.error().c_str());
-    return;
+  if (!buffer_) return handOff(result.pose);
+  {
+    std::lock_guard<std::mutex> lock(lookup_mutex_);
+    lookup_pending_ =
+        Answer{result.pose, stripLeadingSlashes(published.input->colour->header.frame_id)};
   }
-  if (initialpose_pub_) initialpose_pub_.publish(*pose);
-  if (caller_.joinable()) {
+  lookup_wake_.notify_one();
+}
+
+void PoseHandoff::lookupLoop() {
+  while (true) {
+    Answer answer;
     {
-      std::lock_guard<std::mutex> lock(call_mutex_);
-      pending_ = std::move(*pose);
+      std::unique_lock<std::mutex> lock(lookup_mutex_);
+      lookup_wake_.wait(lock, [this] { return stopping_ || lookup_pending_; });
+      if (stopping_) return;
+      answer = std::move(*lookup_pending_);
+      lookup_pending_.reset();
     }
-    call_wake_.notify_one();
+    auto pose = handedPose(answer);
+    if (stopping_) return;
+    if (pose) {
+      handOff(std::move(*pose));
+    } else if (log_.allow("handoff frame")) {
+      ROS_WARN("relocalizer: the pose at %.3f is not handed off: %s",
+               answer.pose.header.stamp.toSec(), pose.error().c_str());
+    }
   }
+}
+
+void PoseHandoff::handOff(geometry_msgs::PoseWithCovarianceStamped pose) {
+  if (initialpose_pub_) initialpose_pub_.publish(pose);
+  if (!caller_.joinable()) return;
+  {
+    std::lock_guard<std::mutex> lock(call_mutex_);
+    pending_ = std::move(pose);
+  }
+  call_wake_.notify_one();
 }
 
 void PoseHandoff::callLoop() {

@@ -8,7 +8,10 @@
 //    frame, or finish out of order): a filter must not be set back in time.
 //  - With handoff_frame, the pose handed off is that frame's (the robot's base:
 //    what amcl and robot_localization estimate), through TF camera -> it at the
-//    answer's stamp; the covariance moves with the lever arm.
+//    answer's stamp; the covariance moves with the lever arm. That lookup
+//    waits up to tf_timeout, so it runs on a thread of its own with the newest
+//    answer only: a handoff_frame that never resolves holds up no answer
+//    (issue 38, H1: each one waited tf_timeout before it went out).
 //  - The service is called on a thread of its own with the newest pose only: a
 //    slow or absent service never holds up an answer, and poses that arrive
 //    while a call runs replace each other.
@@ -20,6 +23,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <atomic>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
@@ -56,16 +60,27 @@ class PoseHandoff {
   PoseHandoff(const PoseHandoff&) = delete;
   PoseHandoff& operator=(const PoseHandoff&) = delete;
 
-  // NodeOutput's listener: runs on the answering thread and never waits for
-  // the service (at most tf_timeout for TF camera -> handoff_frame).
+  // NodeOutput's listener: runs on the answering thread and waits for
+  // nothing (neither TF camera -> handoff_frame nor the service).
   void onPublished(const NodeOutput::Published& published);
 
  private:
   // True when the frame is later than every frame handed off so far.
   bool claim(uint64_t epoch, const ros::Time& stamp);
-  // The answer's pose as handed off: the camera's, or handoff_frame's.
+  // An answer's pose and the frame it is the pose of.
+  struct Answer {
+    geometry_msgs::PoseWithCovarianceStamped pose;
+    std::string camera_frame;
+  };
+  // The answer's pose as handed off: handoff_frame's.
   relocalizer::Expected<geometry_msgs::PoseWithCovarianceStamped> handedPose(
-      const NodeOutput::ResultMsg& result, const FrameInput& input) const;
+      const Answer& answer) const;
+  // TF camera -> handoff_frame at `stamp`, waited for up to tf_timeout in
+  // short slices, so that the destructor never waits a whole tf_timeout.
+  void waitForTransform(const std::string& camera_frame, const ros::Time& stamp) const;
+  // The pose goes to initialpose and the service.
+  void handOff(geometry_msgs::PoseWithCovarianceStamped pose);
+  void lookupLoop();
   void callLoop();
 
   const NodeParams& params_;
@@ -75,17 +90,24 @@ class PoseHandoff {
   std::unique_ptr<tf2_ros::TransformListener> listener_;
   mutable ThrottledLog log_;
 
+  std::atomic<bool> stopping_{false};
+
   std::mutex claim_mutex_;
   bool claimed_any_ = false;
   uint64_t last_epoch_ = 0;
   ros::Time last_stamp_;
+
+  // The TF side (handoff_frame set only): the newest answer not yet looked up.
+  std::mutex lookup_mutex_;
+  std::condition_variable lookup_wake_;
+  std::optional<Answer> lookup_pending_;
+  std::thread looker_;
 
   // The service side: the newest pose not yet sent, and the client of the call
   // under way, shut down by the destructor to end a call that hangs.
   std::mutex call_mutex_;
   std::condition_variable call_wake_;
   std::optional<geometry_msgs::PoseWithCovarianceStamped> pending_;
-  bool stopping_ = false;
   ros::ServiceClient client_;
   std::thread caller_;
 };

@@ -1,5 +1,7 @@
 #include "relocalizer_node.h"
 
+#include <new>
+
 #include "message_conversion.h"
 #include "node_text.h"
 
@@ -215,8 +217,13 @@ RelocalizerNode::ResultMsg RelocalizerNode::process(const FrameInput& input,
   } catch (const std::exception& e) {
     // A frame the core chokes on must cost one failure result, not the node
     // (or, through an unset promise, every waiting service call).
-    result.message = std::string("internal error: ") + e.what();
-    ROS_ERROR("relocalizer: frame at %.3f: %s", stamp.toSec(), result.message.c_str());
+    // The answer says it in our words; the library's text is for the log.
+    result.message =
+        dynamic_cast<const std::bad_alloc*>(&e)
+            ? "internal error: out of memory while relocalizing this frame"
+            : "internal error while relocalizing this frame (the node's log says more)";
+    ROS_ERROR("relocalizer: frame at %.3f: %s: %s", stamp.toSec(), result.message.c_str(),
+              messageExcerpt(e.what(), 256).c_str());
     result.processing_time = std::chrono::duration<float>(Clock::now() - start).count();
     output_.frameFailed(result, &input);
     return result;

@@ -4,9 +4,15 @@
 // pose, covariance), each frame once even when two calls answer it; a frame
 // that gets no pose is not handed off; a service slower than the answers holds
 // none of them up.
+// handoff_frame.test (HandoffFrame): a handoff_frame that TF does not bring
+// holds up no answer, even at tf_timeout 10 s, and once TF brings it the pose
+// handed off is that frame's.
 
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <relocalizer/SetPose.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include <cmath>
 
 #include "node_test_support.h"
 
@@ -145,6 +151,48 @@ TEST(Handoff, AcceptedPosesReachAmclAndTheFilterOnceEach) {
       EXPECT_GT(set[i].header.stamp, set[i - 1].header.stamp) << "not in order";
     }
   }
+}
+
+TEST(HandoffFrame, AnAnswerNeverWaitsForTheHandoffFramesTf) {
+  Listener<PoseMsg> amcl("/initialpose");
+  std::vector<FrameMessages> frames = loadFixtureFrames();
+  CameraPublisher camera;
+  ASSERT_TRUE(camera.waitForNode());
+  double tf_timeout = 0.0;
+  ASSERT_TRUE(ros::param::get("/relocalizer/tf_timeout", tf_timeout));
+  ASSERT_GE(tf_timeout, 10.0) << "the launch file sets the longest tf_timeout";
+
+  // base_footprint is in no TF yet: before issue 38 each call waited tf_timeout.
+  for (size_t i : {0, 5}) {
+    frames[i].stamp(ros::Time::now());
+    camera.publish(frames[i]);
+    const ros::WallTime start = ros::WallTime::now();
+    const auto answer = callLatest();
+    const double seconds = (ros::WallTime::now() - start).toSec();
+    ASSERT_TRUE(answer.success) << answer.message;
+    EXPECT_LT(seconds, tf_timeout / 2) << "the answer waited for the hand-off's TF";
+  }
+  EXPECT_TRUE(amcl.messages().empty()) << "a pose was handed off without its frame's TF";
+
+  // Once TF has the frame (0.3 m along the camera's y axis), the pose handed
+  // off is that frame's.
+  tf2_ros::StaticTransformBroadcaster broadcaster;
+  geometry_msgs::TransformStamped base;
+  base.header.frame_id = kCameraFrame;
+  base.child_frame_id = "base_footprint";
+  base.transform.translation.y = 0.3;
+  base.transform.rotation.w = 1.0;
+  broadcaster.sendTransform(base);
+  frames[10].stamp(ros::Time::now());
+  camera.publish(frames[10]);
+  const auto answer = callLatest();
+  ASSERT_TRUE(answer.success) << answer.message;
+  const auto handed = amcl.waitFor(
+      [&](const PoseMsg& m) { return m.header.stamp == answer.pose.header.stamp; }, 3 * tf_timeout);
+  ASSERT_TRUE(handed) << "the answer at " << answer.pose.header.stamp << " was not handed off";
+  const auto& a = answer.pose.pose.pose.position;
+  const auto& b = handed->pose.pose.position;
+  EXPECT_NEAR(std::hypot(a.x - b.x, a.y - b.y, a.z - b.z), 0.3, 1e-6);
 }
 
 int main(int argc, char** argv) {

@@ -144,6 +144,51 @@ TEST(Hints, AHintInAFrameTfCannotReachIsRefusedWithItsReason) {
   EXPECT_TRUE(contains(call(frame, spinning).message, "not a unit quaternion"));
 }
 
+// Issue 38 (W1-W4): a hint's frame and covariance that make no sense are
+// refused saying what is wrong, in a short line of printable text.
+TEST(Hints, ANonsenseHintIsRefusedSayingWhatIsWrong) {
+  const FrameMessages& frame = g_frames->at(15);
+  const auto refusal = [&](const HintMsg& hint) {
+    const relocalizer::Relocalize::Response response = call(frame, hint);
+    EXPECT_FALSE(response.success);
+    EXPECT_LT(response.message.size(), 400u) << response.message.substr(0, 400);
+    EXPECT_EQ(response.message.find_first_of("\n\r\x1b"), std::string::npos);
+    return response.message;
+  };
+  HintMsg huge = hintAt(frame.truth, "map");
+  huge.pose.covariance[0] = 1e300;
+  std::string why = refusal(huge);
+  EXPECT_TRUE(contains(why, "covariance is too large: 1e+300 at x, x")) << why;
+  EXPECT_FALSE(contains(why, "all zero")) << why;
+  HintMsg nan = hintAt(frame.truth, "map");
+  nan.pose.covariance[7] = std::nan("");
+  why = refusal(nan);
+  EXPECT_TRUE(contains(why, "covariance is not finite")) << why;
+  HintMsg free_axes = hintAt(frame.truth, "map");
+  for (int i = 0; i < 6; ++i) free_axes.pose.covariance[i * 7] = 1e6;
+  why = refusal(free_axes);
+  EXPECT_TRUE(contains(why, "constrains nothing")) << why;
+  EXPECT_FALSE(contains(why, "all zero")) << why;
+
+  const std::string long_frame(10000, 'f');
+  why = refusal(hintAt(frame.truth, long_frame));
+  EXPECT_TRUE(contains(why, "header.frame_id '" + std::string(40, 'f') + "... (10000 bytes)'"))
+      << why.substr(0, 400);
+  EXPECT_TRUE(contains(why, "is longer than 128 bytes")) << why.substr(0, 400);
+  why = refusal(hintAt(frame.truth, "map\n[ERROR] forged"));
+  EXPECT_TRUE(contains(why, "'map?[ERROR] forged' holds a character other than")) << why;
+  g_rosout->clear();
+  g_initialpose->publish(hintAt(frame.truth, "map\x1b[2J" + long_frame));
+  const auto warning = g_rosout->waitFor(
+      [&](const rosgraph_msgs::Log& log) {
+        return log.name == "/relocalizer" && contains(log.msg, "header.frame_id");
+      },
+      10.0);
+  ASSERT_TRUE(warning) << "no warning of the refused hint";
+  EXPECT_LT(warning->msg.size(), 400u);
+  EXPECT_EQ(warning->msg.find('\x1b'), std::string::npos);
+}
+
 TEST(Hints, ANodeIgnoresItsOwnInitialposeMessages) {
   // This test node listens too: what it publishes itself on initialpose (as
   // forward_initialpose does) must not become its hint, while the relocalizer

@@ -8,6 +8,7 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 
+#include "../../src/ros/node_visuals.h"
 #include "node_test_support.h"
 #include "relocalizer/forest/model_io.h"
 
@@ -63,6 +64,56 @@ TEST(Visuals, SurfaceIsLatchedInTheMapFrameAndFollowsThePlaces) {
   ASSERT_TRUE(ros::service::call("/relocalizer/unload_place", unload));
   ASSERT_TRUE(unload.response.success) << unload.response.message;
   EXPECT_TRUE(surfaceOf(room)) << "~surface still holds the unloaded place";
+}
+
+// Issue 38, R2: every load and unload sent every place's surface again (722
+// MB in 30 s during a storm of loads). A change in another frame sends
+// nothing; a storm in the map frame is a few clouds, the last one right.
+TEST(Visuals, AStormOfLoadsSendsOnlyWhatChangedAtABoundedRate) {
+  const size_t room = surfaceSize("model.bin"), lab = surfaceSize("model2.bin");
+  ASSERT_TRUE(surfaceOf(room)) << "no ~surface of the model alone";
+  Listener<Cloud> surface("/relocalizer/surface");
+  ASSERT_TRUE(surface.waitFor([](const Cloud&) { return true; }, 30.0)) << "not latched";
+  const auto change = [](const std::string& name, const std::string& model,
+                         const std::string& frame) {
+    if (model.empty()) {
+      relocalizer::UnloadPlace unload;
+      unload.request.name = name;
+      ASSERT_TRUE(ros::service::call("/relocalizer/unload_place", unload));
+      ASSERT_TRUE(unload.response.success) << unload.response.message;
+      return;
+    }
+    relocalizer::LoadPlace load;
+    load.request.name = name;
+    load.request.model = fixturePath(model);
+    load.request.map_frame = frame;
+    ASSERT_TRUE(ros::service::call("/relocalizer/load_place", load));
+    ASSERT_TRUE(load.response.success) << load.response.message;
+  };
+  constexpr int kChanges = 10;
+  surface.clear();
+  for (int i = 0; i < kChanges; ++i) {
+    change("elsewhere", "model2.bin", "elsewhere_map");
+    change("elsewhere", "", "");
+  }
+  ros::WallDuration(2 * relocalizer_ros::kSurfaceInterval + 0.5).sleep();
+  EXPECT_EQ(surface.messages().size(), 0u) << "places in another frame changed ~surface";
+
+  const ros::WallTime start = ros::WallTime::now();
+  for (int i = 0; i < kChanges; ++i) {
+    change("lab", "model2.bin", "");
+    change("lab", "", "");
+  }
+  change("lab", "model2.bin", "");
+  const double seconds = (ros::WallTime::now() - start).toSec();
+  ASSERT_TRUE(surfaceOf(room + lab)) << "the last cloud does not hold the last places";
+  ros::WallDuration(relocalizer_ros::kSurfaceInterval + 0.5).sleep();
+  const size_t clouds = surface.messages().size();
+  EXPECT_LE(clouds, static_cast<size_t>(seconds / relocalizer_ros::kSurfaceInterval) + 2)
+      << 2 * kChanges + 1 << " changes in " << seconds << " s";
+  EXPECT_LT(clouds, static_cast<size_t>(2 * kChanges + 1));
+  change("lab", "", "");
+  EXPECT_TRUE(surfaceOf(room));
 }
 
 TEST(Visuals, InliersOfEachAnswerAreItsCountedPointAndLineInliers) {

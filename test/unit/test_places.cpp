@@ -429,6 +429,81 @@ TEST_F(Places, PutReplacesByNameAndRefusesWhatCannotBeUsed) {
   EXPECT_NE(missing.error().find("/nonexistent/lab.model"), std::string::npos) << missing.error();
 }
 
+// Issue 38, D1: one model file loaded twice into one frame made every frame
+// "ambiguous place" until one was unloaded.
+TEST_F(Places, OneModelFileTwiceInOneFrameIsRefusedNamingItsHolder) {
+  const relocalizer::testing::TempDir dir;
+  const std::string file = dir.str() + "/kitchen.model", copy = dir.str() + "/copy.model",
+                    other = dir.str() + "/lab.model";
+  ASSERT_TRUE(saveModel(rooms_[0].relocalizer->model(), file).ok());
+  ASSERT_TRUE(saveModel(rooms_[0].relocalizer->model(), copy).ok());
+  ASSERT_TRUE(saveModel(rooms_[1].relocalizer->model(), other).ok());
+  const RelocalizerParams params = relocalizer::testing::smallRoomRelocalizer();
+  const auto load = [&](const std::string& name, const std::string& path,
+                        const std::string& frame = "map") {
+    auto place = PlaceSet::load(name, path, frame, params);
+    EXPECT_TRUE(place.ok()) << place.error();
+    return std::move(*place);
+  };
+  PlaceSet set;
+  ASSERT_TRUE(set.put(load("kitchen", file)).ok());
+  for (const std::string& path : {file, copy}) {
+    const Status twice = set.put(load("kitchen2", path));
+    ASSERT_FALSE(twice.ok()) << path;
+    EXPECT_NE(twice.error().find("already loaded as place kitchen (" + file + ") in map"),
+              std::string::npos)
+        << twice.error();
+  }
+  EXPECT_EQ(set.names(), std::vector<std::string>{"kitchen"});
+  // In another frame it is another map (hints tell them apart); the place
+  // itself may be loaded again (a reload); another model may share the frame.
+  EXPECT_TRUE(set.put(load("kitchen2", copy, "other_map")).ok());
+  EXPECT_TRUE(set.put(load("kitchen", file)).ok());
+  EXPECT_TRUE(set.put(load("lab", other)).ok());
+  EXPECT_FALSE(set.put(load("lab", file)).ok()) << "lab replaced by kitchen's model";
+  // Nor may a group take a model a place outside it holds in its frame.
+  const Status group = set.putGroup("g", {load("g/0", copy)});
+  ASSERT_FALSE(group.ok());
+  EXPECT_NE(group.error().find("already loaded as place kitchen"), std::string::npos)
+      << group.error();
+  EXPECT_EQ(set.names(), (std::vector<std::string>{"kitchen", "kitchen2", "lab"}));
+}
+
+// Issue 38, D3: a file as `h` and a folder as `h` kept `h`, `h/0`, `h/1`, and a
+// file as `g/0` replaced a group's member.
+TEST_F(Places, GroupAndPlaceNamesAreOneNamespace) {
+  const auto& kitchen = rooms_[0].relocalizer;
+  const auto& lab = rooms_[1].relocalizer;
+  PlaceSet set;
+  ASSERT_TRUE(set.put(Place{"h", "building", "memory", lab, {}, {}}).ok());
+  const Status over_place = set.putGroup("h", {groupPlace(kitchen, "h/0", "")});
+  ASSERT_FALSE(over_place.ok());
+  EXPECT_NE(over_place.error().find("'h' is a place on its own"), std::string::npos)
+      << over_place.error();
+  ASSERT_TRUE(set.put(Place{"k/x", "building", "memory", lab, {}, {}}).ok());
+  const Status over_name = set.putGroup("k", {groupPlace(kitchen, "k/0", "")});
+  ASSERT_FALSE(over_name.ok());
+  EXPECT_NE(over_name.error().find("place 'k/x' (on its own) is under the name 'k'"),
+            std::string::npos)
+      << over_name.error();
+  EXPECT_EQ(set.names(), (std::vector<std::string>{"h", "k/x"}));
+
+  ASSERT_TRUE(
+      set.putGroup("g", {groupPlace(kitchen, "g/0", ""), groupPlace(kitchen, "g/1", "")}).ok());
+  for (const std::string& name : {"g", "g/0", "g/7"}) {
+    const Status refused = set.put(Place{name, "building", "memory", lab, {}, {}});
+    ASSERT_FALSE(refused.ok()) << name;
+    EXPECT_NE(refused.error().find("place " + name + ": '" + name + "' is"), std::string::npos)
+        << refused.error();
+  }
+  EXPECT_EQ(set.places()[2]->relocalizer, kitchen) << "g/0 was replaced";
+  EXPECT_EQ(set.names(), (std::vector<std::string>{"h", "k/x", "g/0", "g/1"}));
+  // The group itself may be put again (a folder reloaded), and unloaded by its name.
+  EXPECT_TRUE(set.putGroup("g", {groupPlace(lab, "g/0", "")}).ok());
+  EXPECT_TRUE(set.remove("g"));
+  EXPECT_EQ(set.names(), (std::vector<std::string>{"h", "k/x"}));
+}
+
 TEST_F(Places, FiguresDescribeTheModel) {
   const PlaceFigures figures = placeFigures(placeOf(rooms_[0]));
   EXPECT_EQ(figures.point_trees, 3);

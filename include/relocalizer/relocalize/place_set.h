@@ -40,6 +40,9 @@ struct Place {
   // A shared map_frame alone does not make one map: two models a user loads
   // into one frame stay rivals, as they were before groups.
   std::string group;
+  // The model file's identity (its CRC-32 and size), as PlaceSet::load read
+  // it; empty for a model that is no file's (built in memory, learned).
+  std::string model_id;
 };
 
 // What a listing shows of a place.
@@ -138,23 +141,34 @@ struct PlaceAnswer {
   PlaceSearchTimings search;           // zero for one place
 };
 
+// Names are one namespace. A group's name, and every name under it
+// (`group/...`), is the group's: a place on its own may not take it, and a
+// group may not be named after a place on its own nor take names under one's
+// name. A place on its own replaces only a place on its own of its name.
+// One model file twice in one map frame is refused (unless both are places
+// of one group): the two would explain every frame alike, so every frame
+// would be "ambiguous place" (issue 38, D1 and D3).
 class PlaceSet {
  public:
   explicit PlaceSet(PlaceSearchParams params = {});
 
-  // Loads a model file as a place. The error names the place and the file.
+  // Loads a model file as a place, with its model_id. The error names the
+  // place and the file.
   static Expected<Place> load(const std::string& name, const std::string& model_path,
                               const std::string& map_frame, const RelocalizerParams& params);
 
   // Adds a place, or replaces the one of the same name (a retrained model).
-  // Refuses an empty name or frame, a model the parameters cannot use, or a
-  // group place in another frame than its group's.
+  // Refuses an empty name or frame, a model the parameters cannot use, a
+  // group place in another frame than its group's, a name the namespace rules
+  // above give to another, or a model file another place holds in that frame.
   Status put(Place place);
   // Makes `places` the group's places, all at once (a relocalization sees the
   // group before or after, never half): each gets `group`; the group's places
   // not among them go; one of the same name is replaced in its position.
   // Refuses (and changes nothing) an empty group, what put() refuses, two
-  // places of one name or of two frames, or a name held outside the group.
+  // places of one name or of two frames, a name held outside the group, a
+  // group named after a place on its own (or over names under its name), or
+  // a model file a place outside the group holds in that frame.
   Status putGroup(const std::string& group, std::vector<Place> places);
   // Removes the place of that name, or else every place of the group of that
   // name (a saved set of submaps goes as it came). False when neither is there.
