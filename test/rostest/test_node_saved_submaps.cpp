@@ -66,7 +66,7 @@ TEST(SavedSubmaps, ABadFolderOrPathIsAnAnswerAndSaysNothingOfWhatIsThere) {
   load.request.model = fixture + "/learned_huge_index";
   ASSERT_TRUE(ros::service::call("/relocalizer/load_place", load));
   EXPECT_FALSE(load.response.success);
-  EXPECT_TRUE(contains(load.response.message, "index must be from 0 to 99999"))
+  EXPECT_TRUE(contains(load.response.message, "active must be from 0 to 99999"))
       << load.response.message;
 
   std::string first;
