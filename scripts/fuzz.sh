@@ -26,7 +26,7 @@ seconds=${FUZZ_SECONDS:-60}
 parallel=${FUZZ_PARALLEL:-1}
 build_dir=${FUZZ_BUILD_DIR:-build/fuzz}
 jobs=${JOBS:-$(nproc)}
-all_targets=(fuzz_model fuzz_frame_selection fuzz_config fuzz_seven_scenes fuzz_twelve_scenes fuzz_tum fuzz_submap_manifest fuzz_names fuzz_stamps)
+all_targets=(fuzz_model fuzz_frame_selection fuzz_config fuzz_seven_scenes fuzz_twelve_scenes fuzz_tum fuzz_submap_manifest fuzz_names fuzz_place_requests fuzz_stamps)
 read -r -a targets <<< "${FUZZ_TARGETS:-${all_targets[*]}}"
 
 cxx=${CXX_FUZZ:-}

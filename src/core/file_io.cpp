@@ -5,12 +5,15 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
+#include <new>
 #include <set>
+#include <stdexcept>
 
 namespace relocalizer {
 
@@ -80,46 +83,92 @@ Status writeAndSync(const std::string& path, const std::string& temporary,
   return okStatus();
 }
 
+// Reads up to `size` bytes at `offset` of `bytes`; the refusal when it cannot.
+std::string readInto(int fd, std::vector<uint8_t>& bytes, size_t offset, const std::string& what) {
+  while (offset < bytes.size()) {
+    const ssize_t n = ::read(fd, bytes.data() + offset, bytes.size() - offset);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return "cannot read " + what + ": " + systemReason(errno);
+    if (n == 0) return what + " shrank while it was read";
+    offset += static_cast<size_t>(n);
+  }
+  return {};
+}
+
+// The refusal of what `fd` is, empty for a regular file that is not empty.
+std::string fileTypeRefusal(int fd, const std::string& what, struct stat& info) {
+  if (::fstat(fd, &info) != 0) return "cannot inspect " + what + ": " + systemReason(errno);
+  if (S_ISDIR(info.st_mode)) return "is a directory, not a " + what;
+  if (!S_ISREG(info.st_mode)) return "is not a regular file (a device or a pipe?), not a " + what;
+  if (info.st_size == 0) return what + " is empty";
+  return {};
+}
+
 }  // namespace
 
-Expected<std::vector<uint8_t>> readRegularFile(const std::string& path, const std::string& what) {
+Expected<std::vector<uint8_t>> readRegularFile(const std::string& path, const FileFormat& format) {
   // O_NONBLOCK: opening a FIFO for reading would otherwise wait for a writer
   // for good; the type is then checked on what was opened.
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) return makeError(path + ": cannot open " + what + ": " + systemReason(errno));
+  const int fd = ::open(path.c_str(),
+                        O_RDONLY | O_NONBLOCK | O_CLOEXEC | (format.follow_link ? 0 : O_NOFOLLOW));
+  if (fd < 0) {
+    const int error = errno;
+    if (error == ELOOP && !format.follow_link)
+      return makeError(path + ": is a symbolic link, not followed: a " + format.what +
+                       " must be the file itself");
+    return makeError(path + ": cannot open " + format.what + ": " + systemReason(error));
+  }
   struct stat info = {};
-  std::string refusal;
-  if (::fstat(fd, &info) != 0)
-    refusal = "cannot inspect " + what + ": " + systemReason(errno);
-  else if (S_ISDIR(info.st_mode))
-    refusal = "is a directory, not a " + what;
-  else if (!S_ISREG(info.st_mode))
-    refusal = "is not a regular file (a device or a pipe?), not a " + what;
-  else if (info.st_size == 0)
-    refusal = what + " is empty";
+  std::string refusal = fileTypeRefusal(fd, format.what, info);
   std::vector<uint8_t> bytes;
   if (refusal.empty()) {
-    // One read into a sized buffer: a byte-wise stream copy of a 70 MB model
-    // costs a second of start-up.
-    bytes.resize(static_cast<size_t>(info.st_size));
-    size_t done = 0;
-    while (done < bytes.size()) {
-      const ssize_t n = ::read(fd, bytes.data() + done, bytes.size() - done);
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0) {
-        refusal = "cannot read " + what + ": " + systemReason(errno);
-        break;
-      }
-      if (n == 0) {
-        refusal = what + " shrank while it was read";
-        break;
-      }
-      done += static_cast<size_t>(n);
+    const uint64_t size = static_cast<uint64_t>(info.st_size);
+    bytes.resize(static_cast<size_t>(std::min<uint64_t>(format.head_bytes, size)));
+    refusal = readInto(fd, bytes, 0, format.what);
+    uint64_t length = 0;
+    if (refusal.empty()) {
+      const Expected<uint64_t> named = format.length(bytes, size);
+      if (!named)
+        refusal = named.error();
+      else if (*named > size)
+        refusal = format.what + " is truncated: it holds " + std::to_string(size) +
+                  " bytes, its header names " + std::to_string(*named);
+      else
+        length = *named;
+    }
+    if (refusal.empty()) {
+      // One read into a sized buffer: a byte-wise stream copy of a 70 MB
+      // model costs a second of start-up.
+      const size_t head = bytes.size();
+      bytes.resize(static_cast<size_t>(length));
+      if (head < bytes.size()) refusal = readInto(fd, bytes, head, format.what);
     }
   }
   ::close(fd);
   if (!refusal.empty()) return makeError(path + ": " + refusal);
   return bytes;
+}
+
+FileFormat sizeLimitedFile(const std::string& what, uint64_t max_bytes) {
+  FileFormat format;
+  format.what = what;
+  format.length = [what, max_bytes](const std::vector<uint8_t>&,
+                                    uint64_t size) -> Expected<uint64_t> {
+    if (size > max_bytes)
+      return makeError(what + " is " + std::to_string(size) + " bytes, more than the " +
+                       std::to_string(max_bytes) + " one may hold");
+    return size;
+  };
+  return format;
+}
+
+std::string loadFailureReason(const std::exception& error) {
+  if (dynamic_cast<const std::bad_alloc*>(&error))
+    return "too large to load (out of memory: a size in it may be damaged)";
+  if (dynamic_cast<const std::length_error*>(&error) ||
+      dynamic_cast<const std::out_of_range*>(&error))
+    return "a size or number in it is out of range";
+  return "cannot be read";
 }
 
 std::string replaceableError(const std::string& path, std::string_view magic,

@@ -72,4 +72,14 @@ std::string textExcerpt(const std::string& text, size_t max_bytes) {
   return excerpt;
 }
 
+bool printableText(const std::string& text) {
+  for (size_t i = 0; i < text.size();) {
+    const size_t length = utf8Length(text, i);
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (length == 0 || c < 0x20 || c == 0x7f) return false;
+    i += length;
+  }
+  return true;
+}
+
 }  // namespace relocalizer

@@ -47,7 +47,7 @@ static_assert(sizeof(SurfaceElement) == 24, "SurfaceElement layout is part of th
 json vec3Json(const Eigen::Vector3f& v) { return {v.x(), v.y(), v.z()}; }
 Eigen::Vector3f vec3From(const json& j, const std::string& name) {
   if (!j.is_array() || j.size() != 3)
-    throw std::out_of_range("'" + name + "' must be 3 numbers, got " + j.dump());
+    throw std::out_of_range("'" + name + "' must be 3 numbers, got " + detail::quoted(j));
   return Eigen::Vector3f(checkedNumber<float>(j[0], name), checkedNumber<float>(j[1], name),
                          checkedNumber<float>(j[2], name));
 }
@@ -274,6 +274,30 @@ bool readSurface(ByteReader& r, SurfaceModel& surface, std::string& why) {
   return true;
 }
 
+// Why the preamble (magic, version, body length, CRC) at `data` (`size`
+// bytes of a file of `total` bytes) is not a model's, with the fields read
+// when it is: the check loadModel makes on a file's first bytes before
+// reading the rest, and deserializeModel makes again.
+std::string preambleError(const uint8_t* data, size_t size, uint64_t total, uint32_t& version,
+                          uint64_t& body_size, uint32_t& crc) {
+  if (size < kModelMagic.size() || std::memcmp(data, kModelMagic.data(), kModelMagic.size()) != 0)
+    return "not a relocalizer model (wrong magic number; expected a file written by `train`)";
+  ByteReader r(data, size);
+  char magic[8];
+  uint32_t reserved = 0;
+  if (!r.bytes(magic, 8) || !r.value(version) || !r.value(reserved) || !r.value(body_size) ||
+      !r.value(crc))
+    return "truncated model file (header incomplete)";
+  if (version < 1 || version > kModelFormatVersion)
+    return "model format version " + std::to_string(version) +
+           " is not supported (this build reads versions 1 to " +
+           std::to_string(kModelFormatVersion) + "); retrain or use a matching build";
+  if (body_size > total - kPreambleSize)
+    return "truncated model file (" + std::to_string(total - kPreambleSize) + " of " +
+           std::to_string(body_size) + " body bytes present)";
+  return {};
+}
+
 }  // namespace
 
 std::string modelHeaderJson(const Model& model, int indent) {
@@ -310,24 +334,10 @@ std::vector<uint8_t> serializeModel(const Model& model) {
 
 Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::string& source) {
   const std::string where = source + ": ";
-  if (size < kModelMagic.size() || std::memcmp(data, kModelMagic.data(), kModelMagic.size()) != 0)
-    return makeError(where +
-                     "not a relocalizer model (wrong magic number; expected a file "
-                     "written by `train`)");
-  ByteReader r(data, size);
-  char magic[8];
-  uint32_t version = 0, reserved = 0, crc = 0;
   uint64_t body_size = 0;
-  if (!r.bytes(magic, 8) || !r.value(version) || !r.value(reserved) || !r.value(body_size) ||
-      !r.value(crc))
-    return makeError(where + "truncated model file (header incomplete)");
-  if (version < 1 || version > kModelFormatVersion)
-    return makeError(where + "model format version " + std::to_string(version) +
-                     " is not supported (this build reads versions 1 to " +
-                     std::to_string(kModelFormatVersion) + "); retrain or use a matching build");
-  if (body_size > r.remaining())
-    return makeError(where + "truncated model file (" + std::to_string(r.remaining()) + " of " +
-                     std::to_string(body_size) + " body bytes present)");
+  uint32_t version = 0, crc = 0;
+  if (std::string why = preambleError(data, size, size, version, body_size, crc); !why.empty())
+    return makeError(where + why);
   const uint8_t* body = data + kPreambleSize;
   if (crc32Of(body, body_size) != crc)
     return makeError(where + "checksum mismatch: the model file is corrupt");
@@ -353,7 +363,7 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
     model.summary.scene_max = vec3From(s.at("scene_max"), "training_set.scene_max");
     model.summary.software_version = s.at("software_version");
   } catch (const std::exception& e) {
-    return makeError(where + "model header is not valid: " + e.what());
+    return makeError(where + "model header is not valid: " + detail::jsonErrorReason(e));
   }
   std::string why;
   const auto read = version <= 2 ? readTreesV1 : readTrees;
@@ -399,8 +409,24 @@ Status saveModel(const Model& model, const std::string& path) {
   return okStatus();
 }
 
+FileFormat modelFileFormat(const std::string& what) {
+  FileFormat format;
+  format.what = what;
+  format.head_bytes = kPreambleSize;
+  format.length = [](const std::vector<uint8_t>& head, uint64_t file_size) -> Expected<uint64_t> {
+    uint32_t version = 0, crc = 0;
+    uint64_t body_size = 0;
+    if (std::string why =
+            preambleError(head.data(), head.size(), file_size, version, body_size, crc);
+        !why.empty())
+      return makeError(why);
+    return kPreambleSize + body_size;
+  };
+  return format;
+}
+
 Expected<Model> loadModel(const std::string& path) {
-  auto bytes = readRegularFile(path, "model file");
+  auto bytes = readRegularFile(path, modelFileFormat("model file"));
   if (!bytes) return makeError(bytes.error());
   return deserializeModel(bytes->data(), bytes->size(), path);
 }

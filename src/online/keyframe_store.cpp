@@ -116,12 +116,35 @@ std::vector<uint8_t> serializeKeyFrames(const std::vector<KeyFrameStore::Entry>&
   return file;
 }
 
+FileFormat keyFrameFileFormat() {
+  FileFormat format;
+  format.what = "key-frame file";
+  format.head_bytes = kHeaderBytes;
+  format.length = [](const std::vector<uint8_t>& head, uint64_t file_size) -> Expected<uint64_t> {
+    if (head.size() < kHeaderBytes || std::memcmp(head.data(), kKeyFrameMagic.data(), 8) != 0)
+      return makeError("not a key-frame file (bad magic)");
+    ByteReader header(head.data() + 8, kHeaderBytes - 8);
+    uint32_t version = 0, count = 0;
+    uint64_t length = 0;
+    header.value(version);
+    header.value(count);
+    header.value(length);
+    if (version < 1 || version > kKeyFrameFormatVersion)
+      return makeError("key-frame file version " + std::to_string(version) +
+                       " is not supported (this build reads versions 1 to " +
+                       std::to_string(kKeyFrameFormatVersion) + ")");
+    if (length != file_size - kHeaderBytes)
+      return makeError("key-frame file is truncated or has trailing bytes");
+    return file_size;
+  };
+  return format;
+}
+
 Expected<KeyFrameFile> loadKeyFrames(const std::string& path) {
-  auto read = readRegularFile(path, "key-frame file");
+  // The head is checked (magic, version, length) before the body is read.
+  auto read = readRegularFile(path, keyFrameFileFormat());
   if (!read) return makeError(read.error());
   const std::vector<uint8_t>& file = *read;
-  if (file.size() < kHeaderBytes || std::memcmp(file.data(), kKeyFrameMagic.data(), 8) != 0)
-    return makeError(path + ": not a key-frame file (bad magic)");
   ByteReader header(file.data() + 8, kHeaderBytes - 8);
   uint32_t version = 0, count = 0, crc = 0;
   uint64_t length = 0;
@@ -129,13 +152,7 @@ Expected<KeyFrameFile> loadKeyFrames(const std::string& path) {
   header.value(count);
   header.value(length);
   header.value(crc);
-  if (version < 1 || version > kKeyFrameFormatVersion)
-    return makeError(path + ": key-frame file version " + std::to_string(version) +
-                     " is not supported (this build reads versions 1 to " +
-                     std::to_string(kKeyFrameFormatVersion) + ")");
   const uint8_t* body = file.data() + kHeaderBytes;
-  if (length != file.size() - kHeaderBytes)
-    return makeError(path + ": key-frame file is truncated or has trailing bytes");
   if (crc32Of(body, length) != crc)
     return makeError(path + ": key-frame file is corrupt (CRC mismatch)");
   ByteReader r(body, length);

@@ -154,7 +154,7 @@ Status OnlineLearner::adoptKeyFrames(std::vector<KeyFrameStore::Entry> key_frame
 }
 
 Status OnlineLearner::resume(const std::string& model_path) {
-  auto model_file = readRegularFile(model_path, "model file");
+  auto model_file = readRegularFile(model_path, modelFileFormat("model file"));
   if (!model_file) return makeError(model_file.error());
   auto model = deserializeModel(model_file->data(), model_file->size(), model_path);
   if (!model) return makeError(model.error());

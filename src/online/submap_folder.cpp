@@ -7,6 +7,7 @@
 
 #include "relocalizer/core/file_io.h"
 #include "relocalizer/core/json_fields.h"
+#include "relocalizer/core/outside_text.h"
 #include "relocalizer/online/online_learner.h"
 
 namespace relocalizer {
@@ -54,7 +55,8 @@ class Field {
   std::string fileName() const {
     const std::string name = text();
     if (name.empty() || name == "." || name == ".." || name.find('/') != std::string::npos)
-      throw std::runtime_error(path_ + " must name a file in the folder (got \"" + name + "\")");
+      throw std::runtime_error(path_ + " must name a file in the folder (got " +
+                               detail::quoted(nlohmann::json(json_)) + ")");
     return name;
   }
   const std::string& path() const { return path_; }
@@ -75,15 +77,22 @@ Pose readPose(const Field& field) {
   return pose;
 }
 
+int boundedIndex(const Field& field) {
+  const int index = field.number<int>();
+  if (index < 0 || index > kMaxSubmapIndex)
+    throw std::runtime_error(field.path() + " must be from 0 to " +
+                             std::to_string(kMaxSubmapIndex));
+  return index;
+}
+
 SubmapEntry readEntry(const Field& f) {
   SubmapEntry e;
-  e.index = f.at("index").number<int>();
-  if (e.index < 0) throw std::runtime_error(f.at("index").path() + " must not be negative");
+  e.index = boundedIndex(f.at("index"));
   e.name = f.at("name").text();
   const std::string state = f.at("state").text();
   if (state != "frozen" && state != "active")
-    throw std::runtime_error(f.at("state").path() + " must be \"frozen\" or \"active\" (got \"" +
-                             state + "\")");
+    throw std::runtime_error(f.at("state").path() + " must be \"frozen\" or \"active\" (got " +
+                             detail::quoted(nlohmann::json(state)) + ")");
   e.frozen = state == "frozen";
   if (e.frozen || !f.at("model").text().empty()) {
     e.model = f.at("model").fileName();
@@ -98,7 +107,11 @@ SubmapEntry readEntry(const Field& f) {
                              std::to_string(count) + " entries of " + poses.path());
   for (size_t k = 0; k < count; ++k) {
     const Field pose = poses.at(k);
-    e.keyframe_poses.push_back({pose.at("id").number<std::int64_t>(), readPose(pose.at("pose"))});
+    const std::int64_t id = pose.at("id").number<std::int64_t>();
+    if (id < 0 || id > kMaxKeyFrameId)
+      throw std::runtime_error(pose.at("id").path() + " must be from 0 to " +
+                               std::to_string(kMaxKeyFrameId));
+    e.keyframe_poses.push_back({id, readPose(pose.at("pose"))});
   }
   return e;
 }
@@ -124,7 +137,7 @@ SubmapManifest readManifest(const Json& json) {
   m.submap_params.overlap = learning.at("overlap").number<int>();
   m.submap_params.cover_steps = learning.at("cover_steps").number<double>();
   m.submap_params.min_submap_keyframes = learning.at("min_submap_keyframes").number<int>();
-  m.active = root.at("active").number<int>();
+  m.active = root.at("active").number<int>() == -1 ? -1 : boundedIndex(root.at("active"));
   const Field submaps = root.at("submaps");
   std::set<int> indices;
   for (size_t i = 0; i < submaps.size(); ++i) {
@@ -158,6 +171,44 @@ std::string submapFileName(int index) {
 
 std::string submapManifestPath(const std::string& folder) {
   return (std::filesystem::path(folder) / kSubmapManifestName).string();
+}
+
+Expected<std::string> confinedSaveFolder(const std::string& root, const std::string& requested) {
+  namespace fs = std::filesystem;
+  const std::string quoted = printableText(requested) ? requested : "the requested path";
+  if (requested.empty()) return makeError("path is empty: name the folder to write");
+  std::error_code ec;
+  fs::create_directories(root, ec);
+  const fs::path base = fs::canonical(root, ec);
+  if (ec) return makeError(root + ": cannot use it as the save folder: " + ec.message());
+  const auto inside = [&](const fs::path& p) {
+    const fs::path relative = p.lexically_relative(base);
+    return !relative.empty() && *relative.begin() != ".." && relative != ".";
+  };
+  const fs::path asked = (base / requested).lexically_normal();  // `requested` when absolute
+  const std::string outside = quoted + ": not inside the save folder " + base.string() +
+                              " (symbolic links resolved): saves go only into a new, empty or "
+                              "saved folder inside it (parameter save_model_folder)";
+  // The lexical check first: a path outside is refused without looking at it.
+  if (!inside(asked)) return makeError(outside);
+  const fs::path resolved = fs::weakly_canonical(asked, ec);
+  if (ec || !inside(resolved)) return makeError(outside);
+  if (!fs::exists(resolved, ec)) return resolved.string();
+  if (!fs::is_directory(resolved, ec))
+    return makeError(resolved.string() + ": is not a folder; a learned set is saved as one folder");
+  // A saved set: our manifest, or (a set whose first freeze is not yet
+  // named) submap files alone.
+  const std::string manifest = submapManifestPath(resolved.string());
+  const bool named = fs::exists(fs::symlink_status(manifest, ec));
+  bool ours = !named || replaceableError(manifest, kSubmapManifestMagic, "manifest").empty();
+  if (!named)
+    for (fs::directory_iterator it(resolved, ec), end; ours && !ec && it != end; it.increment(ec))
+      ours = it->path().filename().string().rfind("submap-", 0) == 0;
+  if (ec || !ours)
+    return makeError(resolved.string() +
+                     ": holds files that are not a saved set of learned submaps; refusing to "
+                     "write into it (name a new or empty folder, or an earlier save)");
+  return resolved.string();
 }
 
 std::string serializeSubmapManifest(const SubmapManifest& m) {
@@ -198,7 +249,9 @@ std::string serializeSubmapManifest(const SubmapManifest& m) {
 
 Expected<SubmapManifest> readSubmapManifest(const std::string& folder) {
   const std::string path = submapManifestPath(folder);
-  auto bytes = readRegularFile(path, "submap manifest");
+  FileFormat format = sizeLimitedFile("submap manifest", kMaxSubmapManifestBytes);
+  format.follow_link = false;
+  auto bytes = readRegularFile(path, format);
   if (!bytes) return makeError(bytes.error());
   return parseSubmapManifest(std::string(bytes->begin(), bytes->end()), path);
 }
@@ -207,7 +260,7 @@ Expected<SubmapManifest> parseSubmapManifest(const std::string& text, const std:
   try {
     return readManifest(Json::parse(text));
   } catch (const std::exception& e) {
-    return makeError(path + ": not a learned-submaps manifest: " + e.what());
+    return makeError(path + ": not a learned-submaps manifest: " + detail::jsonErrorReason(e));
   }
 }
 

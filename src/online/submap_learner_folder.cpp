@@ -1,6 +1,8 @@
 // SubmapLearner's folder: writing the set (submap_folder.h) and continuing it.
 // The learning itself is in submap_learner.cpp.
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <filesystem>
 #include <set>
@@ -24,7 +26,7 @@ Expected<std::shared_ptr<const Relocalizer>> loadSubmapModel(const std::string& 
                                                              const ModelFileId& expected,
                                                              const RelocalizerParams& params) {
   try {
-    auto bytes = readRegularFile(path, "submap model file");
+    auto bytes = readRegularFile(path, modelFileFormat("submap model file"));
     if (!bytes) return makeError(bytes.error());
     const ModelFileId found = modelFileId(*bytes);
     if (found != expected)
@@ -41,8 +43,42 @@ Expected<std::shared_ptr<const Relocalizer>> loadSubmapModel(const std::string& 
   } catch (const std::exception& e) {
     // Whatever a damaged file makes the loader throw (std::bad_alloc on a
     // corrupt size) skips this submap only.
-    return makeError(path + ": cannot be loaded: " + e.what());
+    return makeError(path + ": cannot be loaded: " + loadFailureReason(e));
   }
+}
+
+// Why a file the manifest names is not read: a symbolic link, which could
+// reach any file outside the set's folder; empty when it is not one.
+std::string linkError(const std::string& folder, const std::string& name) {
+  struct stat info = {};
+  const std::string path = inFolder(folder, name);
+  if (!name.empty() && ::lstat(path.c_str(), &info) == 0 && S_ISLNK(info.st_mode))
+    return path + " is a symbolic link: not followed out of the folder";
+  return {};
+}
+
+// Files the manifest does not name: a freeze cut short before its manifest,
+// or a submap skipped by an earlier resume. Never read; a later freeze of
+// that index replaces them. A warning each.
+std::vector<std::string> unnamedFiles(const std::string& folder, const SubmapManifest& manifest) {
+  std::set<std::string> named;
+  for (const SubmapEntry& e : manifest.submaps) named.insert(e.model);
+  std::vector<std::string> orphans, warnings;
+  try {
+    for (const fs::directory_entry& file : fs::directory_iterator(folder)) {
+      const std::string name = file.path().filename().string();
+      if (name.rfind("submap-", 0) == 0 && file.path().extension() == ".model" &&
+          !named.count(name))
+        orphans.push_back(name);
+    }
+  } catch (const fs::filesystem_error& e) {
+    warnings.push_back(folder + ": cannot list the folder's other files: " + e.code().message());
+  }
+  std::sort(orphans.begin(), orphans.end());
+  for (const std::string& name : orphans)
+    warnings.push_back(inFolder(folder, name) + " is not named by " + kSubmapManifestName +
+                       ": ignored");
+  return warnings;
 }
 
 // `folder` made ready to hold the set: created if need be, refused when it
@@ -141,11 +177,11 @@ Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool
     } else if (!working) {
       // Frozen files never change, so one already in `folder` (an earlier
       // save there) is left as it is.
-      auto there = readRegularFile(model_path, "submap model file");
+      auto there = readRegularFile(model_path, modelFileFormat("submap model file"));
       if (!there || modelFileId(*there) != f.model_id) {
         std::vector<FileReplacement> pair;
         auto keyframes =
-            readRegularFile(inFolder(folder_, keyFramesPath(model_name)), "key-frame file");
+            readRegularFile(inFolder(folder_, keyFramesPath(model_name)), keyFrameFileFormat());
         if (keyframes)
           pair.push_back({keyframes_path, kKeyFrameMagic, "relocalizer key-frame file",
                           std::move(*keyframes)});
@@ -266,6 +302,8 @@ Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& fold
   if (manifest->map_frame != names_.map_frame)
     warnings.push_back(submapManifestPath(folder) + ": the set was learned in map frame " +
                        manifest->map_frame + ", continued in " + names_.map_frame);
+  // Indices are at most kMaxSubmapIndex (readSubmapManifest): the slots by
+  // index cost a few MB at worst.
   const int count = manifest->submaps.empty() ? 0 : manifest->submaps.back().index + 1;
   std::vector<std::vector<SubmapKeyFrame>> slots(static_cast<std::size_t>(count));
   std::vector<Frozen> frozen(static_cast<std::size_t>(count));
@@ -281,6 +319,12 @@ Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& fold
     const std::string model_path = inFolder(folder, e.model);
     const std::string keyframes_path = inFolder(folder, e.keyframes);
     const std::size_t i = static_cast<std::size_t>(e.index);
+    std::string why = linkError(folder, e.model);
+    if (why.empty()) why = linkError(folder, e.keyframes);
+    if (!why.empty()) {
+      warnings.push_back(name + why + skipped);
+      continue;
+    }
     bool as_frozen = e.frozen;
     // Its store would evict to fit, and the index would no longer line up with it.
     if (!e.frozen && !e.model.empty() &&
@@ -334,26 +378,7 @@ Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& fold
     active = std::move(learner);
     active_index = e.index;
   }
-  // Files the manifest does not name: a freeze cut short before its manifest,
-  // or a submap skipped by an earlier resume. Never read; a later freeze of
-  // that index replaces them.
-  std::set<std::string> named;
-  for (const SubmapEntry& e : manifest->submaps) named.insert(e.model);
-  std::vector<std::string> orphans;
-  try {
-    for (const fs::directory_entry& file : fs::directory_iterator(folder)) {
-      const std::string name = file.path().filename().string();
-      if (name.rfind("submap-", 0) == 0 && file.path().extension() == ".model" &&
-          !named.count(name))
-        orphans.push_back(name);
-    }
-  } catch (const fs::filesystem_error& e) {
-    warnings.push_back(folder + ": cannot list the folder's other files: " + e.what());
-  }
-  std::sort(orphans.begin(), orphans.end());
-  for (const std::string& name : orphans)
-    warnings.push_back(inFolder(folder, name) + " is not named by " + kSubmapManifestName +
-                       ": ignored");
+  for (std::string& orphan : unnamedFiles(folder, *manifest)) warnings.push_back(std::move(orphan));
   for (const auto& slot : slots) added_ += static_cast<int>(slot.size());
   index_.restore(std::move(slots), active_index);
   frozen_ = std::move(frozen);
@@ -378,7 +403,14 @@ Expected<SavedSubmaps> loadSavedSubmaps(const std::string& folder, const std::st
   if (!why.empty()) return makeError(submapManifestPath(folder) + ": " + why);
   SubmapLearner submaps(learning, manifest->submap_params, params,
                         {manifest->place_name, manifest->map_frame});
-  auto resumed = submaps.resume(folder);
+  Expected<std::vector<std::string>> resumed = makeError("not loaded");
+  try {
+    resumed = submaps.resume(folder);
+  } catch (const std::exception& e) {
+    // A set that cannot be loaded is an error of this folder, never the end
+    // of the node or tool that asked for it.
+    return makeError(folder + ": cannot be loaded: " + loadFailureReason(e));
+  }
   if (!resumed) return makeError(resumed.error());
   SavedSubmaps saved;
   saved.saved_map_frame = manifest->map_frame;

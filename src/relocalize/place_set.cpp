@@ -1,5 +1,7 @@
 #include "relocalizer/relocalize/place_set.h"
 
+#include "relocalizer/core/file_io.h"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -152,7 +154,8 @@ Expected<Place> PlaceSet::load(const std::string& name, const std::string& model
   } catch (const std::exception& e) {
     // Whatever the loader throws (std::bad_alloc on a corrupt size) refuses
     // this place only.
-    return makeError("place " + name + ": " + model_path + ": cannot be loaded: " + e.what());
+    return makeError("place " + name + ": " + model_path +
+                     ": cannot be loaded: " + loadFailureReason(e));
   }
   if (!relocalizer) return makeError("place " + name + ": " + relocalizer.error());
   Place place;

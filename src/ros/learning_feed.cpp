@@ -7,8 +7,21 @@
 
 #include "message_conversion.h"
 #include "node_text.h"
+#include "relocalizer/core/file_io.h"
+#include "relocalizer/online/submap_folder.h"
 
 namespace relocalizer_ros {
+
+namespace {
+
+// The node's own folder: $ROS_HOME, else ~/.ros as roslaunch makes it.
+std::filesystem::path rosHome() {
+  const char* ros_home = std::getenv("ROS_HOME");
+  const char* home = std::getenv("HOME");
+  return ros_home && *ros_home ? ros_home : std::filesystem::path(home ? home : "/tmp") / ".ros";
+}
+
+}  // namespace
 
 relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> LearningFeed::makeLearner(
     const NodeParams& params) {
@@ -21,7 +34,8 @@ relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> LearningFeed:
     try {
       resumed = learner->resume(params.model);
     } catch (const std::exception& e) {
-      resumed = relocalizer::makeError(params.model + ": cannot be loaded: " + e.what());
+      resumed = relocalizer::makeError(params.model +
+                                       ": cannot be loaded: " + relocalizer::loadFailureReason(e));
     }
     if (!resumed) return relocalizer::makeError(resumed.error());
     // A submap that could not be loaded is skipped, and a pair left by an
@@ -151,13 +165,9 @@ void LearningFeed::keepFrozenOnDisk() {
   if (!learner_->workingFolder().empty()) return;
   // Without a folder to write to, every frozen submap would keep its key
   // frames in memory until the first save: a folder of this run's own.
-  const char* ros_home = std::getenv("ROS_HOME");
-  const char* home = std::getenv("HOME");
-  const std::filesystem::path base =
-      ros_home && *ros_home ? ros_home : std::filesystem::path(home ? home : "/tmp") / ".ros";
   const std::string folder =
-      (base / ("relocalizer_learned_" + std::to_string(::getpid()) + "_" +
-               std::to_string(static_cast<long>(ros::WallTime::now().toSec()))))
+      (rosHome() / ("relocalizer_learned_" + std::to_string(::getpid()) + "_" +
+                    std::to_string(static_cast<long>(ros::WallTime::now().toSec()))))
           .string();
   if (const relocalizer::Status working = learner_->useFolder(folder); !working) {
     if (log_.allow("learn: working folder"))
@@ -172,18 +182,25 @@ void LearningFeed::keepFrozenOnDisk() {
 
 bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
                                relocalizer::SaveModel::Response& response) {
-  if (request.path.empty()) {
-    response.success = false;
-    response.message = "path is empty: name the folder to write";
-    return true;
+  // A peer's path: inside save_model_folder only (submap_folder.h), relative
+  // ones too; the answer names the folder written absolutely.
+  const std::string root = params_.save_model_folder.empty() ? (rosHome() / "relocalizer").string()
+                                                             : params_.save_model_folder;
+  relocalizer::Status saved = relocalizer::okStatus();
+  std::string path;
+  try {
+    auto confined = relocalizer::confinedSaveFolder(root, request.path);
+    if (confined) {
+      path = *confined;
+      std::lock_guard<std::mutex> lock(save_mutex_);
+      saved = learner_->save(path);
+    } else {
+      saved = relocalizer::makeError(confined.error());
+    }
+  } catch (const std::exception&) {
+    // An answer, never a service error: the caller learns the save failed.
+    saved = relocalizer::makeError("the save failed (out of memory, or the file system refused)");
   }
-  // Relative to the node's working folder (ROS_HOME), which the caller does
-  // not know: the answer names the file absolutely.
-  std::error_code ignored;
-  const std::string path =
-      std::filesystem::absolute(request.path, ignored).lexically_normal().string();
-  std::lock_guard<std::mutex> lock(save_mutex_);
-  const relocalizer::Status saved = learner_->save(path);
   response.success = saved.ok();
   const relocalizer::SubmapStatus status = learner_->status();
   int keyframes = 0;

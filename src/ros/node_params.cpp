@@ -308,6 +308,7 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   check(read(nh, "handoff_frame", p.handoff_frame));
   check(read(nh, "learn", p.learn));
   check(read(nh, "save_on_exit", p.save_on_exit));
+  check(read(nh, "save_model_folder", p.save_model_folder));
   check(read(nh, "learn_min_motion", p.learn_min_motion));
   check(readInt(nh, "learn_max_keyframes", p.learn_max_keyframes, 2));
   check(read(nh, "learn_submap_radius", p.learn_submap_radius));
@@ -409,6 +410,7 @@ std::string nodeParamsToJson(const NodeParams& p) {
             {"handoff_frame", p.handoff_frame},
             {"learn", p.learn},
             {"save_on_exit", p.save_on_exit},
+            {"save_model_folder", p.save_model_folder},
             {"learn_min_motion", p.learn_min_motion},
             {"learn_max_keyframes", p.learn_max_keyframes},
             {"learn_submap_radius", p.learn_submap_radius},

@@ -64,6 +64,8 @@ struct NodeParams {
   // Online learning beside SLAM (docs/online_learning.md).
   bool learn = false;        // learn the place from frames posed by TF map_frame -> camera
   std::string save_on_exit;  // learn: write the model and its key frames here at shutdown
+  // learn: ~save_model writes only inside this folder ("": $ROS_HOME/relocalizer)
+  std::string save_model_folder;
   std::string learn_min_motion = "0.05,5";  // key frames: metres,degrees since the last one
   int learn_max_keyframes = 64;             // cap on stored key frames, per submap
   int learn_first_retrain = 2;              // key frames before the first model

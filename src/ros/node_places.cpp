@@ -12,48 +12,26 @@
 
 #include "message_conversion.h"
 #include "relocalizer/core/outside_text.h"
-#include "relocalizer/online/submap_folder.h"
+#include "relocalizer/online/place_files.h"
 
 namespace relocalizer_ros {
 
 namespace {
 
 // A model file is one place; a folder of learned submaps (saved by learn
-// mode) is a group of places `name/i`, all in the spec's map frame.
-relocalizer::Expected<std::vector<relocalizer::Place>> loadPlaces(
+// mode) is a group of places `name/i`, all in the spec's map frame
+// (online/place_files.h); the folder's skipped submaps are logged.
+relocalizer::Expected<relocalizer::PlaceFiles> loadPlaces(
     const PlaceSpec& spec, const relocalizer::RelocalizerParams& params) {
-  std::error_code ec;
-  if (!std::filesystem::is_directory(spec.model, ec)) {
-    auto place = relocalizer::PlaceSet::load(spec.name, spec.model, spec.map_frame, params);
-    if (!place) return relocalizer::makeError(place.error());
-    return std::vector<relocalizer::Place>{std::move(*place)};
-  }
-  if (!std::filesystem::exists(relocalizer::submapManifestPath(spec.model), ec))
-    return relocalizer::makeError("place '" + spec.name + "': " + spec.model +
-                                  ": is a directory, not a model file nor a folder of learned "
-                                  "submaps (it has no " +
-                                  relocalizer::kSubmapManifestName + ")");
-  auto saved = relocalizer::loadSavedSubmaps(spec.model, spec.name, spec.map_frame, params);
-  if (!saved) return relocalizer::makeError("place '" + spec.name + "': " + saved.error());
-  for (const std::string& warning : saved->warnings)
+  auto loaded = relocalizer::loadPlaceFiles(spec.name, spec.model, spec.map_frame, params);
+  if (!loaded || !loaded->folder) return loaded;
+  for (const std::string& warning : loaded->warnings)
     ROS_WARN("relocalizer: place '%s': %s", spec.name.c_str(), warning.c_str());
-  if (saved->saved_map_frame != spec.map_frame)
+  if (loaded->saved_map_frame != spec.map_frame)
     ROS_WARN("relocalizer: place '%s': %s was learned in %s and is answered in %s",
-             spec.name.c_str(), spec.model.c_str(), saved->saved_map_frame.c_str(),
+             spec.name.c_str(), spec.model.c_str(), loaded->saved_map_frame.c_str(),
              spec.map_frame.c_str());
-  return std::move(saved->places);
-}
-
-// What loadPlaces gave for a model file (not a saved set of submaps).
-bool oneModelFile(const std::vector<relocalizer::Place>& places) {
-  return places.size() == 1 && places[0].group.empty();
-}
-
-// One place, or a saved set's places as one group named after the spec.
-relocalizer::Status putPlaces(relocalizer::PlaceSet& set, const PlaceSpec& spec,
-                              std::vector<relocalizer::Place> places) {
-  if (oneModelFile(places)) return set.put(std::move(places[0]));
-  return set.putGroup(spec.name, std::move(places));
+  return loaded;
 }
 
 template <typename Service, typename Handler>
@@ -117,8 +95,10 @@ relocalizer::Expected<std::unique_ptr<NodePlaces>> NodePlaces::create(const Node
       failures.push_back(loaded.error());
       continue;
     }
-    const std::vector<relocalizer::Place> places_of_spec = *loaded;
-    if (const relocalizer::Status put = putPlaces(places->places_, spec, std::move(*loaded)); !put)
+    const std::vector<relocalizer::Place> places_of_spec = loaded->places;
+    if (const relocalizer::Status put =
+            relocalizer::putPlaceFiles(places->places_, spec.name, std::move(*loaded));
+        !put)
       failures.push_back(put.error());
     else
       for (const relocalizer::Place& place : places_of_spec) warnLimitations(place);
@@ -198,28 +178,32 @@ bool NodePlaces::empty() {
 }
 
 void NodePlaces::loadAndPut(const PlaceSpec& spec, relocalizer::LoadPlace::Response& response) {
-  auto before = places_.places();
-  const bool replaces = std::any_of(before.begin(), before.end(),
-                                    [&](const auto& place) { return place->name == spec.name; });
-  auto loaded = loadPlaces(spec, params_.relocalizer);
+  const std::vector<std::string> before = places_.names();
+  const bool replaces = std::find(before.begin(), before.end(), spec.name) != before.end();
+  // A peer's path: what cannot be opened as ours is refused in one wording.
+  const std::string unreadable = relocalizer::unreadablePlaceError(spec.name, spec.model);
+  auto loaded =
+      unreadable.empty()
+          ? loadPlaces(spec, params_.relocalizer)
+          : relocalizer::Expected<relocalizer::PlaceFiles>(relocalizer::makeError(unreadable));
+  const bool folder = loaded && loaded->folder;
   const std::vector<relocalizer::Place> places =
-      loaded ? *loaded : std::vector<relocalizer::Place>{};
-  const relocalizer::Status put = loaded
-                                      ? putPlaces(places_, spec, std::move(*loaded))
-                                      : relocalizer::Status(relocalizer::makeError(loaded.error()));
+      loaded ? loaded->places : std::vector<relocalizer::Place>{};
+  const relocalizer::Status put =
+      loaded ? relocalizer::putPlaceFiles(places_, spec.name, std::move(*loaded))
+             : relocalizer::Status(relocalizer::makeError(loaded.error()));
   response.success = put.ok();
-  if (!put) {
+  if (put) {
+    if (changed_) changed_();
+    for (const relocalizer::Place& place : places) warnLimitations(place);
+    response.message = !folder ? std::string(replaces ? "replaced" : "loaded") + " place " +
+                                     placeText(relocalizer::placeFigures(places[0]))
+                               : "loaded " + std::to_string(places.size()) +
+                                     " learned submaps of place '" + spec.name + "' in " +
+                                     spec.map_frame + " (" + spec.model + ")";
+  } else {
     response.message = put.error();
-    return;
   }
-  if (changed_) changed_();
-  for (const relocalizer::Place& place : places) warnLimitations(place);
-  response.message = oneModelFile(places)
-                         ? std::string(replaces ? "replaced" : "loaded") + " place " +
-                               placeText(relocalizer::placeFigures(places[0]))
-                         : "loaded " + std::to_string(places.size()) +
-                               " learned submaps of place '" + spec.name + "' in " +
-                               spec.map_frame + " (" + spec.model + ")";
 }
 
 bool NodePlaces::onLoad(relocalizer::LoadPlace::Request& request,

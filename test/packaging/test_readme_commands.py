@@ -403,7 +403,8 @@ class ReadmeCommandsTest(unittest.TestCase):
                     result = self.shell.run(save, timeout=60)
                     self.assertEqual(result.returncode, 0, result.stdout + result.stderr)
                     self.assertTrue(yaml.safe_load(result.stdout)["success"], result.stdout)
-                    path = re.search(r"path: \$PWD/(\S+?)[}\"]", save).group(1)
+                    # Relative: inside save_model_folder, which the launch line sets to $PWD.
+                    path = re.search(r"path: (\S+?)[}\"]", save).group(1)
                     manifest = json.loads((self.shell.work / path / "manifest.json").read_text())
                     self.assertGreaterEqual(len(manifest["submaps"]), 1, save)
                     for submap in manifest["submaps"]:

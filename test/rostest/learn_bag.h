@@ -84,9 +84,16 @@ inline std::optional<ResultMsg> resultOfOneCall(CameraPublisher& camera,
   return results.waitFor([](const ResultMsg&) { return true; }, 5.0);
 }
 
-// Calls ~save_model with `path` and reads back the folder it wrote: its
-// manifest, each named model loading (gtest failures say what did not).
-inline std::optional<relocalizer::SubmapManifest> saveAndReadFolder(const std::string& path) {
+// A save as ~save_model answered it: the folder it wrote and its manifest.
+struct SavedFolder {
+  std::string path;
+  relocalizer::SubmapManifest manifest;
+};
+
+// Calls ~save_model with `path` (a folder inside the node's save_model_folder,
+// as a user names it) and reads back the folder the answer says it wrote:
+// its manifest, each named model loading (gtest failures say what did not).
+inline std::optional<SavedFolder> saveAndReadFolder(const std::string& path) {
   relocalizer::SaveModel save;
   save.request.path = path;
   if (!ros::service::call("/relocalizer/save_model", save)) {
@@ -94,17 +101,23 @@ inline std::optional<relocalizer::SubmapManifest> saveAndReadFolder(const std::s
     return std::nullopt;
   }
   EXPECT_TRUE(save.response.success) << save.response.message;
-  auto manifest = relocalizer::readSubmapManifest(path);
+  const std::string& message = save.response.message;
+  if (message.rfind("wrote /", 0) != 0 || message.find(" (") == std::string::npos) {
+    ADD_FAILURE() << "~save_model answered: " << message;
+    return std::nullopt;
+  }
+  const std::string written = message.substr(6, message.find(" (") - 6);
+  auto manifest = relocalizer::readSubmapManifest(written);
   if (!manifest) {
     ADD_FAILURE() << manifest.error();
     return std::nullopt;
   }
   for (const relocalizer::SubmapEntry& entry : manifest->submaps) {
     if (entry.model.empty()) continue;  // an active submap saved before its first retrain
-    auto model = relocalizer::loadModel(path + "/" + entry.model);
+    auto model = relocalizer::loadModel(written + "/" + entry.model);
     EXPECT_TRUE(model.ok()) << (model.ok() ? "" : model.error());
   }
-  return *manifest;
+  return SavedFolder{written, *manifest};
 }
 
 }  // namespace relocalizer_test

@@ -23,6 +23,18 @@ mkdir -p "$out"
 "$tools/evaluate" --dataset "$out/scene/train" --learn-frames 0-59 --frames 0 --submaps \
   --max-keyframes 8 --learn-config "$here/fixture_forest.yaml" --curve-every 1000 \
   --save-model "$out/learned" --output "$out/learned_eval" >/dev/null
+# Issue 38: the same set with its last submap renumbered 2147483647 (its
+# `index + 1` once overflowed and the node aborted at start-up).
+cp -r "$out/learned" "$out/learned_huge_index"
+python3 - "$out/learned_huge_index/manifest.json" <<'PY'
+import collections, json, sys
+manifest = json.load(open(sys.argv[1]), object_pairs_hook=collections.OrderedDict)
+last = manifest["submaps"][-1]
+if manifest["active"] == last["index"]:
+    manifest["active"] = 2147483647
+last["index"] = 2147483647
+open(sys.argv[1], "w").write(json.dumps(manifest, indent=2) + "\n")
+PY
 # Many places: another room (another seed), trained the same way.
 "$tools/synthesize" --output "$out/scene2" --seed 2 --train-frames 60 --test-frames 20 --width 320 --height 240 >/dev/null
 "$tools/train" --dataset "$out/scene2/train" --config "$here/fixture_forest.yaml" --output "$out/model2.bin" >/dev/null

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
 
 #include "learn_bag.h"
 #include "node_test_support.h"
@@ -87,47 +88,68 @@ TEST(LearnMode, LearnsFromSlamPosesThenRelocalizesOnceTrackingIsLost) {
   EXPECT_GE(last->frames_untracked, 1u);
   EXPECT_EQ(last->learning_error, "");
 
-  // ~save_model writes the set as one folder (one submap here): the manifest,
-  // the model and its key frames, and both load.
-  const std::string path = "/tmp/relocalizer_learn_test_" + std::to_string(::getpid());
-  const auto manifest = saveAndReadFolder(path);
-  ASSERT_TRUE(manifest.has_value());
-  ASSERT_EQ(manifest->submaps.size(), 1u);
-  const relocalizer::SubmapEntry& saved = manifest->submaps[0];
-  EXPECT_FALSE(saved.model.empty());
-  auto key_frames = relocalizer::loadKeyFrames(path + "/" + saved.keyframes);
+  // ~save_model writes the set as one folder (one submap here) inside the
+  // node's save_model_folder ($ROS_HOME/relocalizer here), named relatively
+  // as a user names it; the answer names it absolutely. The manifest, the
+  // model and its key frames load.
+  namespace fs = std::filesystem;
+  const std::string name = "relocalizer_learn_test_" + std::to_string(::getpid());
+  const auto saved = saveAndReadFolder(name);
+  ASSERT_TRUE(saved.has_value());
+  EXPECT_EQ(fs::path(saved->path).filename().string(), name);
+  ASSERT_EQ(saved->manifest.submaps.size(), 1u);
+  const relocalizer::SubmapEntry& entry = saved->manifest.submaps[0];
+  EXPECT_FALSE(entry.model.empty());
+  auto key_frames = relocalizer::loadKeyFrames(saved->path + "/" + entry.keyframes);
   ASSERT_TRUE(key_frames.ok()) << key_frames.error();
   EXPECT_GE(key_frames->key_frames.size(), 10u);
-  std::filesystem::remove_all(path);
+  // An earlier save is ours to write again, named absolutely too.
+  ASSERT_TRUE(saveAndReadFolder(saved->path).has_value());
+  const fs::path root = fs::path(saved->path).parent_path();
 
-  // A relative path is the node's working folder's, which the caller cannot
-  // know: the answer names the absolute path it wrote.
-  const std::string name = "relocalizer_learn_test_" + std::to_string(::getpid());
+  // Issue 38: any peer may call ~save_model, and the node often runs as
+  // root. Nothing is written outside save_model_folder: not into an existing
+  // folder (a stand-in for /etc/cron.d), not through `..`, not through a link
+  // inside it; nor into a folder inside it that holds other files.
+  const fs::path cron = "/tmp/" + name + "_cron.d";
+  fs::create_directories(cron);
+  std::ofstream(cron / "job") << "* * * * * root true\n";
+  fs::create_directory_symlink(cron, root / (name + "_link"));
   relocalizer::SaveModel save;
-  save.request.path = name;
-  ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
-  EXPECT_TRUE(save.response.success) << save.response.message;
-  ASSERT_TRUE(contains(save.response.message, "wrote /")) << save.response.message;
-  const std::string written = save.response.message.substr(6, save.response.message.find(" (") - 6);
-  EXPECT_EQ(std::filesystem::path(written).filename().string(), name);
-  EXPECT_TRUE(std::filesystem::is_regular_file(written + "/manifest.json")) << written;
-  std::filesystem::remove_all(written);
-
-  // Any peer may call ~save_model: it must not replace what is not the
-  // node's own file (here a FIFO; as root, /dev/null would do the same).
-  const std::string fifo = "/tmp/relocalizer_learn_test_" + std::to_string(::getpid()) + ".fifo";
-  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
-  save.request.path = fifo;
+  for (const std::string path : {cron.string(), (cron / "new").string(), "../" + name + "_x",
+                                 name + "_link", name + "_link/new"}) {
+    save.request.path = path;
+    ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
+    EXPECT_FALSE(save.response.success) << path;
+    EXPECT_TRUE(contains(save.response.message, "not inside the save folder " + root.string()))
+        << save.response.message;
+  }
+  EXPECT_EQ(std::distance(fs::directory_iterator(cron), fs::directory_iterator()), 1);
+  fs::create_directories(root / (name + "_notes"));
+  std::ofstream(root / (name + "_notes") / "notes.txt") << "mine\n";
+  save.request.path = name + "_notes";
   ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
   EXPECT_FALSE(save.response.success);
-  EXPECT_TRUE(contains(save.response.message, fifo + ": is not a folder")) << save.response.message;
-  EXPECT_EQ(std::filesystem::status(fifo).type(), std::filesystem::file_type::fifo);
-  std::filesystem::remove(fifo);
-  std::filesystem::remove(relocalizer::keyFramesPath(fifo));
+  EXPECT_TRUE(contains(save.response.message, "holds files that are not a saved set"))
+      << save.response.message;
+
+  // Nor does it replace what is not a folder of ours (here a FIFO; as root,
+  // /dev/null would do the same).
+  const fs::path fifo = root / (name + ".fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  save.request.path = fifo.string();
+  ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
+  EXPECT_FALSE(save.response.success);
+  EXPECT_TRUE(contains(save.response.message, fifo.string() + ": is not a folder"))
+      << save.response.message;
+  EXPECT_EQ(fs::status(fifo).type(), fs::file_type::fifo);
   save.request.path = "";
   ASSERT_TRUE(ros::service::call("/relocalizer/save_model", save));
   EXPECT_FALSE(save.response.success);
   EXPECT_TRUE(contains(save.response.message, "path is empty")) << save.response.message;
+  for (const fs::path& made :
+       {fs::path(saved->path), root / (name + "_link"), root / (name + "_notes"), fifo, cron})
+    fs::remove_all(made);
 }
 
 int main(int argc, char** argv) {

@@ -106,13 +106,12 @@ TEST(LearnSubmaps, ALoopLearnedInSubmapsIsAnsweredInMapByItsSubmaps) {
 
   // ~save_model writes the whole set as one folder: the manifest names every
   // submap, and each named model file loads.
-  const std::string path = "/tmp/relocalizer_submaps_test_" + std::to_string(::getpid());
-  const auto manifest = saveAndReadFolder(path);
-  ASSERT_TRUE(manifest.has_value());
-  EXPECT_GE(manifest->submaps.size(), 2u);
-  EXPECT_EQ(manifest->place_name, "learned");
-  EXPECT_EQ(manifest->map_frame, "map");
-  std::filesystem::remove_all(path);
+  const auto saved = saveAndReadFolder("relocalizer_submaps_test_" + std::to_string(::getpid()));
+  ASSERT_TRUE(saved.has_value());
+  EXPECT_GE(saved->manifest.submaps.size(), 2u);
+  EXPECT_EQ(saved->manifest.place_name, "learned");
+  EXPECT_EQ(saved->manifest.map_frame, "map");
+  std::filesystem::remove_all(saved->path);
 }
 
 int main(int argc, char** argv) {

@@ -5,6 +5,7 @@
 // and ~unload_place of the group's name takes the whole set.
 
 #include <relocalizer/ListPlaces.h>
+#include <relocalizer/LoadPlace.h>
 #include <relocalizer/UnloadPlace.h>
 
 #include "learn_bag.h"
@@ -50,6 +51,39 @@ TEST(SavedSubmaps, AFolderOfSubmapsAnswersAsOneGroupOfPlaces) {
   EXPECT_TRUE(unload.response.success) << unload.response.message;
   ASSERT_TRUE(ros::service::call("/relocalizer/list_places", listing));
   EXPECT_TRUE(listing.response.places.empty());
+}
+
+// Issue 38: saved_submaps.test also names a copy of the set whose manifest
+// gives submap 2147483647 (the node aborted at start-up); the count above
+// shows it was refused and the rest loaded. ~load_place answers it, and a
+// path that is not ours gets one answer whatever is there.
+TEST(SavedSubmaps, ABadFolderOrPathIsAnAnswerAndSaysNothingOfWhatIsThere) {
+  std::string fixture;
+  ASSERT_TRUE(ros::param::get("~fixture", fixture));
+  ASSERT_TRUE(ros::service::waitForService("/relocalizer/load_place", 60000));
+  relocalizer::LoadPlace load;
+  load.request.name = "hostile";
+  load.request.model = fixture + "/learned_huge_index";
+  ASSERT_TRUE(ros::service::call("/relocalizer/load_place", load));
+  EXPECT_FALSE(load.response.success);
+  EXPECT_TRUE(contains(load.response.message, "active must be from 0 to 99999"))
+      << load.response.message;
+
+  std::string first;
+  for (const std::string path : {fixture + "/no_such_model.bin", fixture + "/no/such/dir/x",
+                                 fixture + "/learned/manifest.json", fixture + "/scene"}) {
+    load.request.model = path;
+    ASSERT_TRUE(ros::service::call("/relocalizer/load_place", load)) << path;
+    EXPECT_FALSE(load.response.success) << path;
+    std::string answer = load.response.message;
+    ASSERT_NE(answer.find(path), std::string::npos) << answer;
+    answer.replace(answer.find(path), path.size(), "PATH");
+    if (first.empty()) first = answer;
+    EXPECT_EQ(answer, first) << path;
+  }
+  EXPECT_EQ(first,
+            "cannot load place 'hostile': PATH is not a model file nor a folder of learned "
+            "submaps that this node can read");
 }
 
 int main(int argc, char** argv) {

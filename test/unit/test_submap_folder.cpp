@@ -9,13 +9,16 @@
 #include <sys/stat.h>
 
 #include <atomic>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
 #include "relocalizer/core/file_io.h"
+#include "relocalizer/core/outside_text.h"
 #include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/place_files.h"
 #include "relocalizer/online/submap_folder.h"
 #include "relocalizer/online/submap_learner.h"
 #include "support.h"
@@ -191,7 +194,8 @@ TEST_F(SubmapFolder, ADamagedSubmapIsSkippedWithAWarningNamingItAndTheRestAnswer
   ASSERT_TRUE(warnings.ok()) << warnings.error();
   ASSERT_EQ(warnings->size(), 2u);
   EXPECT_TRUE(mentions(*warnings, submapFileName(1))) << (*warnings)[0];
-  EXPECT_TRUE(mentions(*warnings, "not the model the manifest names")) << (*warnings)[0];
+  // Cut short: found from its preamble, before its CRC is computed.
+  EXPECT_TRUE(mentions(*warnings, "truncated model file")) << (*warnings)[0];
   EXPECT_TRUE(mentions(*warnings, keyFramesPath(submapFileName(2)) + " is missing"))
       << (*warnings)[1];
   EXPECT_EQ(resumed->warnings(), *warnings);
@@ -346,4 +350,225 @@ TEST_F(SubmapFolder, SavesOnAnotherThreadWhileLearningLeaveAResumableFolder) {
   for (size_t s = 0; s < learner->models().size(); ++s)
     EXPECT_EQ(serializeModel(resumed->models()[s].relocalizer->model()),
               serializeModel(learner->models()[s].relocalizer->model()));
+}
+
+// Issue 38, files on disk: a manifest, model or key-frame file is checked
+// before it is believed (sizes, indices, links), and a folder a peer names
+// gets one answer whatever is there.
+namespace {
+
+// `folder`'s manifest with its last submap (and the active, when that is
+// the one) renumbered to `index`; `frozen`: that submap made a frozen one
+// (so that no active names the index).
+void renumberLast(const std::string& folder, long long index, bool frozen = false) {
+  const std::string path = submapManifestPath(folder);
+  nlohmann::ordered_json json =
+      nlohmann::ordered_json::parse(relocalizer::testing::readBytes(path));
+  auto& last = json["submaps"].back();
+  if (json["active"] == last["index"]) json["active"] = frozen ? -1LL : index;
+  if (frozen) last["state"] = "frozen";
+  last["index"] = index;
+  std::ofstream(path, std::ios::trunc) << json.dump(2) << "\n";
+}
+
+void writeFile(const fs::path& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+}  // namespace
+
+TEST_F(SubmapFolder, AHugeSubmapIndexIsAnErrorNamingItAndNothingIsSizedByIt) {
+  // 2147483647 overflowed `index + 1` (std::length_error: the node aborted);
+  // 10,000,000 sized the containers by it (+840 MB).
+  // As the active submap, and as a frozen one.
+  for (const long long index : {2147483647LL, 10000000LL, 100000LL})
+    for (const bool frozen : {false, true}) {
+      const std::string folder =
+          copyOfSaved("index_" + std::to_string(index) + (frozen ? "_frozen" : ""));
+      renumberLast(folder, index, frozen);
+      auto resumed = makeLearner()->resume(folder);
+      ASSERT_FALSE(resumed.ok()) << index;
+      const std::string field = frozen ? "submaps[4].index" : "active";
+      EXPECT_TRUE(mentions({resumed.error()}, field + " must be from 0 to 99999"))
+          << resumed.error();
+      auto place = loadPlaceFiles("hostile", folder, "map", {});
+      ASSERT_FALSE(place.ok()) << index;
+      EXPECT_TRUE(mentions({place.error()}, "place 'hostile'")) << place.error();
+    }
+  // The largest index allowed loads, as the submap it is.
+  const std::string folder = copyOfSaved("index_largest");
+  renumberLast(folder, kMaxSubmapIndex);
+  auto resumed = makeLearner();
+  ASSERT_TRUE(resumed->resume(folder).ok());
+  ASSERT_EQ(resumed->models().size(), 5u);
+  EXPECT_EQ(resumed->models().back().index, kMaxSubmapIndex);
+
+  // A key-frame id past what the key-frame file holds (int32) is refused too.
+  std::string text = relocalizer::testing::readBytes(submapManifestPath(saved()));
+  const std::string id = "\"id\": 0,";
+  ASSERT_NE(text.find(id), std::string::npos);
+  text.replace(text.find(id), id.size(), "\"id\": 9223372036854775807,");
+  auto huge_id = parseSubmapManifest(text, "m.json");
+  ASSERT_FALSE(huge_id.ok());
+  EXPECT_TRUE(mentions({huge_id.error()}, "keyframe_poses[0].id must be from 0 to"))
+      << huge_id.error();
+}
+
+TEST_F(SubmapFolder, SymbolicLinksInASavedSetAreNotFollowedOutOfIt) {
+  const std::string folder = copyOfSaved("linked");
+  // Submap 1's own model, moved out and linked back: a link could as well
+  // reach any file the node may read.
+  const fs::path outside = dir_->path() / "outside.model";
+  fs::rename(fs::path(folder) / submapFileName(1), outside);
+  fs::create_symlink(outside, fs::path(folder) / submapFileName(1));
+  auto resumed = makeLearner();
+  auto warnings = resumed->resume(folder);
+  ASSERT_TRUE(warnings.ok()) << warnings.error();
+  EXPECT_TRUE(mentions(*warnings, submapFileName(1) + " is a symbolic link: not followed"))
+      << ::testing::PrintToString(*warnings);
+  std::vector<int> indices;
+  for (const SubmapModel& m : resumed->models()) indices.push_back(m.index);
+  EXPECT_EQ(indices, (std::vector<int>{0, 2, 3, 4}));
+
+  // The manifest itself as a link: refused, naming it.
+  const std::string manifest = submapManifestPath(folder);
+  fs::rename(manifest, dir_->path() / "outside.json");
+  fs::create_symlink(dir_->path() / "outside.json", manifest);
+  auto linked = makeLearner()->resume(folder);
+  ASSERT_FALSE(linked.ok());
+  EXPECT_TRUE(mentions({linked.error()}, manifest + ": is a symbolic link")) << linked.error();
+}
+
+TEST_F(SubmapFolder, AManifestIsSizedBeforeItIsReadAndItsErrorsAreOurWordsInUtf8) {
+  const std::string folder = copyOfSaved("big_manifest");
+  const std::string manifest = submapManifestPath(folder);
+  // Sparse: a manifest past the limit is refused from its size, unread.
+  fs::resize_file(manifest, kMaxSubmapManifestBytes + 1);
+  auto big = readSubmapManifest(folder);
+  ASSERT_FALSE(big.ok());
+  EXPECT_TRUE(mentions({big.error()}, "more than the " + std::to_string(kMaxSubmapManifestBytes)))
+      << big.error();
+
+  // Bytes that are not UTF-8: the error names the place in the file, never
+  // quotes them nor the JSON library's own text.
+  writeFile(manifest, "{\"format\": \"\xff\xfe\x01\"}");
+  auto garbage = readSubmapManifest(folder);
+  ASSERT_FALSE(garbage.ok());
+  EXPECT_TRUE(printableText(garbage.error())) << garbage.error();
+  EXPECT_TRUE(mentions({garbage.error()}, "JSON that does not parse (at byte")) << garbage.error();
+  EXPECT_FALSE(mentions({garbage.error()}, "json.exception")) << garbage.error();
+  // A field of the wrong type: our words, and what it holds quoted short.
+  std::string text = relocalizer::testing::readBytes(submapManifestPath(saved()));
+  const std::string name = "\"place_name\": \"learned\"";
+  ASSERT_NE(text.find(name), std::string::npos);
+  text.replace(text.find(name), name.size(), "\"place_name\": [" + std::string(100, '1') + "]");
+  auto wrong = parseSubmapManifest(text, "m.json");
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_TRUE(mentions({wrong.error()}, "place_name must be a string")) << wrong.error();
+  EXPECT_FALSE(mentions({wrong.error()}, "json.exception")) << wrong.error();
+}
+
+TEST(FileHeads, AFileThatIsNotAModelIsRefusedFromItsHeadWhateverItsSize) {
+  relocalizer::testing::TempDir dir("file_heads");
+  // 1 TiB, sparse: read whole, it was std::bad_alloc (2 GB: +2 GB and 6.6 s).
+  const fs::path huge = dir.path() / "huge.model";
+  writeFile(huge, "not a model");
+  std::error_code ec;
+  fs::resize_file(huge, std::uintmax_t{1} << 40, ec);
+  if (ec) GTEST_SKIP() << "no sparse 1 TiB file here: " << ec.message();
+  auto model = loadModel(huge.string());
+  ASSERT_FALSE(model.ok());
+  EXPECT_TRUE(mentions({model.error()}, "wrong magic number")) << model.error();
+  auto key_frames = loadKeyFrames(huge.string());
+  ASSERT_FALSE(key_frames.ok());
+  EXPECT_TRUE(mentions({key_frames.error()}, "bad magic")) << key_frames.error();
+  auto place = loadPlaceFiles("big", huge.string(), "map", {});
+  ASSERT_FALSE(place.ok());
+  EXPECT_TRUE(mentions({place.error()}, "wrong magic number")) << place.error();
+
+  // A model's preamble naming a body past the file's end: truncated, from the preamble.
+  std::string preamble(kModelMagic);
+  const uint32_t version = kModelFormatVersion, reserved = 0, crc = 0;
+  const uint64_t body = uint64_t{1} << 40;
+  for (const auto& [data, size] :
+       {std::pair<const void*, size_t>{&version, 4}, {&reserved, 4}, {&body, 8}, {&crc, 4}})
+    preamble.append(static_cast<const char*>(data), size);
+  writeFile(huge, preamble + "short");
+  auto cut = loadModel(huge.string());
+  ASSERT_FALSE(cut.ok());
+  EXPECT_TRUE(mentions({cut.error()}, "truncated model file (5 of 1099511627776 body bytes"))
+      << cut.error();
+}
+
+TEST_F(SubmapFolder, APeersPathThatIsNotOursGetsOneAnswerWhateverIsThere) {
+  const fs::path base = dir_->path() / "probe";
+  fs::create_directories(base / "empty_folder");
+  writeFile(base / "text.model", "hello");
+  ASSERT_EQ(::mkfifo((base / "fifo.model").c_str(), 0600), 0);
+  const std::string expected =
+      "cannot load place 'p': X is not a model file nor a folder of "
+      "learned submaps that this node can read";
+  for (const std::string name :
+       {"missing.model", "missing/deeper.model", "empty_folder", "text.model", "fifo.model"}) {
+    const std::string path = (base / name).string();
+    std::string answer = unreadablePlaceError("p", path);
+    ASSERT_NE(answer.find(path), std::string::npos) << answer;
+    answer.replace(answer.find(path), path.size(), "X");
+    EXPECT_EQ(answer, expected) << name;
+  }
+  // Not text: refused without quoting it.
+  for (const std::string path : {(base / "a\xff.model").string(), (base / "a\nb").string()}) {
+    const std::string answer = unreadablePlaceError("p", path);
+    EXPECT_TRUE(mentions({answer}, "not printable text")) << answer;
+    EXPECT_TRUE(printableText(answer));
+  }
+  // Ours: the loader's own answer applies.
+  EXPECT_EQ(unreadablePlaceError("p", saved()), "");
+  EXPECT_EQ(unreadablePlaceError("p", (fs::path(saved()) / submapFileName(0)).string()), "");
+}
+
+TEST(SaveFolders, ASaveGoesOnlyIntoANewEmptyOrSavedFolderInsideTheRoot) {
+  relocalizer::testing::TempDir dir("save_folders");
+  const std::string root = (dir.path() / "saves").string();
+  // A stand-in for /etc/cron.d: a folder outside the root, holding files.
+  const fs::path cron = dir.path() / "cron.d";
+  fs::create_directories(cron);
+  writeFile(cron / "job", "* * * * * root true\n");
+
+  // Relative paths resolve inside the root (created when missing), chains too.
+  auto relative = confinedSaveFolder(root, "site/run1");
+  ASSERT_TRUE(relative.ok()) << relative.error();
+  EXPECT_EQ(*relative, (fs::canonical(root) / "site/run1").string());
+  auto absolute = confinedSaveFolder(root, root + "/run2");
+  ASSERT_TRUE(absolute.ok()) << absolute.error();
+
+  // Outside, by absolute path, by `..` and by a link inside the root: refused alike.
+  fs::create_directory_symlink(cron, fs::path(root) / "link");
+  for (const std::string requested :
+       {cron.string(), (cron / "new").string(), std::string("../cron.d"), std::string("link"),
+        std::string("link/new"), root, std::string("."), std::string("/")}) {
+    auto refused = confinedSaveFolder(root, requested);
+    ASSERT_FALSE(refused.ok()) << requested;
+    EXPECT_TRUE(mentions({refused.error()}, "not inside the save folder")) << refused.error();
+  }
+  // A folder inside that holds other files is not ours to fill; an empty one
+  // and an earlier save are.
+  fs::create_directories(fs::path(root) / "notes");
+  writeFile(fs::path(root) / "notes" / "todo.txt", "x");
+  auto foreign = confinedSaveFolder(root, "notes");
+  ASSERT_FALSE(foreign.ok());
+  EXPECT_TRUE(mentions({foreign.error()}, "holds files that are not a saved set"))
+      << foreign.error();
+  fs::create_directories(fs::path(root) / "empty");
+  EXPECT_TRUE(confinedSaveFolder(root, "empty").ok());
+  const fs::path earlier = fs::path(root) / "earlier";
+  fs::create_directories(earlier);
+  writeFile(earlier / kSubmapManifestName, std::string(kSubmapManifestMagic) + "}\n");
+  writeFile(earlier / submapFileName(0), "model");
+  EXPECT_TRUE(confinedSaveFolder(root, "earlier").ok());
+  // A path that is not text is refused without being quoted.
+  auto binary = confinedSaveFolder(root, "/etc/\xff");
+  ASSERT_FALSE(binary.ok());
+  EXPECT_TRUE(printableText(binary.error())) << binary.error();
+  EXPECT_EQ(std::distance(fs::directory_iterator(cron), fs::directory_iterator()), 1);
 }

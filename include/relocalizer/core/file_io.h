@@ -13,6 +13,8 @@
 // no longer runs) are removed by the next save of the same target.
 
 #include <cstdint>
+#include <exception>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -21,9 +23,31 @@
 
 namespace relocalizer {
 
-// The whole content of a regular file. Directories, FIFOs and devices are
-// refused without blocking; `what` names the kind of file in messages.
-Expected<std::vector<uint8_t>> readRegularFile(const std::string& path, const std::string& what);
+// What a reader knows of its kind of file before reading one: how many bytes
+// to look at first, and from them how many the file holds (its header's
+// length field, or its size when that is within a limit), or why it is not
+// such a file. A 2 GB file that is not ours then costs a read of its head.
+struct FileFormat {
+  std::string what;         // the kind of file, for messages ("model file")
+  size_t head_bytes = 0;    // read first, fewer when the file is shorter
+  bool follow_link = true;  // false: a symbolic link at the path is refused
+  // From the head and the file's size: the bytes to read, at most the size
+  // (else the file is reported truncated), or an error (without the path:
+  // the reader names it).
+  std::function<Expected<uint64_t>(const std::vector<uint8_t>& head, uint64_t file_size)> length;
+};
+
+// The first `length` bytes of a regular file as `format` says. Directories,
+// FIFOs and devices are refused without blocking; messages name the path.
+Expected<std::vector<uint8_t>> readRegularFile(const std::string& path, const FileFormat& format);
+
+// The whole of a small regular file: more than `max_bytes` is refused unread.
+FileFormat sizeLimitedFile(const std::string& what, uint64_t max_bytes);
+
+// What a loader says of an exception it caught, in our words (a library's
+// text may quote the file's bytes): out of memory, a size out of range, or
+// that the file cannot be read.
+std::string loadFailureReason(const std::exception& error);
 
 struct FileReplacement {
   std::string path;

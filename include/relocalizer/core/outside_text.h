@@ -25,4 +25,10 @@ std::string nameError(const std::string& text, const std::string& what);
 // start, its length said ("... (10000 bytes)").
 std::string textExcerpt(const std::string& text, size_t max_bytes);
 
+// Whether `text` may be quoted in an answer or a log line as it is: valid
+// UTF-8 (ROS strings may hold any bytes, and an answer's consumer may reject
+// what is not UTF-8) without control characters (a newline would forge a
+// second log line).
+bool printableText(const std::string& text);
+
 }  // namespace relocalizer

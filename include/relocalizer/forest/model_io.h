@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "relocalizer/core/expected.h"
+#include "relocalizer/core/file_io.h"
 #include "relocalizer/forest/forest.h"
 #include "relocalizer/forest/training.h"
 
@@ -78,6 +79,10 @@ Status saveModel(const Model& model, const std::string& path);
 // Bytes of a model's forests and surface in memory.
 size_t modelBytes(const Model& model);
 Expected<Model> loadModel(const std::string& path);
+// How a model file is read (core/file_io.h): its 28-byte preamble first (a
+// file that is not a model costs that read), then exactly the body length
+// the preamble names; `what` names it in messages.
+FileFormat modelFileFormat(const std::string& what);
 
 // The header JSON of a model (parameters and summary), for tools and logs.
 std::string modelHeaderJson(const Model& model, int indent = 2);

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "relocalizer/core/expected.h"
+#include "relocalizer/core/file_io.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/forest/training.h"
 
@@ -88,5 +89,8 @@ std::string keyFramesPath(const std::string& model_path);
 std::vector<uint8_t> serializeKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames,
                                         const ModelFileId& model);
 Expected<KeyFrameFile> loadKeyFrames(const std::string& path);
+// How a key-frame file is read (core/file_io.h): its header first, then
+// the body length it names, which must be the rest of the file.
+FileFormat keyFrameFileFormat();
 
 }  // namespace relocalizer

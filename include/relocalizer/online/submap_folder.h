@@ -10,6 +10,7 @@
 // starts with kSubmapManifestMagic: replaceFiles (core/file_io.h) then
 // overwrites only a manifest.json of ours, never a user's file of that name.
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -24,6 +25,14 @@ namespace relocalizer {
 constexpr std::string_view kSubmapManifestMagic{"{\n  \"format\": \"relocalizer learned submaps\""};
 constexpr const char* kSubmapManifestName = "manifest.json";
 constexpr int kSubmapFormatVersion = 1;
+// What a manifest may name, so that a damaged or hostile one cannot make a
+// reader allocate by it: the set's containers are by index (a learner that
+// made 100,000 submaps would hold terabytes of models first), key-frame ids
+// are saved as int32, and 64 MiB is some 120,000 key-frame poses (the
+// 18-submap redkitchen set's manifest is 1.1 MB).
+constexpr int kMaxSubmapIndex = 99999;
+constexpr std::int64_t kMaxKeyFrameId = 2147483646;
+constexpr std::uint64_t kMaxSubmapManifestBytes = std::uint64_t{64} << 20;
 
 // One submap as the manifest names it.
 struct SubmapEntry {
@@ -58,9 +67,18 @@ std::string submapFileName(int index);
 // `<folder>/manifest.json`.
 std::string submapManifestPath(const std::string& folder);
 
+// Where a save a peer asks for (~save_model's `path`) may write: the folder
+// `requested` names, relative ones inside `root`, resolved without symbolic
+// links; an error unless it lies inside `root` (not `root` itself) and is
+// new, empty, or a saved set (our manifest.json, or only submap files).
+// `root` is created when missing (it is the operator's). The error quotes
+// `requested` only when it is printable text.
+Expected<std::string> confinedSaveFolder(const std::string& root, const std::string& requested);
+
 std::string serializeSubmapManifest(const SubmapManifest& manifest);
-// Reads `<folder>/manifest.json`. Errors name the file and, for a bad field,
-// the field (`submaps[2].keyframe_poses[5].pose`).
+// Reads `<folder>/manifest.json` (neither a symbolic link nor larger than
+// kMaxSubmapManifestBytes). Errors name the file and, for a bad field, the
+// field (`submaps[2].keyframe_poses[5].pose`).
 Expected<SubmapManifest> readSubmapManifest(const std::string& folder);
 // The same from the manifest's text; `path` names it in errors.
 Expected<SubmapManifest> parseSubmapManifest(const std::string& text, const std::string& path);
