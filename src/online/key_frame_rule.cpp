@@ -37,14 +37,16 @@ double keyFrameDistance(const Pose& a, const Pose& b) {
   return translationError(a, b) / step.metres + rotationErrorDegrees(a, b) / step.degrees;
 }
 
+bool KeyFrameSelector::due(const Pose& pose) const {
+  if (!active() || !last_) return true;
+  const bool moved = motion_.metres > 0 && translationError(pose, *last_) >= motion_.metres;
+  const bool turned = motion_.degrees > 0 && rotationErrorDegrees(pose, *last_) >= motion_.degrees;
+  return moved || turned;
+}
+
 bool KeyFrameSelector::keep(const Pose& pose) {
-  if (active() && last_) {
-    const bool moved = motion_.metres > 0 && translationError(pose, *last_) >= motion_.metres;
-    const bool turned =
-        motion_.degrees > 0 && rotationErrorDegrees(pose, *last_) >= motion_.degrees;
-    if (!moved && !turned) return false;
-  }
-  last_ = pose;
+  if (!due(pose)) return false;
+  take(pose);
   return true;
 }
 

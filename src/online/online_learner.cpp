@@ -10,7 +10,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 
 #include "relocalizer/core/file_io.h"
 #include "relocalizer/core/id_ranges.h"
@@ -49,6 +48,7 @@ std::string learningParamsError(const LearningParams& p, const SettingName& name
   if (p.surface_min_frames < 1) return n("surface_min_frames") + " must be at least 1";
   if (p.samples_budget_per_tree < 0) return n("samples_budget_per_tree") + " must not be negative";
   if (p.min_backtracking_leaves < 1) return n("min_backtracking_leaves") + " must be at least 1";
+  if (std::string why = slamCheckParamsError(p.slam_check, name); !why.empty()) return why;
   if (!p.training.train_points && !p.training.train_lines)
     return n("config") + " must grow at least one forest (train_points or train_lines)";
   return {};
@@ -75,26 +75,6 @@ RelocalizerParams learnedModelParams(const LearningParams& learning, Relocalizer
   if (!learning.surface_gate) params.surface.min_agreement = 0.0f;
   params.max_leaves = std::max(params.max_leaves, learning.min_backtracking_leaves);
   return params;
-}
-
-std::string slamPoseError(const Pose& pose) {
-  if (!pose.matrix().allFinite()) return "SLAM pose is not finite (NaN or Inf)";
-  const Eigen::Matrix3d r = pose.linear();
-  // SLAM's quaternions arrive as doubles, normalised to far better than this.
-  constexpr double kTolerance = 1e-3;
-  const double off_orthonormal =
-      (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  if (off_orthonormal > kTolerance || std::abs(r.determinant() - 1.0) > kTolerance)
-    return "SLAM pose's rotation is not a rotation (det " + std::to_string(r.determinant()) +
-           ", off orthonormal by " + std::to_string(off_orthonormal) + ")";
-  const double distance = pose.translation().norm();
-  if (distance > kMaxSlamPoseDistance) {
-    char text[64];
-    std::snprintf(text, sizeof text, "%.3g", distance);
-    return std::string("SLAM pose is ") + text + " m from the map origin (at most " +
-           std::to_string(static_cast<int>(kMaxSlamPoseDistance)) + " m is learned)";
-  }
-  return {};
 }
 
 OnlineLearner::OnlineLearner(LearningParams params, RelocalizerParams relocalizer_params, Mode mode)

@@ -276,6 +276,20 @@ std::vector<SubmapModel> SubmapLearner::models() const {
   return out;
 }
 
+SlamPoseCheck::AskPlace SubmapLearner::askPlace() const {
+  // Built when asked: the check asks only when the images cannot tell.
+  return [this](const RgbdFrame& frame) -> std::optional<Pose> {
+    const std::vector<SubmapModel> learned = models();
+    PlaceSet places;
+    if (learned.empty() ||
+        !places.putGroup(names_.place, submapPlaces(learned, names_.place, names_.map_frame)))
+      return std::nullopt;
+    const PlaceAnswer answer = places.relocalize(frame);
+    if (!answer.relocalization.success) return std::nullopt;
+    return answer.relocalization.pose;
+  };
+}
+
 SubmapStatus SubmapLearner::status() const {
   SubmapStatus status;
   std::shared_ptr<const OnlineLearner> active;

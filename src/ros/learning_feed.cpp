@@ -54,7 +54,7 @@ relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> LearningFeed:
 LearningFeed::LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
                            std::unique_ptr<relocalizer::SubmapLearner> learner,
                            ServiceCallQueue& calls)
-    : params_(params), learner_(std::move(learner)), selector_(params.learning.min_motion) {
+    : params_(params), learner_(std::move(learner)), track_(params.learning) {
   auto save_options = ros::AdvertiseServiceOptions::create<relocalizer::SaveModel>(
       "save_model",
       boost::bind(&LearningFeed::onSaveModel, this, boost::placeholders::_1,
@@ -99,6 +99,12 @@ void LearningFeed::fill(relocalizer::RelocalizationResult& result) const {
   result.submaps = saturate(static_cast<uint64_t>(status.submaps));
   result.keyframes_covered = saturate(static_cast<uint64_t>(status.keyframes_covered));
   result.learning_error = status.last_error;
+  const relocalizer::SlamCheckStatus check = track_.check.status();
+  result.slam_poses_refused = saturate(static_cast<uint64_t>(check.refused));
+  result.learning_stopped = check.map_moved;
+  // Louder than a failed retrain: every key frame is refused until SLAM's
+  // poses agree with the place again.
+  if (check.map_moved) result.learning_error = check.map_moved_why;
 }
 
 std::string LearningFeed::noModelYet() const {
@@ -111,6 +117,7 @@ std::string LearningFeed::noModelYet() const {
 
 void LearningFeed::learnLoop() {
   using Outcome = relocalizer::KeyFrameFeed::Result::Outcome;
+  int map_moves_told = 0;
   while (true) {
     auto entry = frames_.take();
     if (!entry) return;
@@ -135,7 +142,7 @@ void LearningFeed::learnLoop() {
             messageExcerpt(e.what(), 256).c_str());
     }
     const relocalizer::KeyFrameFeed::Result fed = relocalizer::KeyFrameFeed::offerTo(
-        selector_, pose,
+        track_, pose,
         [&] {
           auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
           if (frame) frame->id = static_cast<int>(entry->seq);
@@ -149,7 +156,8 @@ void LearningFeed::learnLoop() {
               placed->decision == relocalizer::SubmapDecision::NewLeft)
             keepFrozenOnDisk();
           return placed->decision != relocalizer::SubmapDecision::Covered;
-        });
+        },
+        learner_->askPlace());
     if (fed.outcome == Outcome::Untracked) {
       ++frames_untracked_;  // no pose, or one SLAM got wrong (fed.why)
       if (!fed.why.empty() && log_.allow("learn: bad SLAM pose"))
@@ -157,6 +165,15 @@ void LearningFeed::learnLoop() {
                  params_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(), fed.why.c_str());
     } else if (fed.outcome == Outcome::Failed && log_.allow(fed.why)) {
       ROS_WARN("relocalizer: not learning from a key frame: %s", fed.why.c_str());
+    } else if (fed.outcome == Outcome::Refused) {
+      const relocalizer::SlamCheckStatus check = track_.check.status();
+      if (check.map_moves > map_moves_told) {
+        map_moves_told = check.map_moves;
+        ROS_ERROR("relocalizer: %s", check.map_moved_why.c_str());
+      } else if (log_.allow("learn: SLAM pose refused")) {
+        ROS_WARN("relocalizer: not learning from the frame at %.3f (%d refused so far): %s",
+                 stamp.toSec(), check.refused, fed.why.c_str());
+      }
     }
   }
 }

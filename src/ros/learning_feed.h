@@ -2,7 +2,9 @@
 // Learn mode's feed from SLAM into the online learner: the newest synchronised
 // frame is posed by TF map_frame -> camera at its own stamp (never a later
 // one: a frame TF cannot cover was not tracked), checked, filtered by the
-// key-frame rule and handed to the submap learner (submap_learner.h): the
+// key-frame rule, its SLAM motion checked against its images (jumps and map
+// resets are refused, counted and logged: slam_pose_check.h) and handed to
+// the submap learner (submap_learner.h): the
 // active submap's own low-priority worker retrains, and a full submap is
 // frozen. Also ~save_model and save_on_exit.
 //
@@ -73,7 +75,8 @@ class LearningFeed {
 
   const NodeParams& params_;
   const std::unique_ptr<relocalizer::SubmapLearner> learner_;
-  relocalizer::KeyFrameSelector selector_;  // the learning thread's
+  relocalizer::FeedTrack
+      track_;  // the rule's and the SLAM check's references (the learning thread's)
   // The newest frame only: key frames are chosen by motion, so a skipped
   // frame is covered by the next.
   FrameBuffer<FrameInputPtr> frames_{FrameBuffer<FrameInputPtr>::Policy::Latest};

@@ -57,6 +57,8 @@ void addLearning(DiagnosticStatusWrapper& status, const NodeOutput::ResultMsg& c
   status.add("key frames learned", counters.keyframes_learned);
   status.add("learning backlog", counters.learning_backlog);
   status.add("frames untracked", counters.frames_untracked);
+  status.add("SLAM poses refused", counters.slam_poses_refused);
+  status.add("learning stopped", counters.learning_stopped ? "yes: SLAM's map moved" : "no");
   status.add("learning error", counters.learning_error.empty() ? "none" : counters.learning_error);
 }
 
@@ -170,6 +172,9 @@ void NodeDiagnostics::nodeStatus(DiagnosticStatusWrapper& status) {
   }
   const HealthVerdict verdict = judgeHealth(health, limits_);
   status.summary(statusLevel(verdict.level), verdict.message);
+  if (counters.learning && counters.learning_stopped)
+    status.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN,
+                        "learning stopped: SLAM's map moved (see learning error)");
 
   std::string places;
   for (const relocalizer::PlaceFigures& place : places_)

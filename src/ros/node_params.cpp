@@ -317,6 +317,9 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   check(readInt(nh, "learn_first_retrain", p.learn_first_retrain, 1));
   check(read(nh, "learn_retrain_growth", p.learn_retrain_growth));
   check(read(nh, "learn_surface_gate", p.learn_surface_gate));
+  check(read(nh, "learn_slam_check", p.learn_slam_check));
+  check(read(nh, "learn_max_slam_speed", p.learn_max_slam_speed));
+  check(read(nh, "learn_slam_disagreement", p.learn_slam_disagreement));
   check(read(nh, "learn_config", p.learn_config));
   check(read(nh, "diagnostic_period", p.diagnostic_period));
   check(readInt(nh, "diagnostics_max_failures", p.diagnostics_max_failures, 0));
@@ -359,6 +362,11 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
       if (field == "overlap") return ns("learn_submap_overlap");
       return ns("learn_" + field);
     };
+    learning.slam_check.enabled = p.learn_slam_check;
+    if (relocalizer::Status bounds = relocalizer::readSlamCheckBounds(
+            p.learn_max_slam_speed, p.learn_slam_disagreement, learning.slam_check, name);
+        !bounds)
+      return makeError(bounds.error());
     auto checked =
         relocalizer::readLearningParams(learning, p.learn_min_motion, p.learn_config, name);
     if (!checked) return makeError(checked.error());
@@ -419,6 +427,9 @@ std::string nodeParamsToJson(const NodeParams& p) {
             {"learn_first_retrain", p.learn_first_retrain},
             {"learn_retrain_growth", p.learn_retrain_growth},
             {"learn_surface_gate", p.learn_surface_gate},
+            {"learn_slam_check", p.learn_slam_check},
+            {"learn_max_slam_speed", p.learn_max_slam_speed},
+            {"learn_slam_disagreement", p.learn_slam_disagreement},
             {"learn_config", p.learn_config},
             {"diagnostic_period", p.diagnostic_period},
             {"diagnostics_max_failures", p.diagnostics_max_failures},

@@ -71,6 +71,10 @@ struct NodeParams {
   int learn_first_retrain = 2;              // key frames before the first model
   double learn_retrain_growth = 0.25;       // retrain when the store grew by this share
   bool learn_surface_gate = false;          // learned models: refuse poses off the learned surface
+  // The check of SLAM's poses against the key frames' images (slam_pose_check.h).
+  bool learn_slam_check = true;
+  std::string learn_max_slam_speed = "3,360";      // metres, degrees per second
+  std::string learn_slam_disagreement = "0.05,5";  // metres, degrees
   std::string
       learn_config;  // training YAML (as `train --config`); empty: config/forest.yaml defaults
   // Submaps (online/submap_rule.h): metres from the active submap's key

@@ -64,7 +64,10 @@ int learnOnline(const cli::App& app, const Options& o, LearnOptions l,
       // A frame without a pose is SLAM having lost track: never learned from.
       const KeyFrameFeed::Result fed =
           feed.offer(learn.groundTruth(i), [&] { return learn.load(i); });
-      if (!fed.why.empty()) return cli::fail(app, fed.why);
+      if (fed.outcome == KeyFrameFeed::Result::Outcome::Refused)
+        std::printf("not learned: %s\n", fed.why.c_str());
+      else if (!fed.why.empty())
+        return cli::fail(app, fed.why);
       if (fed.outcome == KeyFrameFeed::Result::Outcome::Untracked) ++without_pose;
       compress_seconds += fed.store_seconds;
       ++learned;
@@ -170,19 +173,19 @@ int learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
   if (!l.save_model.empty())
     if (Status used = submaps.useFolder(l.save_model); !used)
       return cli::fail(app, used.error(), 1);
-  KeyFrameSelector selector(checked->min_motion);
-  const auto store = [&](const RgbdFrame& frame, const Pose& pose) -> Expected<bool> {
-    auto placed = submaps.addKeyFrame(frame, pose);
-    if (!placed) return makeError(placed.error());
-    return placed->decision != SubmapDecision::Covered;
-  };
+  FeedTrack track(*checked);
+  const KeyFrameFeed::Store store = KeyFrameFeed::storeIn(submaps);
   cli::LearningCurve curve(data.path());
   int learned = 0, stored = 0, covered = 0;
   for (size_t i = 0; i < learn.size(); ++i) {
     const auto load_frame = [&] { return learn.load(i); };
     const KeyFrameFeed::Result fed =
-        KeyFrameFeed::offerTo(selector, learn.groundTruth(i), load_frame, store);
-    if (!fed.why.empty()) return cli::fail(app, fed.why);
+        KeyFrameFeed::offerTo(track, learn.groundTruth(i), load_frame, store, submaps.askPlace());
+    if (fed.outcome == KeyFrameFeed::Result::Outcome::Refused)
+      std::printf("not learned: %s
+", fed.why.c_str());
+    else if (!fed.why.empty())
+      return cli::fail(app, fed.why);
     stored += fed.outcome == KeyFrameFeed::Result::Outcome::Learned;
     covered += fed.outcome == KeyFrameFeed::Result::Outcome::Covered;
     if (++learned % l.curve_every != 0 && i + 1 != learn.size()) continue;

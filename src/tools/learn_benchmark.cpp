@@ -120,7 +120,7 @@ struct Stream {
   double rate = 0.0, seconds = 0.0, worst_lag = 0.0;
   long frames = 0, late = 0;
   // Every frame's outcome (KeyFrameFeed::Result::Outcome order): they sum to `frames`.
-  std::array<long, 5> outcomes{};
+  std::array<long, 6> outcomes{};
   std::vector<std::array<double, 6>> timeline;  // t, frames, key frames, learned, backlog, RSS
 };
 
@@ -144,7 +144,7 @@ std::string streamFrames(size_t learn_frames, double seconds, Clock::time_point 
     if (lag > 1.0 / stream.rate) ++stream.late;
     const KeyFrameFeed::Result fed = offer(static_cast<size_t>(frames) % learn_frames);
     ++stream.outcomes[static_cast<size_t>(fed.outcome)];
-    if (!fed.why.empty()) {
+    if (!fed.why.empty() && fed.outcome != KeyFrameFeed::Result::Outcome::Refused) {
       failure = fed.why;
       ++frames;
       break;
@@ -188,9 +188,9 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
       status.model_bytes / 1e6, status.store_bytes / 1e6);
   std::printf(
       "frames: %ld untracked, %ld not key frames, %ld key frames learned, %ld covered, %ld "
-      "failed\n",
+      "failed, %ld refused (SLAM pose check)\n",
       stream.outcomes[0], stream.outcomes[1], stream.outcomes[2], stream.outcomes[3],
-      stream.outcomes[4]);
+      stream.outcomes[4], stream.outcomes[5]);
   if (submaps)
     std::printf(
         "submaps: %d, key frames per submap (seeds included) %s; %d key frames covered by frozen "
@@ -236,7 +236,8 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
                             {"frames_not_keyframes", stream.outcomes[1]},
                             {"frames_learned", stream.outcomes[2]},
                             {"frames_covered", stream.outcomes[3]},
-                            {"frames_failed", stream.outcomes[4]}};
+                            {"frames_failed", stream.outcomes[4]},
+                            {"frames_refused", stream.outcomes[5]}};
   if (submaps) {
     summary["submaps"] = submaps->submaps;
     summary["submap_keyframes"] = submaps->submap_keyframes;
@@ -326,7 +327,7 @@ int main(int argc, char** argv) {
   // One learner (a capped store) or submaps, as the node learns them.
   std::unique_ptr<KeyFrameFeed> feed;
   std::unique_ptr<SubmapLearner> submap_learner;
-  KeyFrameSelector selector(checked->min_motion);
+  FeedTrack track(*checked);
   if (!learn_folder.empty() && !submaps) return cli::fail(app, "--learn-folder needs --submaps");
   if (submaps) {
     auto made = backgroundSubmaps(*checked, learn_folder);
@@ -341,12 +342,9 @@ int main(int argc, char** argv) {
   const auto offer = [&](size_t i) {
     const auto load = [&] { return learn_data.load(i); };
     if (!submaps) return feed->offer(learn_data.groundTruth(i), load);
-    return KeyFrameFeed::offerTo(selector, learn_data.groundTruth(i), load,
-                                 [&](const RgbdFrame& frame, const Pose& pose) -> Expected<bool> {
-                                   auto placed = submap_learner->addKeyFrame(frame, pose);
-                                   if (!placed) return makeError(placed.error());
-                                   return placed->decision != SubmapDecision::Covered;
-                                 });
+    return KeyFrameFeed::offerTo(track, learn_data.groundTruth(i), load,
+                                 KeyFrameFeed::storeIn(*submap_learner),
+                                 submap_learner->askPlace());
   };
   const auto learningStatus = [&] {
     return submaps ? submap_learner->status().active : feed->learner().status();

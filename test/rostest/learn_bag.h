@@ -8,6 +8,7 @@
 #include <rosbag/view.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <functional>
 #include <optional>
 
 #include "node_test_support.h"
@@ -16,10 +17,14 @@
 
 namespace relocalizer_test {
 
+// What SLAM's TF says of frame `index` (from 0): as recorded, or changed by
+// a test of SLAM that lies.
+using SlamTf = std::function<void(tf2_msgs::TFMessage& message, int index)>;
+
 // Plays the bag as `rosbag play` would (same topics, same pacing), once the
 // node listens, so no frame is lost to connection set-up. Returns the number
 // of frames played.
-inline int playLearnBag(CameraPublisher& camera) {
+inline int playLearnBag(CameraPublisher& camera, const SlamTf& slam_tf = {}) {
   std::string fixture;
   ros::NodeHandle("~").getParam("fixture", fixture);
   ros::NodeHandle nh;
@@ -34,12 +39,17 @@ inline int playLearnBag(CameraPublisher& camera) {
   ros::WallDuration(0.5).sleep();
   rosbag::Bag bag(fixture + "/learn.bag");
   rosbag::View view(bag);
-  int frames = 0;
+  int frames = 0, tf_messages = 0;
   ros::Time previous;
   for (const rosbag::MessageInstance& m : view) {
     if (!previous.isZero() && m.getTime() > previous) (m.getTime() - previous).sleep();
     previous = m.getTime();
-    if (auto msg = m.instantiate<tf2_msgs::TFMessage>()) tf.publish(*msg);
+    if (auto msg = m.instantiate<tf2_msgs::TFMessage>()) {
+      tf2_msgs::TFMessage message = *msg;
+      if (slam_tf) slam_tf(message, tf_messages);
+      ++tf_messages;
+      tf.publish(message);
+    }
     if (m.getTopic() == "/camera/rgb/image_raw") {
       colour.publish(*m.instantiate<sensor_msgs::Image>());
       ++frames;

@@ -470,11 +470,11 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   // Every streamed frame is counted once, by what became of it.
   const long frames = summary.at("frames").get<long>();
   ASSERT_GT(frames, 20) << relocalizer::testing::readBytes(log);
-  EXPECT_EQ(summary.at("frames_untracked").get<long>() +
-                summary.at("frames_not_keyframes").get<long>() +
-                summary.at("frames_learned").get<long>() +
-                summary.at("frames_covered").get<long>() + summary.at("frames_failed").get<long>(),
-            frames);
+  EXPECT_EQ(
+      summary.at("frames_untracked").get<long>() + summary.at("frames_not_keyframes").get<long>() +
+          summary.at("frames_learned").get<long>() + summary.at("frames_covered").get<long>() +
+          summary.at("frames_failed").get<long>() + summary.at("frames_refused").get<long>(),
+      frames);
   EXPECT_EQ(summary.at("frames_failed").get<long>(), 0);
   EXPECT_EQ(summary.at("frames_untracked").get<long>(), 0);  // every frame has ground truth
   // Cut into submaps of at most 6 key frames; a lap after the first is mostly covered.

@@ -1,6 +1,6 @@
 #pragma once
 // Gauss-Newton for a rigid transform from point-to-plane residuals, shared by
-// frame-to-frame depth alignment (data/depth_alignment.h) and frame-to-surface
+// frame-to-frame depth alignment (core/frame_alignment.h) and frame-to-surface
 // fitting (surface/surface_fit.h).
 //
 // Residual r = n . (p - q) for a moved point p = T * x, a target point q and its

@@ -44,6 +44,11 @@ class KeyFrameSelector {
   // i.e. the first, or at least the motion's metres or degrees from the last
   // key frame. A key frame becomes the new reference.
   bool keep(const Pose& pose);
+  // keep() in two steps, for a caller that may still refuse the key frame
+  // (the learning feed's SLAM check): a refused one must not become the
+  // reference later frames are measured from.
+  bool due(const Pose& pose) const;
+  void take(const Pose& pose) { last_ = pose; }
 
  private:
   KeyFrameMotion motion_;

@@ -33,6 +33,7 @@
 #include "relocalizer/online/key_frame_rule.h"
 #include "relocalizer/online/keyframe_store.h"
 #include "relocalizer/online/setting_name.h"
+#include "relocalizer/online/slam_pose_check.h"
 #include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
@@ -67,6 +68,9 @@ struct LearningParams {
   // frames (11 key frames) 44.0 % with 8 leaves, 40.0 % with the offline
   // default of 4, the same 83.0 % with either after 300 frames.
   int min_backtracking_leaves = 8;
+  // The check of SLAM's poses against the images (slam_pose_check.h) in the
+  // feed that chooses the key frames (key_frame_feed.h).
+  SlamCheckParams slam_check;
   TrainingParams training;  // both forests and the surface, as `train` uses them
 };
 
@@ -87,17 +91,6 @@ Expected<LearningParams> readLearningParams(LearningParams params, const std::st
 // min_backtracking_leaves above say why). The learner applies them to every
 // model it serves.
 RelocalizerParams learnedModelParams(const LearningParams& learning, RelocalizerParams params);
-
-// Farthest a SLAM camera pose may be from the map origin to be learned from.
-// Leaf modes store world coordinates as float, whose spacing reaches 1 mm at
-// 8 km: beyond 10 km a learned place would lose the centimetre accuracy the
-// method is judged by, and no room-scale SLAM map is that large, so such a
-// pose is a SLAM or TF fault (1e30 m was seen learned and answered).
-constexpr double kMaxSlamPoseDistance = 1e4;
-
-// Empty when a camera-to-world pose may be learned from: finite, a rotation
-// (orthonormal, det +1) and within kMaxSlamPoseDistance; otherwise why not.
-std::string slamPoseError(const Pose& camera_to_world);
 
 // Where a retrain's wall time went, in the order the stages run (seconds).
 struct RetrainStages {

@@ -33,6 +33,7 @@
 #include "relocalizer/core/expected.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/online/online_learner.h"
+#include "relocalizer/online/slam_pose_check.h"
 #include "relocalizer/online/submap_folder.h"
 #include "relocalizer/online/submap_rule.h"
 #include "relocalizer/relocalize/place_set.h"
@@ -161,6 +162,9 @@ class SubmapLearner {
   const SubmapIndex& index() const { return index_; }
   // The active submap's learner, or null before the first key frame.
   const OnlineLearner* active() const { return active_.get(); }
+  // The SLAM check's question to the place (slam_pose_check.h): every
+  // submap's model searched as one group, as the node searches them.
+  SlamPoseCheck::AskPlace askPlace() const;
 
  private:
   // A frozen submap. Why key frames are kept at all: its key-frame file must
