@@ -41,8 +41,12 @@ PoseHandoff::PoseHandoff(ros::NodeHandle nh, const NodeParams& params)
 }
 
 PoseHandoff::~PoseHandoff() {
-  stopping_ = true;
-  { std::lock_guard<std::mutex> lock(lookup_mutex_); }
+  {
+    // Under the lock, so the lookup thread cannot miss the wake between its
+    // check of stopping_ and its wait.
+    std::lock_guard<std::mutex> lock(lookup_mutex_);
+    stopping_ = true;
+  }
   lookup_wake_.notify_all();
   if (looker_.joinable()) looker_.join();
   {

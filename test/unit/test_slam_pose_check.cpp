@@ -129,8 +129,9 @@ Fed feedSubmaps(SubmapLearner& submaps, FeedTrack& track, const std::vector<Rgbd
   Fed fed;
   const KeyFrameFeed::Store store = KeyFrameFeed::storeIn(submaps);
   for (size_t i = 0; i < walk.size(); ++i) {
-    const KeyFrameFeed::Result r = KeyFrameFeed::offerTo(
-        track, slam(i), [&] { return walk[i]; }, store, submaps.askPlace());
+    const auto load_frame = [&] { return walk[i]; };
+    const KeyFrameFeed::Result r =
+        KeyFrameFeed::offerTo(track, slam(i), load_frame, store, submaps.askPlace());
     EXPECT_NE(r.outcome, KeyFrameFeed::Result::Outcome::Failed) << r.why;
     fed.learned += r.outcome == KeyFrameFeed::Result::Outcome::Learned;
     fed.refused += r.outcome == KeyFrameFeed::Result::Outcome::Refused;
