@@ -182,8 +182,7 @@ int learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
     const KeyFrameFeed::Result fed =
         KeyFrameFeed::offerTo(track, learn.groundTruth(i), load_frame, store, submaps.askPlace());
     if (fed.outcome == KeyFrameFeed::Result::Outcome::Refused)
-      std::printf("not learned: %s
-", fed.why.c_str());
+      std::printf("not learned: %s\n", fed.why.c_str());
     else if (!fed.why.empty())
       return cli::fail(app, fed.why);
     stored += fed.outcome == KeyFrameFeed::Result::Outcome::Learned;
