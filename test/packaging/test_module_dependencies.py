@@ -76,12 +76,15 @@ def module_of_path(modules, path):
 
 
 def ros_include_roots():
-    """Include roots of the ROS packages package.xml declares (ros/, sensor_msgs/, ...)."""
-    root = ET.parse(SOURCE / "package.xml").getroot()
-    names = {element.text.strip() for tag in ("depend", "build_depend", "test_depend")
-             for element in root.iter(tag)}
+    """Include roots of the ROS packages the build finds through catkin (ros/, sensor_msgs/, ...).
+
+    Read from find_package(catkin ... COMPONENTS ...), not from package.xml, whose
+    system keys (tbb, boost) are no ROS packages."""
+    text = re.sub(r"#[^\n]*", "", CMAKE.read_text())
+    call = re.search(r"find_package\s*\(\s*catkin\s+REQUIRED\s+COMPONENTS([^)]*)\)", text)
+    names = set(call.group(1).split()) if call else set()
     # Generated message headers of this package (<relocalizer/Relocalize.h>) are ROS too.
-    return {name for name in names if re.fullmatch(r"[a-z0-9_]+", name)} | {"ros", "relocalizer"}
+    return names | {"ros", "relocalizer"}
 
 
 def includes(path):
