@@ -11,7 +11,6 @@ need (the synthetic room, dataset readers, evaluation).
 import pathlib
 import re
 import unittest
-import xml.etree.ElementTree as ET
 
 SOURCE = pathlib.Path(__file__).resolve().parents[2]
 DOC = SOURCE / "docs" / "architecture.md"
