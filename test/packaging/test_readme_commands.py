@@ -1,10 +1,14 @@
-"""The README's commands, typed as a user types them.
+"""The commands of the README and of docs/, typed as a user types them.
 
 Each command runs in a fresh bash that has only sourced the devel space the README
 names (`source devel/setup.bash`), from a scratch folder holding the files the
-README's lines refer to (model.bin, place.model and kitchen.model are the rostest
+lines refer to (model.bin, place.model and kitchen.model are the rostest
 fixture's model, lab.model the model of its second room; test.bag is written by
-`rosrun relocalizer make_bag`). The lines are read from README.md itself:
+`rosrun relocalizer make_bag`). The lines are read from the shell blocks of
+README.md itself and of every docs/*.md it sends readers to (docs/node.md has the
+place, hint, diagnostics and RViz lines, docs/tools.md the recording's,
+docs/reliability.md the threshold curves'), README.md first, each distinct line once
+("README" below means all of them):
 
 - every `roslaunch relocalizer relocalizer.launch ...` line is launched verbatim and
   answered with the README's own `rosservice call` line (on-demand mode) or
@@ -60,6 +64,8 @@ import yaml
 
 SOURCE = pathlib.Path(__file__).resolve().parents[2]
 README = SOURCE / "README.md"
+# The README first: the checks that take one line of a kind take its first.
+COMMAND_FILES = [README] + sorted((SOURCE / "docs").glob("*.md"))
 DEVEL = pathlib.Path(os.environ.get("RELOCALIZER_DEVEL", SOURCE / "devel"))
 FIXTURE = pathlib.Path(os.environ.get("RELOCALIZER_FIXTURE", SOURCE / "build" / "rostest_fixture"))
 COMMAND_PREFIXES = ("rosrun relocalizer ", "roslaunch relocalizer ", "rosservice call /relocalizer",
@@ -68,12 +74,22 @@ COMMAND_PREFIXES = ("rosrun relocalizer ", "roslaunch relocalizer ", "rosservice
 
 
 def readme_commands():
-    """The lines of README.md's shell blocks that call this package, continuations joined."""
+    """The lines of the shell blocks of README.md and docs/*.md that call this package,
+    continuations joined, each distinct line once, in the order they are read."""
+    commands = []
+    for path in COMMAND_FILES:
+        commands += [line for line in shell_lines(path) if line not in commands]
+    return commands
+
+
+def shell_lines(path):
+    """The lines of one Markdown file's sh and bash blocks that call this package."""
     commands = []
     in_block = False
     pending = ""
-    for line in README.read_text().splitlines():
-        if line.startswith("```"):
+    for line in path.read_text().splitlines():
+        # Fences indented under a list item count too: a step's command is a command.
+        if line.lstrip().startswith("```"):
             in_block = line.strip() in ("```sh", "```bash")
             pending = ""
             continue
@@ -211,7 +227,7 @@ class ReadmeCommandsTest(unittest.TestCase):
 
     def readme_lines(self, prefix):
         lines = [c for c in self.commands if c.startswith(prefix)]
-        self.assertTrue(lines, f"README.md has no `{prefix}...` line")
+        self.assertTrue(lines, f"neither README.md nor docs/*.md has a `{prefix}...` line")
         return lines
 
     def assert_near_ground_truth(self, position, orientation, line):
@@ -265,7 +281,8 @@ class ReadmeCommandsTest(unittest.TestCase):
         launches = [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
                     if "mode:=continuous" not in c and "learn:=true" not in c
                     and "places:=" not in c]
-        self.assertTrue(launches, "README.md has no on-demand relocalizer.launch line")
+        self.assertTrue(launches, "neither README.md nor docs/*.md has an on-demand "
+                        "relocalizer.launch line")
         for launch in launches:
             with self.subTest(launch=launch):
                 self.shell.start(launch, "roslaunch.log")
@@ -446,7 +463,7 @@ class ReadmeCommandsTest(unittest.TestCase):
         call = self.readme_lines("rosservice call /relocalizer/relocalize")[0]
         launches = [c for c in self.readme_lines("roslaunch relocalizer relocalizer.launch")
                     if "forward_initialpose:=true" in c or "set_pose_service:=" in c]
-        self.assertTrue(launches, "README.md has no hand-off line")
+        self.assertTrue(launches, "neither README.md nor docs/*.md has a hand-off line")
         for launch in launches:
             with self.subTest(launch=launch):
                 self.shell.start(launch, "roslaunch.log")
