@@ -79,15 +79,18 @@ const Place* sameModel(const PlaceList& places, const Place& place) {
 }
 
 std::string sameModelError(const Place& place, const Place& holder) {
+  // A group goes as a whole (remove() by its name).
+  const std::string owner = holder.group.empty() ? holder.name : holder.group;
   return "place " + place.name + ": its model (" + place.source + ") is already loaded as place " +
-         holder.name + " (" + holder.source + ") in " + place.map_frame +
+         holder.name + " (" + holder.source + ")" +
+         (holder.group.empty() ? "" : " of group " + holder.group) + " in " + place.map_frame +
          "; two places of one model in one frame would make every frame an ambiguous place: " +
-         "unload " + holder.name + " first, or give another map_frame";
+         "unload " + owner + " first, or give another map_frame";
 }
 
-// The model file's identity (Place::model_id): CRC-32 and size. Empty when
-// it cannot be read again (then nothing is compared).
-std::string fileIdentity(const std::string& path) {
+}  // namespace
+
+std::string modelFileIdentity(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   const std::streamoff size = in.tellg();
   if (!in || size < 0) return {};
@@ -99,8 +102,6 @@ std::string fileIdentity(const std::string& path) {
                 bytes.size());
   return id;
 }
-
-}  // namespace
 
 std::string PlaceSearchParams::validationError() const {
   if (screen.samples < 3 || screen.hypotheses < 1 || screen.sampling_attempts < 1 ||
@@ -163,7 +164,7 @@ Expected<Place> PlaceSet::load(const std::string& name, const std::string& model
   place.map_frame = map_frame;
   place.source = model_path;
   place.relocalizer = std::move(*relocalizer);
-  place.model_id = fileIdentity(model_path);
+  place.model_id = modelFileIdentity(model_path);
   return place;
 }
 
