@@ -82,7 +82,7 @@ std::string sameModelError(const Place& place, const Place& holder) {
   // A group goes as a whole (remove() by its name).
   const std::string owner = holder.group.empty() ? holder.name : holder.group;
   return "place " + place.name + ": its model (" + place.source + ") is already loaded as place " +
-         holder.name + " (" + holder.source + ")" +
+         holder.name + " (" + (holder.source.empty() ? "learned" : holder.source) + ")" +
          (holder.group.empty() ? "" : " of group " + holder.group) + " in " + place.map_frame +
          "; two places of one model in one frame would make every frame an ambiguous place: " +
          "unload " + owner + " first, or give another map_frame";
@@ -97,9 +97,13 @@ std::string modelFileIdentity(const std::string& path) {
   std::vector<uint8_t> bytes(static_cast<size_t>(size));
   in.seekg(0);
   if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) return {};
-  char id[48];
-  std::snprintf(id, sizeof id, "crc32 %08x, %zu bytes", crc32Of(bytes.data(), bytes.size()),
-                bytes.size());
+  return modelIdentity(crc32Of(bytes.data(), bytes.size()), bytes.size());
+}
+
+std::string modelIdentity(uint32_t crc32, uint64_t bytes) {
+  char id[64];
+  std::snprintf(id, sizeof id, "crc32 %08x, %llu bytes", crc32,
+                static_cast<unsigned long long>(bytes));
   return id;
 }
 

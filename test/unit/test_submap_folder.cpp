@@ -532,6 +532,18 @@ TEST_F(SubmapFolder, OneFolderTwiceInOneFrameIsRefusedNamingItsHolder) {
   EXPECT_TRUE(putPlaceFiles(set, "b", load("b", copy, "other_map")).ok());
   EXPECT_TRUE(putPlaceFiles(set, "a", load("a", copy)).ok());
   EXPECT_EQ(set.size(), 10u);
+
+  // The learning run's own frozen submaps are their files too: the folder
+  // it saved, loaded beside it into its frame (the node's learned group),
+  // is refused.
+  PlaceSet learning;
+  ASSERT_TRUE(
+      learning.putGroup("learned", submapPlaces(learner_->models(), "learned", "map")).ok());
+  const Status beside = putPlaceFiles(learning, "old", load("old", saved()));
+  ASSERT_FALSE(beside.ok());
+  EXPECT_TRUE(
+      mentions({beside.error()}, "is already loaded as place learned/0 (learned) of group learned"))
+      << beside.error();
 }
 
 TEST_F(SubmapFolder, APeersPathThatIsNotOursGetsOneAnswerWhateverIsThere) {

@@ -50,6 +50,9 @@ struct Place {
 // size), so that a copy, a link or another spelling of the path is the same
 // model; empty when it cannot be read (then nothing is compared).
 std::string modelFileIdentity(const std::string& path);
+// The same from a file's CRC-32 and size known already (a learned submap's
+// file as it was written).
+std::string modelIdentity(uint32_t crc32, uint64_t bytes);
 
 // What a listing shows of a place.
 struct PlaceFigures {
