@@ -16,8 +16,11 @@ std::string submapPlaceName(const std::string& place, int index) {
 std::vector<Place> submapPlaces(const std::vector<SubmapModel>& models, const std::string& group,
                                 const std::string& map_frame) {
   std::vector<Place> places;
+  // A frozen submap is its file: the same file loaded as another place into
+  // the frame is refused (place_set.h).
   for (const SubmapModel& m : models)
-    places.push_back({submapPlaceName(group, m.index), map_frame, "", m.relocalizer, group, {}});
+    places.push_back({submapPlaceName(group, m.index), map_frame, "", m.relocalizer, group,
+                      m.file.size ? modelIdentity(m.file.crc, m.file.size) : std::string()});
   return places;
 }
 
@@ -265,11 +268,10 @@ std::vector<SubmapModel> SubmapLearner::models() const {
     model.index = s;
     model.frozen = index_.frozen(s);
     model.keyframes = static_cast<int>(index_.keyFrames(s).size());
-    if (model.frozen)
-      model.relocalizer = s < static_cast<int>(frozen_.size())
-                              ? frozen_[static_cast<std::size_t>(s)].relocalizer
-                              : nullptr;
-    else
+    if (model.frozen && s < static_cast<int>(frozen_.size())) {
+      model.relocalizer = frozen_[static_cast<std::size_t>(s)].relocalizer;
+      model.file = frozen_[static_cast<std::size_t>(s)].model_id;
+    } else if (!model.frozen)
       model.relocalizer = active_ ? active_->current() : nullptr;
     if (model.relocalizer) out.push_back(std::move(model));
   }

@@ -417,9 +417,19 @@ Expected<SavedSubmaps> loadSavedSubmaps(const std::string& folder, const std::st
   saved.warnings = std::move(*resumed);
   const std::vector<SubmapModel> models = submaps.models();
   saved.places = submapPlaces(models, group, map_frame);
-  // Listings and logs name each place's file.
-  for (std::size_t i = 0; i < models.size(); ++i)
-    saved.places[i].source = inFolder(folder, submapFileName(models[i].index));
+  // Listings and logs name each place's file; its contents are its identity
+  // (one folder loaded twice, by a copy, a link or another spelling, is
+  // refused as one model file twice is: PlaceSet). A frozen submap's is the
+  // manifest's, checked as it loaded; the active's is read here, and one
+  // saved before its first model is known by its key frames.
+  for (std::size_t i = 0; i < models.size(); ++i) {
+    Place& place = saved.places[i];
+    place.source = inFolder(folder, submapFileName(models[i].index));
+    if (place.model_id.empty()) place.model_id = modelFileIdentity(place.source);
+    if (place.model_id.empty())
+      if (const std::string id = modelFileIdentity(keyFramesPath(place.source)); !id.empty())
+        place.model_id = "key frames, " + id;
+  }
   if (saved.places.empty()) {
     std::string reasons;
     for (const std::string& warning : saved.warnings) reasons += "; " + warning;

@@ -79,28 +79,33 @@ const Place* sameModel(const PlaceList& places, const Place& place) {
 }
 
 std::string sameModelError(const Place& place, const Place& holder) {
+  // A group goes as a whole (remove() by its name).
+  const std::string owner = holder.group.empty() ? holder.name : holder.group;
   return "place " + place.name + ": its model (" + place.source + ") is already loaded as place " +
-         holder.name + " (" + holder.source + ") in " + place.map_frame +
+         holder.name + " (" + (holder.source.empty() ? "learned" : holder.source) + ")" +
+         (holder.group.empty() ? "" : " of group " + holder.group) + " in " + place.map_frame +
          "; two places of one model in one frame would make every frame an ambiguous place: " +
-         "unload " + holder.name + " first, or give another map_frame";
+         "unload " + owner + " first, or give another map_frame";
 }
 
-// The model file's identity (Place::model_id): CRC-32 and size. Empty when
-// it cannot be read again (then nothing is compared).
-std::string fileIdentity(const std::string& path) {
+}  // namespace
+
+std::string modelFileIdentity(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   const std::streamoff size = in.tellg();
   if (!in || size < 0) return {};
   std::vector<uint8_t> bytes(static_cast<size_t>(size));
   in.seekg(0);
   if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) return {};
-  char id[48];
-  std::snprintf(id, sizeof id, "crc32 %08x, %zu bytes", crc32Of(bytes.data(), bytes.size()),
-                bytes.size());
-  return id;
+  return modelIdentity(crc32Of(bytes.data(), bytes.size()), bytes.size());
 }
 
-}  // namespace
+std::string modelIdentity(uint32_t crc32, uint64_t bytes) {
+  char id[64];
+  std::snprintf(id, sizeof id, "crc32 %08x, %llu bytes", crc32,
+                static_cast<unsigned long long>(bytes));
+  return id;
+}
 
 std::string PlaceSearchParams::validationError() const {
   if (screen.samples < 3 || screen.hypotheses < 1 || screen.sampling_attempts < 1 ||
@@ -163,7 +168,7 @@ Expected<Place> PlaceSet::load(const std::string& name, const std::string& model
   place.map_frame = map_frame;
   place.source = model_path;
   place.relocalizer = std::move(*relocalizer);
-  place.model_id = fileIdentity(model_path);
+  place.model_id = modelFileIdentity(model_path);
   return place;
 }
 

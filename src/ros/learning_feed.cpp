@@ -21,10 +21,24 @@ std::filesystem::path rosHome() {
   return ros_home && *ros_home ? ros_home : std::filesystem::path(home ? home : "/tmp") / ".ros";
 }
 
+// The one folder the node saves into (~save_model and save_on_exit).
+std::string saveRoot(const NodeParams& params) {
+  return params.save_model_folder.empty() ? (rosHome() / "relocalizer").string()
+                                          : params.save_model_folder;
+}
+
 }  // namespace
 
 relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> LearningFeed::makeLearner(
-    const NodeParams& params) {
+    NodeParams& params) {
+  // The exit's save writes where a ~save_model could (issue 38, S1): refused
+  // now, loudly, rather than after a run's learning. From here on the
+  // parameter is the folder resolved.
+  if (!params.save_on_exit.empty()) {
+    auto confined = relocalizer::confinedSaveFolder(saveRoot(params), params.save_on_exit);
+    if (!confined) return relocalizer::makeError("save_on_exit: " + confined.error());
+    params.save_on_exit = *confined;
+  }
   auto learner = std::make_unique<relocalizer::SubmapLearner>(
       params.learning, params.submaps, params.relocalizer,
       relocalizer::SubmapNames{placeName(params), params.map_frame},
@@ -201,8 +215,7 @@ bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
                                relocalizer::SaveModel::Response& response) {
   // A peer's path: inside save_model_folder only (submap_folder.h), relative
   // ones too; the answer names the folder written absolutely.
-  const std::string root = params_.save_model_folder.empty() ? (rosHome() / "relocalizer").string()
-                                                             : params_.save_model_folder;
+  const std::string root = saveRoot(params_);
   relocalizer::Status saved = relocalizer::okStatus();
   std::string path;
   try {

@@ -44,9 +44,10 @@ namespace relocalizer_ros {
 class LearningFeed {
  public:
   // The learner the parameters describe, resumed from `model` when set; the
-  // error names the file at fault.
+  // error names the file at fault. save_on_exit must lie in the save folder
+  // (confinedSaveFolder, as ~save_model's path): it becomes the folder resolved.
   static relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> makeLearner(
-      const NodeParams& params);
+      NodeParams& params);
 
   LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
                std::unique_ptr<relocalizer::SubmapLearner> learner, ServiceCallQueue& calls);

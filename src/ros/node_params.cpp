@@ -198,9 +198,8 @@ std::string placeEntry(XmlRpc::XmlRpcValue& entry, const std::string& entry_name
   place.map_frame = stripLeadingSlashes(place.map_frame);
   if (place.map_frame.empty()) place.map_frame = map_frame;
   for (auto [key, field] : {std::pair{"name", &place.name}, {"map_frame", &place.map_frame}})
-    if (std::string why = relocalizer::nameError(*field, "'" + entry_name + "/" + key + "'");
-        !why.empty())
-      return why;
+    if (place.refused.empty())
+      place.refused = relocalizer::nameError(*field, "'" + entry_name + "/" + key + "'");
   return {};
 }
 
@@ -240,7 +239,9 @@ std::string checkPlaces(const ros::NodeHandle& nh, const NodeParams& p) {
                             {"handoff_frame", &p.handoff_frame}})
     if (!frame->empty())
       if (std::string why = relocalizer::nameError(*frame, ns(key)); !why.empty()) return why;
-  if (model_place)
+  // The learned place's name is learning's own: without it the node cannot
+  // learn. A model's place with a bad name is one place that does not load.
+  if (p.learn)
     if (std::string why = relocalizer::nameError(own, ns("place_name")); !why.empty())
       return why + (p.place_name.empty() ? " (the model file's stem; set place_name)" : "");
   for (size_t i = 0; i < p.places.size(); ++i) {
@@ -272,7 +273,8 @@ bool isLearnedPlaceName(const NodeParams& params, const std::string& name) {
 std::vector<PlaceSpec> startupPlaces(const NodeParams& params) {
   std::vector<PlaceSpec> places = params.places;
   if (!params.learn && !params.model.empty())
-    places.push_back({placeName(params), params.model, params.map_frame});
+    places.push_back(
+        {placeName(params), params.model, params.map_frame, params.model_place_refused});
   return places;
 }
 
@@ -381,6 +383,11 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   if (p.map_frame.empty()) return makeError(ns("map_frame") + " is empty");
   if (p.odom_frame == p.map_frame) return makeError(ns("odom_frame") + " equals map_frame");
   if (std::string why = checkPlaces(nh, p); !why.empty()) return makeError(why);
+  if (!p.learn && !p.model.empty())
+    if (std::string why = relocalizer::nameError(placeName(p), ns("place_name")); !why.empty())
+      p.model_place_refused =
+          "place of " + p.model + ": " + why +
+          (p.place_name.empty() ? " (the model file's stem; set place_name)" : "");
   if (std::string why = checkBounded(nh, p); !why.empty()) return makeError(why);
 
   auto relocalizer_params = readRelocalizerParams(nh);

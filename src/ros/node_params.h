@@ -30,6 +30,10 @@ struct PlaceSpec {
   std::string name;
   std::string model;
   std::string map_frame;  // the node's map_frame when the entry names none
+  // Why this place cannot be loaded, naming the parameter (a name or frame
+  // the name rule refuses, core/outside_text.h); empty when it can. A place
+  // refused is one place that does not load, not a node that cannot start.
+  std::string refused;
 };
 
 struct NodeParams {
@@ -37,7 +41,8 @@ struct NodeParams {
   // The name of `model`'s place (learn: of the learned place); empty: the
   // model file's stem, or "learned" (placeName()).
   std::string place_name;
-  std::vector<PlaceSpec> places;  // further places, as given
+  std::vector<PlaceSpec> places;    // further places, as given
+  std::string model_place_refused;  // as PlaceSpec::refused, for `model`'s place
   Mode mode = Mode::OnDemand;
   std::string map_frame = "map";
   std::string odom_frame;  // empty: publish map_frame -> camera frame

@@ -90,6 +90,10 @@ relocalizer::Expected<std::unique_ptr<NodePlaces>> NodePlaces::create(const Node
   std::unique_ptr<NodePlaces> places(new NodePlaces(params, std::move(learned)));
   std::vector<std::string> failures;
   for (const PlaceSpec& spec : startupPlaces(params)) {
+    if (!spec.refused.empty()) {
+      failures.push_back(spec.refused);
+      continue;
+    }
     auto loaded = loadPlaces(spec, params.relocalizer);
     if (!loaded) {
       failures.push_back(loaded.error());

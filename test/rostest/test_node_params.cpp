@@ -484,6 +484,36 @@ TEST(NodeParams, BadModelFilesStopTheNodeWithTheirReason) {
   std::filesystem::remove_all(dir);
 }
 
+// Issue 38, S1 for save_on_exit: ~save_model was confined to save_model_folder
+// but the exit's save was not: the node learned, and at shutdown wrote its
+// files into any folder (a stand-in for /etc/cron.d here). Refused at start-up.
+TEST(NodeParams, SaveOnExitOutsideTheSaveFolderStopsTheNodeAtStartUp) {
+  char dir_template[] = "/tmp/relocalizer_save_on_exit_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string dir = dir_template;
+  const std::string cron = dir + "/cron.d";
+  ASSERT_TRUE(std::filesystem::create_directory(cron));
+  writeBytes(cron + "/job", {'#', '\n'});
+  for (const std::string target : {cron, cron + "/new", std::string("../cron.d")}) {
+    SCOPED_TRACE(target);
+    const NodeRun run =
+        runNodeWithModel("",
+                         "_learn:=true _publish_tf:=false _save_model_folder:=" + dir +
+                             "/saves _save_on_exit:=" + target,
+                         "save_outside");
+    ASSERT_TRUE(WIFEXITED(run.status)) << run.output;
+    EXPECT_EQ(WEXITSTATUS(run.status), 1) << run.output;
+    EXPECT_NE(run.output.find("relocalizer: save_on_exit: "), std::string::npos) << run.output;
+    EXPECT_NE(run.output.find("not inside the save folder " + dir + "/saves"), std::string::npos)
+        << run.output;
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(cron),
+                            std::filesystem::directory_iterator()),
+              1)
+        << "written into " << cron;
+  }
+  std::filesystem::remove_all(dir);
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "test_node_params");

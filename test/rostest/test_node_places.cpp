@@ -107,7 +107,9 @@ TEST(Places, AdvertisesThePlaceServices) {
 
 TEST(Places, ListsTheTwoPlacesThatLoadedWithTheirFigures) {
   const std::vector<relocalizer::PlaceInfo> places = listPlaces();
-  // The entry whose model does not exist was logged and left out.
+  // The entry whose model does not exist was logged and left out, and so
+  // were the places whose name or frame breaks the name rule (issue 38: they
+  // stopped the node at start-up).
   ASSERT_EQ(places.size(), 2u);
   const std::vector<std::string> models = {fixture() + "/model.bin", fixture() + "/model2.bin"};
   for (size_t i = 0; i < places.size(); ++i) {
@@ -216,6 +218,8 @@ TEST(Places, CollidingNamesModelsAndNonsenseNamesAreRefused) {
   const std::string folder = fixture() + "/learned";
   const auto group = loadPlace("grp", folder, "grp_map");
   ASSERT_TRUE(group.success) << group.message;
+  // One folder twice in one frame, by another spelling of its path (issue 38, D1).
+  refused(loadPlace("grp2", folder + "/.", "grp_map"), "already loaded as place grp/0");
   refused(loadPlace("grp/0", fixture() + "/model2.bin", "grp_map"), "a name of group grp's");
   refused(loadPlace("grp", fixture() + "/model2.bin", "grp_map"), "the name of a group");
   refused(loadPlace("room1", folder, "other_map"), "'room1' is a place on its own");

@@ -500,6 +500,52 @@ TEST(FileHeads, AFileThatIsNotAModelIsRefusedFromItsHeadWhateverItsSize) {
       << cut.error();
 }
 
+// Issue 38, D1 for folders: one saved set loaded twice into one frame (under
+// another name, as a copy, through a link or another spelling of its path)
+// was accepted, and every frame was then "ambiguous place".
+TEST_F(SubmapFolder, OneFolderTwiceInOneFrameIsRefusedNamingItsHolder) {
+  const RelocalizerParams params = relocalizer::testing::onlineRoomRelocalizer();
+  const auto load = [&](const std::string& name, const std::string& path,
+                        const std::string& frame = "map") {
+    auto files = loadPlaceFiles(name, path, frame, params);
+    EXPECT_TRUE(files.ok()) << files.error();
+    return std::move(*files);
+  };
+  PlaceSet set;
+  ASSERT_TRUE(putPlaceFiles(set, "a", load("a", saved())).ok());
+  ASSERT_EQ(set.size(), 5u);
+  const fs::path link = dir_->path() / "link_to_saved";
+  fs::create_directory_symlink(saved(), link);
+  const std::string copy = copyOfSaved("twice_copy");
+  for (const std::string& path : {saved(), saved() + "/", saved() + "/./", link.string(), copy,
+                                  (fs::path(saved()) / submapFileName(2)).string()}) {
+    const Status twice = putPlaceFiles(set, "b", load("b", path));
+    ASSERT_FALSE(twice.ok()) << path;
+    EXPECT_TRUE(mentions({twice.error()}, "is already loaded as place a/0 (" + saved() + "/" +
+                                              submapFileName(0) + ") of group a in map") ||
+                mentions({twice.error()}, "is already loaded as place a/2"))
+        << twice.error();
+    EXPECT_TRUE(mentions({twice.error()}, "unload a first")) << twice.error();
+  }
+  ASSERT_EQ(set.size(), 5u);
+  // In another frame it is another map; the group itself may be loaded again.
+  EXPECT_TRUE(putPlaceFiles(set, "b", load("b", copy, "other_map")).ok());
+  EXPECT_TRUE(putPlaceFiles(set, "a", load("a", copy)).ok());
+  EXPECT_EQ(set.size(), 10u);
+
+  // The learning run's own frozen submaps are their files too: the folder
+  // it saved, loaded beside it into its frame (the node's learned group),
+  // is refused.
+  PlaceSet learning;
+  ASSERT_TRUE(
+      learning.putGroup("learned", submapPlaces(learner_->models(), "learned", "map")).ok());
+  const Status beside = putPlaceFiles(learning, "old", load("old", saved()));
+  ASSERT_FALSE(beside.ok());
+  EXPECT_TRUE(
+      mentions({beside.error()}, "is already loaded as place learned/0 (learned) of group learned"))
+      << beside.error();
+}
+
 TEST_F(SubmapFolder, APeersPathThatIsNotOursGetsOneAnswerWhateverIsThere) {
   const fs::path base = dir_->path() / "probe";
   fs::create_directories(base / "empty_folder");

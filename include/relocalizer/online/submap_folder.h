@@ -67,10 +67,11 @@ std::string submapFileName(int index);
 // `<folder>/manifest.json`.
 std::string submapManifestPath(const std::string& folder);
 
-// Where a save a peer asks for (~save_model's `path`) may write: the folder
-// `requested` names, relative ones inside `root`, resolved without symbolic
-// links; an error unless it lies inside `root` (not `root` itself) and is
-// new, empty, or a saved set (our manifest.json, or only submap files).
+// Where a save a peer asks for (~save_model's `path`), or the node's
+// save_on_exit, may write: the folder `requested` names, relative ones inside
+// `root`, resolved without symbolic links; an error unless it lies inside
+// `root` (not `root` itself) and is new, empty, or a saved set (our
+// manifest.json, or only submap files).
 // `root` is created when missing (it is the operator's). The error quotes
 // `requested` only when it is printable text.
 Expected<std::string> confinedSaveFolder(const std::string& root, const std::string& requested);

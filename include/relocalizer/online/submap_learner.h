@@ -69,6 +69,9 @@ struct SubmapModel {
   bool frozen = false;
   int keyframes = 0;  // the key frames it was (or, active, is being) learned from
   std::shared_ptr<const Relocalizer> relocalizer;
+  // A frozen submap's file, once written (or resumed); size 0: none (the
+  // active one, whose model changes).
+  ModelFileId file;
 };
 
 // What a run of submaps holds now.

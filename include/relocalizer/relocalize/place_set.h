@@ -40,10 +40,19 @@ struct Place {
   // A shared map_frame alone does not make one map: two models a user loads
   // into one frame stay rivals, as they were before groups.
   std::string group;
-  // The model file's identity (its CRC-32 and size), as PlaceSet::load read
-  // it; empty for a model that is no file's (built in memory, learned).
+  // The model file's identity (modelFileIdentity), as PlaceSet::load or a
+  // folder's loader (place_files.h) read it; empty for a model that is no
+  // file's (built in memory, learned).
   std::string model_id;
 };
+
+// A model file's identity for Place::model_id, from its contents (CRC-32 and
+// size), so that a copy, a link or another spelling of the path is the same
+// model; empty when it cannot be read (then nothing is compared).
+std::string modelFileIdentity(const std::string& path);
+// The same from a file's CRC-32 and size known already (a learned submap's
+// file as it was written).
+std::string modelIdentity(uint32_t crc32, uint64_t bytes);
 
 // What a listing shows of a place.
 struct PlaceFigures {
