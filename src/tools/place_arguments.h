@@ -8,6 +8,7 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/core/file_io.h"
+#include "relocalizer/core/outside_text.h"
 
 namespace relocalizer::cli {
 
@@ -17,7 +18,9 @@ struct NamedPath {
 };
 
 // Each argument is NAME=PATH, or PATH alone, named by its file's stem. Names
-// must be unique; `option` names the option in errors.
+// must be unique and follow the package's one name rule (places.csv separates
+// its columns by a space: a name with one would be ambiguous); `option` names
+// the option in errors.
 inline Expected<std::vector<NamedPath>> parseNamedPaths(const std::vector<std::string>& arguments,
                                                         const std::string& option) {
   std::vector<NamedPath> named;
@@ -28,6 +31,10 @@ inline Expected<std::vector<NamedPath>> parseNamedPaths(const std::vector<std::s
     entry.path = equals == std::string::npos ? argument : argument.substr(equals + 1);
     if (entry.name.empty() || entry.path.empty())
       return makeError(option + " " + argument + ": expected NAME=PATH with a name and a path");
+    const std::string what =
+        equals == std::string::npos ? "the place name (the file's stem)" : "the place name";
+    if (const std::string why = nameError(entry.name, what); !why.empty())
+      return makeError(option + " " + argument + ": " + why);
     for (const NamedPath& other : named)
       if (other.name == entry.name)
         return makeError(option + " " + argument + ": the place name " + entry.name +

@@ -644,6 +644,18 @@ TEST_F(Places, EvaluateRelocalizesAgainstEveryModelAndNamesEachFramesPlace) {
   EXPECT_NE(relocalizer::testing::readBytes(dir.path() / "twice.log").find("given twice"),
             std::string::npos)
       << relocalizer::testing::readBytes(dir.path() / "twice.log");
+  // places.csv is "frame place" separated by a space: a name with one (or
+  // any character no place name may hold) would make it ambiguous.
+  EXPECT_EQ(runLogged("evaluate",
+                      models + " --model 'bad name!=" + dir.str() + "/room8.model' --output '" +
+                          dir.str() + "/badname'",
+                      dir.str() + "/badname.log"),
+            2);
+  const std::string bad_name = relocalizer::testing::readBytes(dir.path() / "badname.log");
+  EXPECT_NE(bad_name.find("--model"), std::string::npos) << bad_name;
+  EXPECT_NE(bad_name.find("'bad name!'"), std::string::npos) << bad_name;
+  EXPECT_NE(bad_name.find("holds a character other than"), std::string::npos) << bad_name;
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "badname" / "places.csv"));
 }
 
 TEST_F(Places, AScreenThatReusesAFirstLooksPredictionsScreensAsAFreshOne) {
