@@ -52,7 +52,7 @@ int main(int argc, char** argv) {
   app.addOption("--repeat", repeat, "Passes over the frames")->range(1, 100)->showDefault();
   app.addOption("--json", json_path, "Write the figures to this JSON file");
   app.addOption("--sweep", sweep_dir, "Run the speed-accuracy sweep (1 thread) into this folder");
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const cli::Exit done = app.parse(argc, argv)) return *done;
 
   auto thread_counts = parseThreadCounts(threads_text);
   if (!thread_counts) return cli::fail(app, thread_counts.error());

@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
   app.addOption("-j,--threads", threads, "Worker threads (0 = every core)")
       ->showDefault()
       ->range(0, 1024);
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const cli::Exit done = app.parse(argc, argv)) return *done;
 
   auto source = arguments.open(/*register_colour=*/false);  // depth only
   if (!source) return cli::fail(app, source.error());

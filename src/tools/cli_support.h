@@ -17,6 +17,7 @@
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -24,6 +25,11 @@
 #include <vector>
 
 namespace relocalizer::cli {
+
+// How a step of a tool ends: the status for main to exit with (0 after
+// --help, 2 for unusable arguments or input, 1 when the work failed), or none
+// when the tool goes on.
+using Exit = std::optional<int>;
 
 inline std::string oneLine(std::string text) {
   std::replace(text.begin(), text.end(), '\n', ' ');
@@ -258,9 +264,9 @@ class App {
 
   const std::string& name() const { return name_; }
 
-  // Parses; returns -1 to go on, otherwise the exit code to return: 0 after
-  // --help, 2 after a one-line error on stderr.
-  int parse(int argc, char** argv) {
+  // Parses; the exit status is 0 after --help, 2 after a one-line error on
+  // stderr; none when the arguments are good.
+  Exit parse(int argc, char** argv) {
     namespace po = boost::program_options;
     try {
       const std::vector<po::options_description> groups = describe();
@@ -290,7 +296,7 @@ class App {
     } catch (const po::error& e) {
       return usageError(e.what());
     }
-    return -1;
+    return std::nullopt;
   }
 
  private:

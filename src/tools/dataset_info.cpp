@@ -13,7 +13,7 @@ int main(int argc, char** argv) {
       "dataset_info"};
   cli::SourceOptions arguments;
   arguments.add(app, "Dataset folder", "Frame ids, e.g. 0-99,200-299 (default: all)");
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const cli::Exit done = app.parse(argc, argv)) return *done;
 
   auto source = arguments.open();
   if (!source) return cli::fail(app, source.error());

@@ -31,10 +31,10 @@ using relocalizer::cli::Options;
 namespace {
 
 // --learn-frames: learns the model online from the learn frames, evaluating
-// `data` at every curve point. Returns -1 to go on, otherwise the exit code.
-int learnOnline(const cli::App& app, const Options& o, LearnOptions l,
-                const RelocalizerParams& params, const FrameSource& data, int thread_count,
-                Learned& out) {
+// `data` at every curve point. Exits when learning or saving failed.
+cli::Exit learnOnline(const cli::App& app, const Options& o, LearnOptions l,
+                      const RelocalizerParams& params, const FrameSource& data, int thread_count,
+                      Learned& out) {
   LearningParams& learning = l.learning;
   const std::string& learn_frames = l.learn_frames;
   const std::string& learn_min_motion = l.learn_min_motion;
@@ -143,15 +143,15 @@ int learnOnline(const cli::App& app, const Options& o, LearnOptions l,
                 {"curve", curve.json()}};
     if (Status saved = curve.save(o.output); !saved) return cli::fail(app, saved.error(), 1);
   }
-  return -1;
+  return std::nullopt;
 }
 
 // --learn-frames --submaps: the learn frames cut into submaps of --max-keyframes
 // each (online/submap_learner.h), and `data` relocalized across all of them as
-// places in one map frame at every curve point. Returns -1 to go on (with the
-// last curve point's evaluation in `out`), otherwise the exit code.
-int learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
-                 const RelocalizerParams& params, const FrameSource& data, Learned& out) {
+// places in one map frame at every curve point (the last point's evaluation in
+// `out`). Exits when learning or saving failed.
+cli::Exit learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
+                       const RelocalizerParams& params, const FrameSource& data, Learned& out) {
   auto checked = readLearningParams(l.learning, l.learn_min_motion, l.learn_config);
   if (!checked) return cli::fail(app, "learning: " + checked.error());
   auto learn_data =
@@ -230,7 +230,7 @@ int learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
               {"keyframes_covered", covered},
               {"curve", curve.json()}};
   if (Status saved = curve.save(o.output); !saved) return cli::fail(app, saved.error(), 1);
-  return -1;
+  return std::nullopt;
 }
 
 // Many places: loads each --model into one set and relocalizes every frame
@@ -330,7 +330,7 @@ int main(int argc, char** argv) {
   Options o;
   LearnOptions learn;
   addOptions(app, o, learn);
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const cli::Exit done = app.parse(argc, argv)) return *done;
   const bool many_places =
       o.models.size() > 1 || (o.models.size() == 1 && o.models[0].find('=') != std::string::npos);
   if (!many_places && !o.models.empty()) o.model_path = o.models[0];
@@ -366,7 +366,7 @@ int main(int argc, char** argv) {
     if (!evaluated) return cli::fail(app, evaluated.error());
     evaluation = std::move(*evaluated);
   } else if (learn.submaps) {
-    if (const int code = learnSubmaps(app, o, learn, params, data, learned); code >= 0) return code;
+    if (const cli::Exit done = learnSubmaps(app, o, learn, params, data, learned)) return *done;
     evaluation = std::move(learned.evaluation);
   } else if (many_places) {
     auto evaluated = evaluatePlaces(o, params, data);
@@ -376,9 +376,9 @@ int main(int argc, char** argv) {
     auto loaded = Relocalizer::fromFile(o.model_path, params);
     if (!loaded) return cli::fail(app, loaded.error());
     learned.relocalizer = std::move(*loaded);
-  } else if (const int code = learnOnline(app, o, learn, params, data, thread_count, learned);
-             code >= 0) {
-    return code;
+  } else if (const cli::Exit done =
+                 learnOnline(app, o, learn, params, data, thread_count, learned)) {
+    return *done;
   }
   if (!by_places) {
     const Relocalizer& relocalizer = *learned.relocalizer;

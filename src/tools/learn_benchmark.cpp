@@ -305,7 +305,7 @@ int main(int argc, char** argv) {
       ->range(1, 1024)
       ->showDefault();
   app.addOption("-o,--output", output, "Folder for timeline.csv and summary.json");
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const cli::Exit done = app.parse(argc, argv)) return *done;
   auto checked = readLearningParams(learning, min_motion, learn_config);
   if (!checked) return cli::fail(app, "learning: " + checked.error());
   auto test = arguments.open();

@@ -41,7 +41,7 @@ int main(int argc, char** argv) {
   app.addOption("--rounds", rounds, "Timed runs of each detector per frame (the median is kept)")
       ->range(1, 100)
       ->showDefault();
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const cli::Exit done = app.parse(argc, argv)) return *done;
   auto source = source_options.open();
   if (!source) return cli::fail(app, source.error());
   const FrameSource& data = **source;

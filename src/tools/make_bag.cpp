@@ -216,7 +216,7 @@ int main(int argc, char** argv) {
   app.addOption("--compression", settings.compression, "none | lz4 | bz2")
       ->oneOf({"none", "lz4", "bz2"})
       ->showDefault();
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const cli::Exit done = app.parse(argc, argv)) return *done;
   if (settings.frame_id.empty() || settings.frame_id[0] == '/')
     return cli::fail(app, "--frame-id must be a non-empty tf2 frame id without a leading slash");
 

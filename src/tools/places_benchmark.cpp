@@ -237,7 +237,7 @@ int main(int argc, char** argv) {
       ->range(1, 1024)
       ->showDefault();
   app.addOption("--json", json_path, "Write the figures to this JSON file");
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const cli::Exit done = app.parse(argc, argv)) return *done;
 
   RelocalizerParams params;
   if (!config.empty()) {

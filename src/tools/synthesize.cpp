@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
                   "every tick")
       ->needs(rooms_option);
 
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const relocalizer::cli::Exit done = app.parse(argc, argv)) return *done;
 
   options.camera = relocalizer::CameraIntrinsics::kinectDefault();
   if (width > 0) options.camera = options.camera.scaledTo(width, height);

@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
   app.addOption("-o,--output", output, "Folder for curves.csv, curves.png, curves.json")
       ->required();
   app.addOption("-j,--threads", threads, "Threads (0 = every core)")->range(0, 1024);
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const cli::Exit done = app.parse(argc, argv)) return *done;
   if (in_folder->count() + in_bag_option->count() == 0)
     return cli::fail(app, "one of --in-scene or --bag is required");
   if (out_folders->count() + out_bags->count() == 0)

@@ -125,7 +125,7 @@ int main(int argc, char** argv) {
   auto* seed_option = app.addOption("--seed", seed, "Random seed (overrides the config)");
   app.addOption("--forests", forests, "Forests to grow: points, lines or points,lines")
       ->oneOf({"points", "lines", "points,lines", "lines,points", "both"});
-  if (const int code = app.parse(argc, argv); code >= 0) return code;
+  if (const cli::Exit done = app.parse(argc, argv)) return *done;
 
   TrainingParams params;
   if (!config.empty()) {
