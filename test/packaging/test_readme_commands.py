@@ -67,17 +67,27 @@ COMMAND_PREFIXES = ("rosrun relocalizer ", "roslaunch relocalizer ", "rosservice
                     "rostopic pub -1 /initialpose ")
 
 
-def readme_commands():
-    """The lines of README.md's shell blocks that call this package, continuations joined."""
-    commands = []
-    in_block = False
+# Its lines build a catkin workspace: test_catkin_workspace.py runs them (make test-workspaces).
+WORKSPACE_SECTION = "In a catkin workspace"
+
+
+def readme_blocks():
+    """(section title, lines) of every shell block of README.md, continuations joined
+    and comments dropped; the section is the `## ` heading the block sits under."""
+    blocks = []
+    section = ""
+    lines = None
     pending = ""
     for line in README.read_text().splitlines():
         if line.startswith("```"):
-            in_block = line.strip() in ("```sh", "```bash")
+            if lines is not None:
+                blocks.append((section, lines))
+            lines = [] if line.strip() in ("```sh", "```bash") else None
             pending = ""
             continue
-        if not in_block:
+        if lines is None:
+            if line.startswith("## "):
+                section = line[3:].strip()
             continue
         line = pending + line.strip()
         if line.endswith("\\"):
@@ -85,9 +95,16 @@ def readme_commands():
             continue
         pending = ""
         line = re.sub(r"\s+#.*$", "", line).strip()
-        if line.startswith(COMMAND_PREFIXES):
-            commands.append(line)
-    return commands
+        if line:
+            lines.append(line)
+    return blocks
+
+
+def readme_commands():
+    """The lines of README.md's shell blocks that call this package, but for the
+    catkin workspace section's."""
+    return [line for section, lines in readme_blocks() if section != WORKSPACE_SECTION
+            for line in lines if line.startswith(COMMAND_PREFIXES)]
 
 
 def free_port():
