@@ -283,8 +283,10 @@ class WorkspaceRuns:
         paths = self.run_ok('echo "$CMAKE_PREFIX_PATH:$ROS_PACKAGE_PATH:$LD_LIBRARY_PATH"').stdout
         self.assertNotIn(str(self.ws.root / "devel"), paths)
         self.assertNotIn(str(self.ws.root / "src"), paths)
+        # pluginlib 1.13 loads the library the plugin file names from a lib folder as is.
+        plugin = re.search(r'<library path="([^"]+)"', (SOURCE / "nodelet_plugins.xml").read_text())
         for path in ("lib/relocalizer/relocalizer_node", "lib/relocalizer/train",
-                     "lib/relocalizer_nodelet.so", "share/relocalizer/nodelet_plugins.xml",
+                     f"lib/{plugin.group(1)}.so", "share/relocalizer/nodelet_plugins.xml",
                      "share/relocalizer/launch/relocalizer.launch",
                      "include/relocalizer/Relocalize.h", "lib/relocalizer_client/relocalize_once"):
             self.assertTrue((install / path).is_file(), f"{install / path} is not installed")
