@@ -21,7 +21,7 @@ ASAN_BUILD_DIR := build/asan
 ASAN_CXX_FLAGS := -O1 -g1 -DNDEBUG
 FUZZ_SECONDS ?= 60
 
-.PHONY: all deps build test demo bench bench-places clean test-asan fuzz
+.PHONY: all deps build test demo bench bench-places clean test-asan fuzz test-workspaces
 
 all: build
 
@@ -61,6 +61,11 @@ $(ASAN_BUILD_DIR)/$(CONFIGURED): $(CMAKE_INPUTS)
 
 test-asan: deps $(ASAN_BUILD_DIR)/$(CONFIGURED)
 	@JOBS=$(JOBS) ./scripts/test_asan.sh $(ASAN_BUILD_DIR)
+
+# The README's catkin workspace commands (catkin_make, catkin build, the install
+# space) in a new workspace of their own: two more builds, so not in `make test`.
+test-workspaces: deps
+	@./scripts/test_workspaces.sh
 
 # Standalone clang build of test/fuzz/ (no catkin); FUZZ_SECONDS per target.
 fuzz: deps

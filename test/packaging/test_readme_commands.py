@@ -73,27 +73,48 @@ COMMAND_PREFIXES = ("rosrun relocalizer ", "roslaunch relocalizer ", "rosservice
                     "rostopic pub -1 /initialpose ")
 
 
+# Its lines build a catkin workspace: test_catkin_workspace.py runs them (make test-workspaces).
+WORKSPACE_SECTION = "In a catkin workspace"
+
+
 def readme_commands():
     """The lines of the shell blocks of README.md and docs/*.md that call this package,
-    continuations joined, each distinct line once, in the order they are read."""
+    continuations joined, each distinct line once, in the order they are read; but for
+    the lines of README.md's catkin workspace section."""
     commands = []
     for path in COMMAND_FILES:
-        commands += [line for line in shell_lines(path) if line not in commands]
+        for section, lines in shell_blocks(path):
+            if path == README and section == WORKSPACE_SECTION:
+                continue
+            commands += [line for line in lines
+                         if line.startswith(COMMAND_PREFIXES) and line not in commands]
     return commands
 
 
-def shell_lines(path):
-    """The lines of one Markdown file's sh and bash blocks that call this package."""
-    commands = []
-    in_block = False
+def readme_blocks():
+    """(section title, lines) of every shell block of README.md."""
+    return shell_blocks(README)
+
+
+def shell_blocks(path):
+    """(section title, lines) of every sh and bash block of one Markdown file,
+    continuations joined and comments dropped; the section is the `## ` heading the
+    block sits under."""
+    blocks = []
+    section = ""
+    lines = None
     pending = ""
     for line in path.read_text().splitlines():
         # Fences indented under a list item count too: a step's command is a command.
         if line.lstrip().startswith("```"):
-            in_block = line.strip() in ("```sh", "```bash")
+            if lines is not None:
+                blocks.append((section, lines))
+            lines = [] if line.strip() in ("```sh", "```bash") else None
             pending = ""
             continue
-        if not in_block:
+        if lines is None:
+            if line.startswith("## "):
+                section = line[3:].strip()
             continue
         line = pending + line.strip()
         if line.endswith("\\"):
@@ -101,9 +122,9 @@ def shell_lines(path):
             continue
         pending = ""
         line = re.sub(r"\s+#.*$", "", line).strip()
-        if line.startswith(COMMAND_PREFIXES):
-            commands.append(line)
-    return commands
+        if line:
+            lines.append(line)
+    return blocks
 
 
 def free_port():
