@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
-#include <cstring>
 #include <filesystem>
 #include <mutex>
 #include <new>
@@ -18,8 +17,6 @@
 namespace relocalizer {
 
 namespace {
-
-std::string systemReason(int error) { return std::strerror(error); }
 
 std::string temporaryPath(const std::string& path) {
   return path + ".tmp" + std::to_string(::getpid());
@@ -59,7 +56,7 @@ Status writeAndSync(const std::string& path, const std::string& temporary,
       ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
   if (fd < 0)
     return makeError(path + ": cannot create the temporary file " + temporary + ": " +
-                     systemReason(errno));
+                     systemErrorText(errno));
   size_t written = 0;
   while (written < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
@@ -67,7 +64,7 @@ Status writeAndSync(const std::string& path, const std::string& temporary,
     if (n < 0) {
       const int error = errno;
       ::close(fd);
-      return makeError(path + ": cannot write " + temporary + ": " + systemReason(error));
+      return makeError(path + ": cannot write " + temporary + ": " + systemErrorText(error));
     }
     written += static_cast<size_t>(n);
   }
@@ -76,10 +73,10 @@ Status writeAndSync(const std::string& path, const std::string& temporary,
   if (::fsync(fd) != 0) {
     const int error = errno;
     ::close(fd);
-    return makeError(path + ": cannot flush " + temporary + " to disk: " + systemReason(error));
+    return makeError(path + ": cannot flush " + temporary + " to disk: " + systemErrorText(error));
   }
   if (::close(fd) != 0)
-    return makeError(path + ": cannot write " + temporary + ": " + systemReason(errno));
+    return makeError(path + ": cannot write " + temporary + ": " + systemErrorText(errno));
   return okStatus();
 }
 
@@ -88,7 +85,7 @@ std::string readInto(int fd, std::vector<uint8_t>& bytes, size_t offset, const s
   while (offset < bytes.size()) {
     const ssize_t n = ::read(fd, bytes.data() + offset, bytes.size() - offset);
     if (n < 0 && errno == EINTR) continue;
-    if (n < 0) return "cannot read " + what + ": " + systemReason(errno);
+    if (n < 0) return "cannot read " + what + ": " + systemErrorText(errno);
     if (n == 0) return what + " shrank while it was read";
     offset += static_cast<size_t>(n);
   }
@@ -97,7 +94,7 @@ std::string readInto(int fd, std::vector<uint8_t>& bytes, size_t offset, const s
 
 // The refusal of what `fd` is, empty for a regular file that is not empty.
 std::string fileTypeRefusal(int fd, const std::string& what, struct stat& info) {
-  if (::fstat(fd, &info) != 0) return "cannot inspect " + what + ": " + systemReason(errno);
+  if (::fstat(fd, &info) != 0) return "cannot inspect " + what + ": " + systemErrorText(errno);
   if (S_ISDIR(info.st_mode)) return "is a directory, not a " + what;
   if (!S_ISREG(info.st_mode)) return "is not a regular file (a device or a pipe?), not a " + what;
   if (info.st_size == 0) return what + " is empty";
@@ -105,6 +102,49 @@ std::string fileTypeRefusal(int fd, const std::string& what, struct stat& info) 
 }
 
 }  // namespace
+
+std::string systemErrorText(int error) {
+  switch (error) {
+    case EACCES:
+    case EPERM:
+      return "permission denied";
+    case ENOENT:
+      return "no such file or folder";
+    case ENOTDIR:
+      return "a part of the path is not a folder";
+    case EISDIR:
+      return "it is a folder";
+    case ENAMETOOLONG:
+      return "the name is too long";
+    case ELOOP:
+      return "too many symbolic links in the path";
+    case EEXIST:
+      return "something is already there";
+    case ENOSPC:
+      return "no space left on the disk";
+    case EDQUOT:
+      return "the disk quota is used up";
+    case EFBIG:
+      return "the file would exceed the size limit of the file system or the process";
+    case EROFS:
+      return "the file system is read-only";
+    case EIO:
+      return "input/output error of the disk";
+    case EXDEV:
+      return "the temporary and the target are on different file systems";
+    case EBUSY:
+      return "the file or folder is in use";
+    case EMFILE:
+    case ENFILE:
+      return "too many open files";
+    case ENOMEM:
+      return "out of memory";
+    case EINVAL:
+      return "the file system does not support it";
+    default:
+      return "system error " + std::to_string(error);
+  }
+}
 
 Expected<std::vector<uint8_t>> readRegularFile(const std::string& path, const FileFormat& format) {
   // O_NONBLOCK: opening a FIFO for reading would otherwise wait for a writer
@@ -116,7 +156,7 @@ Expected<std::vector<uint8_t>> readRegularFile(const std::string& path, const Fi
     if (error == ELOOP && !format.follow_link)
       return makeError(path + ": is a symbolic link, not followed: a " + format.what +
                        " must be the file itself");
-    return makeError(path + ": cannot open " + format.what + ": " + systemReason(error));
+    return makeError(path + ": cannot open " + format.what + ": " + systemErrorText(error));
   }
   struct stat info = {};
   std::string refusal = fileTypeRefusal(fd, format.what, info);
@@ -176,7 +216,7 @@ std::string replaceableError(const std::string& path, std::string_view magic,
   struct stat info = {};
   if (::lstat(path.c_str(), &info) != 0) {
     if (errno == ENOENT) return {};  // a new file; a missing folder is reported by the write
-    return path + ": cannot check what is there: " + systemReason(errno);
+    return path + ": cannot check what is there: " + systemErrorText(errno);
   }
   if (S_ISLNK(info.st_mode))
     return path +
@@ -185,7 +225,8 @@ std::string replaceableError(const std::string& path, std::string_view magic,
   if (!S_ISREG(info.st_mode))
     return path + ": is not a regular file (a FIFO, socket or device); refusing to replace it";
   const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOFOLLOW | O_CLOEXEC);
-  if (fd < 0) return path + ": cannot read the existing file to check it: " + systemReason(errno);
+  if (fd < 0)
+    return path + ": cannot read the existing file to check it: " + systemErrorText(errno);
   std::string head(magic.size(), '\0');
   const ssize_t n = ::read(fd, head.data(), head.size());
   ::close(fd);
@@ -218,7 +259,7 @@ Status replaceFiles(const std::vector<FileReplacement>& files) {
       const int error = errno;
       temporaries.erase(temporaries.begin(), temporaries.begin() + static_cast<std::ptrdiff_t>(i));
       return fail(files[i].path + ": cannot rename " + temporaries.front() +
-                  " into place: " + systemReason(error));
+                  " into place: " + systemErrorText(error));
     }
   }
   // The renames are entries of the folder: durable only once it is flushed.
@@ -230,7 +271,7 @@ Status replaceFiles(const std::vector<FileReplacement>& files) {
       const int error = errno;
       if (fd >= 0) ::close(fd);
       return makeError(files.front().path + ": written, but the folder " + folder +
-                       " could not be flushed to disk: " + systemReason(error));
+                       " could not be flushed to disk: " + systemErrorText(error));
     }
     ::close(fd);
   }

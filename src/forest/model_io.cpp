@@ -12,7 +12,6 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -399,14 +398,12 @@ void summarizeTrainingImages(const std::vector<TrainingImage>& images, TrainingS
   }
 }
 
+FileReplacement modelFileReplacement(const std::string& path, std::vector<uint8_t> serialized) {
+  return FileReplacement{path, kModelMagic, "relocalizer model file", std::move(serialized)};
+}
+
 Status saveModel(const Model& model, const std::string& path) {
-  const std::vector<uint8_t> bytes = serializeModel(model);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return makeError(path + ": cannot open for writing");
-  out.write(reinterpret_cast<const char*>(bytes.data()),
-            static_cast<std::streamsize>(bytes.size()));
-  if (!out) return makeError(path + ": write failed");
-  return okStatus();
+  return replaceFiles({modelFileReplacement(path, serializeModel(model))});
 }
 
 FileFormat modelFileFormat(const std::string& what) {

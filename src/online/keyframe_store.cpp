@@ -88,6 +88,10 @@ ModelFileId modelFileId(const std::vector<uint8_t>& model_file) {
   return {crc32Of(model_file.data(), model_file.size()), model_file.size()};
 }
 
+FileReplacement keyFrameFileReplacement(const std::string& path, std::vector<uint8_t> bytes) {
+  return FileReplacement{path, kKeyFrameMagic, "relocalizer key-frame file", std::move(bytes)};
+}
+
 std::vector<uint8_t> serializeKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames,
                                         const ModelFileId& model) {
   std::vector<uint8_t> body;

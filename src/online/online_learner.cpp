@@ -338,9 +338,9 @@ Status OnlineLearner::save(const std::string& path) const {
   // Key frames first: renamed before the model they name, a save interrupted
   // in between leaves key frames that resume() sees belong to another model.
   std::vector<FileReplacement> files;
-  files.push_back({keyFramesPath(path), kKeyFrameMagic, "relocalizer key-frame file",
-                   serializeKeyFrames(entries, model_id)});
-  files.push_back({path, kModelMagic, "relocalizer model file", std::move(model_file)});
+  files.push_back(
+      keyFrameFileReplacement(keyFramesPath(path), serializeKeyFrames(entries, model_id)));
+  files.push_back(modelFileReplacement(path, std::move(model_file)));
   return replaceFiles(files);
 }
 

@@ -211,6 +211,14 @@ Expected<std::string> confinedSaveFolder(const std::string& root, const std::str
   return resolved.string();
 }
 
+FileReplacement submapManifestReplacement(const std::string& folder,
+                                          const SubmapManifest& manifest) {
+  const std::string text = serializeSubmapManifest(manifest);
+  return FileReplacement{submapManifestPath(folder), kSubmapManifestMagic,
+                         "learned-submaps manifest",
+                         std::vector<uint8_t>(text.begin(), text.end())};
+}
+
 std::string serializeSubmapManifest(const SubmapManifest& m) {
   Json json;
   json["format"] = kFormatName;

@@ -92,7 +92,7 @@ Status prepareFolder(const std::string& folder) {
                      "a model and key-frame file per submap); a model file saved before submaps "
                      "is continued, not replaced");
   fs::create_directories(folder, ec);
-  if (ec) return makeError(folder + ": cannot create the folder: " + ec.message());
+  if (ec) return makeError(folder + ": cannot create the folder: " + systemErrorText(ec.value()));
   if (const std::string why = replaceableError(submapManifestPath(folder), kSubmapManifestMagic,
                                                "learned-submaps manifest");
       !why.empty())
@@ -110,10 +110,9 @@ Status SubmapLearner::writeFrozenPair(const std::string& folder, int index,
   std::vector<uint8_t> bytes = serializeModel(model.model());
   model_id = modelFileId(bytes);
   std::vector<FileReplacement> pair;
-  pair.push_back({inFolder(folder, keyFramesPath(model_name)), kKeyFrameMagic,
-                  "relocalizer key-frame file", serializeKeyFrames(key_frames, model_id)});
-  pair.push_back(
-      {inFolder(folder, model_name), kModelMagic, "relocalizer model file", std::move(bytes)});
+  pair.push_back(keyFrameFileReplacement(inFolder(folder, keyFramesPath(model_name)),
+                                         serializeKeyFrames(key_frames, model_id)));
+  pair.push_back(modelFileReplacement(inFolder(folder, model_name), std::move(bytes)));
   return replaceFiles(pair);
 }
 
@@ -140,7 +139,7 @@ SubmapEntry SubmapLearner::frozenEntry(int s) const {
 }
 
 Status SubmapLearner::writeManifest(const std::string& folder, int finished) {
-  std::string text;
+  std::vector<FileReplacement> manifest_file;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     SubmapManifest manifest = manifestHead();
@@ -149,17 +148,14 @@ Status SubmapLearner::writeManifest(const std::string& folder, int finished) {
       if (s != index_.active() && (s == finished || !pending(s)) && f.relocalizer && f.written)
         manifest.submaps.push_back(frozenEntry(s));
     }
-    text = serializeSubmapManifest(manifest);
+    manifest_file.push_back(submapManifestReplacement(folder, manifest));
   }
-  return replaceFiles(
-      {{submapManifestPath(folder), kSubmapManifestMagic, "learned-submaps manifest",
-        std::vector<uint8_t>(text.begin(), text.end())}});
+  return replaceFiles(manifest_file);
 }
 
 Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool adopt) {
   if (Status ready = prepareFolder(folder); !ready) return ready;
   std::error_code ec;
-  const std::string manifest_path = submapManifestPath(folder);
   const bool working = !folder_.empty() && fs::equivalent(folder, folder_, ec);
 
   SubmapManifest manifest = manifestHead();
@@ -183,13 +179,11 @@ Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool
         auto keyframes =
             readRegularFile(inFolder(folder_, keyFramesPath(model_name)), keyFrameFileFormat());
         if (keyframes)
-          pair.push_back({keyframes_path, kKeyFrameMagic, "relocalizer key-frame file",
-                          std::move(*keyframes)});
+          pair.push_back(keyFrameFileReplacement(keyframes_path, std::move(*keyframes)));
         else
           warnings_.push_back(keyframes.error() + ": not copied to " + folder + " (submap " +
                               std::to_string(s) + " still answers from its model)");
-        pair.push_back({model_path, kModelMagic, "relocalizer model file",
-                        serializeModel(f.relocalizer->model())});
+        pair.push_back(modelFileReplacement(model_path, serializeModel(f.relocalizer->model())));
         if (Status done = replaceFiles(pair); !done) return done;
       }
     }
@@ -214,19 +208,17 @@ Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool
       entry.model = submapFileName(s);
       entry.model_id = modelFileId(model_bytes);
     }
-    last.push_back({inFolder(folder, entry.keyframes), kKeyFrameMagic, "relocalizer key-frame file",
-                    serializeKeyFrames(active_->keyFrames(), entry.model_id)});
+    last.push_back(
+        keyFrameFileReplacement(inFolder(folder, entry.keyframes),
+                                serializeKeyFrames(active_->keyFrames(), entry.model_id)));
     if (model)
-      last.push_back({inFolder(folder, entry.model), kModelMagic, "relocalizer model file",
-                      std::move(model_bytes)});
+      last.push_back(modelFileReplacement(inFolder(folder, entry.model), std::move(model_bytes)));
     manifest.active = s;
     manifest.submaps.push_back(std::move(entry));
   }
   if (with_active && manifest.submaps.empty())
     return makeError(folder + ": nothing to save yet: no submap has been learned");
-  const std::string text = serializeSubmapManifest(manifest);
-  last.push_back({manifest_path, kSubmapManifestMagic, "learned-submaps manifest",
-                  std::vector<uint8_t>(text.begin(), text.end())});
+  last.push_back(submapManifestReplacement(folder, manifest));
   if (Status done = replaceFiles(last); !done) return done;
 
   if (!(adopt || working || folder_.empty())) return okStatus();

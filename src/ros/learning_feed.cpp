@@ -65,18 +65,16 @@ relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> LearningFeed:
   return learner;
 }
 
-LearningFeed::LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-                           std::unique_ptr<relocalizer::SubmapLearner> learner,
+LearningFeed::LearningFeed(ros::NodeHandle private_nh, const NodeParams& params,
+                           tf2_ros::Buffer& tf, std::unique_ptr<relocalizer::SubmapLearner> learner,
                            ServiceCallQueue& calls)
-    : params_(params), learner_(std::move(learner)), track_(params.learning) {
+    : params_(params), learner_(std::move(learner)), track_(params.learning), tf_buffer_(tf) {
   auto save_options = ros::AdvertiseServiceOptions::create<relocalizer::SaveModel>(
       "save_model",
       boost::bind(&LearningFeed::onSaveModel, this, boost::placeholders::_1,
                   boost::placeholders::_2),
       ros::VoidConstPtr(), &calls);
   save_service_ = private_nh.advertiseService(save_options);
-  tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
-  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
   worker_ = std::thread(&LearningFeed::learnLoop, this);
 }
 
@@ -145,8 +143,8 @@ void LearningFeed::learnLoop() {
       // (interpolated), never a later one: a frame whose stamp TF cannot
       // cover was not tracked.
       pose = fromTransformMsg(tf_buffer_
-                                  ->lookupTransform(params_.map_frame, camera_frame, stamp,
-                                                    ros::Duration(params_.tf_timeout))
+                                  .lookupTransform(params_.map_frame, camera_frame, stamp,
+                                                   ros::Duration(params_.tf_timeout))
                                   .transform);
     } catch (const tf2::TransformException& e) {
       if (log_.allow("learn: no TF"))

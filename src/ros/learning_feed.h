@@ -23,7 +23,6 @@
 #include <relocalizer/SaveModel.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <atomic>
 #include <memory>
@@ -49,7 +48,9 @@ class LearningFeed {
   static relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> makeLearner(
       NodeParams& params);
 
-  LearningFeed(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
+  // `tf`: the node's buffer (relocalizer_node.h), read on the learning
+  // thread; it outlives this.
+  LearningFeed(ros::NodeHandle private_nh, const NodeParams& params, tf2_ros::Buffer& tf,
                std::unique_ptr<relocalizer::SubmapLearner> learner, ServiceCallQueue& calls);
   // Stops the learning thread, then writes save_on_exit if set.
   ~LearningFeed();
@@ -81,8 +82,7 @@ class LearningFeed {
   // The newest frame only: key frames are chosen by motion, so a skipped
   // frame is covered by the next.
   FrameBuffer<FrameInputPtr> frames_{FrameBuffer<FrameInputPtr>::Policy::Latest};
-  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
-  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  tf2_ros::Buffer& tf_buffer_;
   std::atomic<uint64_t> frames_untracked_{0};  // frames without a (usable) SLAM pose
   std::mutex save_mutex_;  // one save at a time: two saves of one path share its temporary files
   ThrottledLog log_;

@@ -92,11 +92,9 @@ std::string joined(const std::vector<std::string>& frames) {
 
 }  // namespace
 
-NodeHints::NodeHints(ros::NodeHandle nh, const NodeParams& params,
+NodeHints::NodeHints(ros::NodeHandle nh, const NodeParams& params, tf2_ros::Buffer& tf,
                      std::function<std::vector<std::string>()> map_frames)
-    : params_(params), map_frames_(std::move(map_frames)) {
-  buffer_ = std::make_unique<tf2_ros::Buffer>();
-  listener_ = std::make_unique<tf2_ros::TransformListener>(*buffer_, nh);
+    : params_(params), map_frames_(std::move(map_frames)), buffer_(tf) {
   subscriber_ = nh.subscribe("initialpose", 1, &NodeHints::onMessage, this);
 }
 
@@ -132,7 +130,7 @@ relocalizer::Expected<PoseHint> NodeHints::read(const HintMsg& msg) const {
       try {
         // The latest transform: a hint says where the camera is now.
         map_from_source =
-            fromTransformMsg(buffer_->lookupTransform(frame, source, ros::Time(0)).transform);
+            fromTransformMsg(buffer_.lookupTransform(frame, source, ros::Time(0)).transform);
         target = frame;
         break;
       } catch (const tf2::TransformException& e) {

@@ -10,7 +10,6 @@
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <atomic>
 #include <chrono>
@@ -33,8 +32,9 @@ class NodeHints {
   using HintMsg = geometry_msgs::PoseWithCovarianceStamped;
   using Relocalize = std::function<relocalizer::PlaceAnswer(const relocalizer::PoseHint*)>;
 
-  // `map_frames`: the frames a hint may be brought into, in order of preference.
-  NodeHints(ros::NodeHandle nh, const NodeParams& params,
+  // `map_frames`: the frames a hint may be brought into, in order of
+  // preference; `tf`: the node's buffer (relocalizer_node.h), which outlives this.
+  NodeHints(ros::NodeHandle nh, const NodeParams& params, tf2_ros::Buffer& tf,
             std::function<std::vector<std::string>()> map_frames);
 
   // A message as a hint in one of the map frames (its own frame when it is
@@ -65,8 +65,7 @@ class NodeHints {
 
   const NodeParams& params_;
   const std::function<std::vector<std::string>()> map_frames_;
-  std::unique_ptr<tf2_ros::Buffer> buffer_;
-  std::unique_ptr<tf2_ros::TransformListener> listener_;
+  tf2_ros::Buffer& buffer_;
   ros::Subscriber subscriber_;
   mutable std::mutex mutex_;
   mutable std::optional<Pending> pending_;

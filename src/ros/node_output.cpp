@@ -14,7 +14,7 @@ ros::Time answerStamp(const FrameInput& input, const relocalizer::Relocalization
 }
 
 NodeOutput::NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-                       std::function<void(ResultMsg&)> counters)
+                       std::function<void(ResultMsg&)> counters, tf2_ros::Buffer& tf)
     : params_(params), counters_(std::move(counters)) {
   pose_pub_ = private_nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 1, true);
   result_pub_ = private_nh.advertise<ResultMsg>("result", 10);
@@ -24,7 +24,7 @@ NodeOutput::NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const Nod
     options.transform_tolerance = params_.transform_tolerance;
     options.tf_rate = params_.tf_rate;
     options.tf_timeout = params_.tf_timeout;
-    transforms_ = std::make_unique<TransformPublisher>(nh, options);
+    transforms_ = std::make_unique<TransformPublisher>(nh, options, tf);
   }
 }
 

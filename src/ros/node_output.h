@@ -42,9 +42,10 @@ class NodeOutput {
   };
   using Listener = std::function<void(const Published&)>;
 
-  // `counters` fills the node's counters into every ~result.
+  // `counters` fills the node's counters into every ~result; `tf`, the
+  // node's buffer, is lent to the TransformPublisher and outlives this.
   NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-             std::function<void(ResultMsg&)> counters);
+             std::function<void(ResultMsg&)> counters, tf2_ros::Buffer& tf);
 
   ResultMsg failure(const ros::Time& stamp, const std::string& message) const;
 

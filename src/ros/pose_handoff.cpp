@@ -21,13 +21,11 @@ Matrix6d moveCovariance(const Matrix6d& covariance, const Pose& map_T_camera,
   return jacobian * covariance * jacobian.transpose();
 }
 
-PoseHandoff::PoseHandoff(ros::NodeHandle nh, const NodeParams& params)
-    : params_(params), nh_(std::move(nh)) {
+PoseHandoff::PoseHandoff(ros::NodeHandle nh, const NodeParams& params, tf2_ros::Buffer& tf)
+    : params_(params), nh_(std::move(nh)), buffer_(tf) {
   if (params_.forward_initialpose)
     initialpose_pub_ = nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("initialpose", 2);
   if (!params_.handoff_frame.empty()) {
-    buffer_ = std::make_unique<tf2_ros::Buffer>();
-    listener_ = std::make_unique<tf2_ros::TransformListener>(*buffer_, nh_);
     looker_ = std::thread(&PoseHandoff::lookupLoop, this);
   }
   if (!params_.set_pose_service.empty()) caller_ = std::thread(&PoseHandoff::callLoop, this);
@@ -74,7 +72,7 @@ bool PoseHandoff::claim(uint64_t epoch, const ros::Time& stamp) {
 void PoseHandoff::waitForTransform(const std::string& camera_frame, const ros::Time& stamp) const {
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(params_.tf_timeout);
   const ros::Duration slice(std::min(0.1, params_.tf_timeout));
-  while (!stopping_ && !buffer_->canTransform(camera_frame, params_.handoff_frame, stamp, slice) &&
+  while (!stopping_ && !buffer_.canTransform(camera_frame, params_.handoff_frame, stamp, slice) &&
          ros::WallTime::now() < deadline) {
   }
 }
@@ -86,7 +84,7 @@ relocalizer::Expected<geometry_msgs::PoseWithCovarianceStamped> PoseHandoff::han
   try {
     waitForTransform(answer.camera_frame, pose.header.stamp);
     camera_T_frame = fromTransformMsg(
-        buffer_->lookupTransform(answer.camera_frame, params_.handoff_frame, pose.header.stamp)
+        buffer_.lookupTransform(answer.camera_frame, params_.handoff_frame, pose.header.stamp)
             .transform);
   } catch (const tf2::TransformException& e) {
     return relocalizer::makeError(
@@ -106,7 +104,7 @@ void PoseHandoff::onPublished(const NodeOutput::Published& published) {
   // Only whole answers: a pose whose TF could not be prepared is a failure.
   if (!result.success || !published.input) return;
   if (!claim(published.input->epoch, result.header.stamp)) return;
-  if (!buffer_) return handOff(result.pose);
+  if (params_.handoff_frame.empty()) return handOff(result.pose);
   {
     std::lock_guard<std::mutex> lock(lookup_mutex_);
     lookup_pending_ =

@@ -21,7 +21,6 @@
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <atomic>
 #include <condition_variable>
@@ -55,7 +54,9 @@ class PoseHandoff {
     return params.forward_initialpose || !params.set_pose_service.empty();
   }
 
-  PoseHandoff(ros::NodeHandle nh, const NodeParams& params);
+  // `tf`: the node's buffer (relocalizer_node.h), read with handoff_frame
+  // set only, on this part's own lookup thread; it outlives this.
+  PoseHandoff(ros::NodeHandle nh, const NodeParams& params, tf2_ros::Buffer& tf);
   ~PoseHandoff();
   PoseHandoff(const PoseHandoff&) = delete;
   PoseHandoff& operator=(const PoseHandoff&) = delete;
@@ -86,8 +87,7 @@ class PoseHandoff {
   const NodeParams& params_;
   ros::NodeHandle nh_;
   ros::Publisher initialpose_pub_;
-  std::unique_ptr<tf2_ros::Buffer> buffer_;  // handoff_frame set only
-  std::unique_ptr<tf2_ros::TransformListener> listener_;
+  tf2_ros::Buffer& buffer_;
   mutable ThrottledLog log_;
 
   std::atomic<bool> stopping_{false};

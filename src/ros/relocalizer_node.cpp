@@ -52,10 +52,12 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
                                               static_cast<size_t>(params_.threads))
                                         : nullptr),
       places_(std::move(places)),
+      tf_listener_(tf_, nh_, true),
       frames_(params_.mode == Mode::Continuous && params_.process_all
                   ? FrameBuffer<FrameInputPtr>::Policy::Fifo
                   : FrameBuffer<FrameInputPtr>::Policy::Latest),
-      output_(nh_, private_nh_, params_, [this](ResultMsg& result) { fillCounters(result); }),
+      output_(
+          nh_, private_nh_, params_, [this](ResultMsg& result) { fillCounters(result); }, tf_),
       service_calls_(kServiceThreads) {
   NodeDiagnostics::Sources watched;
   watched.places = places_.get();
@@ -71,13 +73,13 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   places_->onChange([this] { visuals_->placesChanged(); });
   visuals_->placesChanged();
   if (PoseHandoff::wanted(params_)) {
-    handoff_ = std::make_unique<PoseHandoff>(nh_, params_);
+    handoff_ = std::make_unique<PoseHandoff>(nh_, params_, tf_);
     output_.addListener(
         [handoff = handoff_.get()](const NodeOutput::Published& p) { handoff->onPublished(p); });
   }
   RelocalizeService::Sources sources;
   sources.frames = &frames_;
-  hints_ = std::make_unique<NodeHints>(nh_, params_, [this] {
+  hints_ = std::make_unique<NodeHints>(nh_, params_, tf_, [this] {
     std::vector<std::string> frames;
     for (const relocalizer::PlaceFigures& place : places_->list())
       frames.push_back(place.map_frame);
@@ -95,7 +97,7 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   service_ =
       std::make_unique<RelocalizeService>(private_nh_, params_, std::move(sources), service_calls_);
   if (learner)
-    learning_ = std::make_unique<LearningFeed>(nh_, private_nh_, params_, std::move(learner),
+    learning_ = std::make_unique<LearningFeed>(private_nh_, params_, tf_, std::move(learner),
                                                service_calls_);
   places_->advertise(private_nh_, service_calls_);
   if (params_.mode == Mode::Continuous) worker_ = std::thread(&RelocalizerNode::workerLoop, this);

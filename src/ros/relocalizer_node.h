@@ -20,9 +20,21 @@
 //  - NodeVisuals (node_visuals.h): ~surface and ~inliers, for RViz.
 //  - PoseHandoff (pose_handoff.h, optional): accepted poses to initialpose
 //    and robot_localization's SetPose, each frame once.
+// TF: the node owns the one tf2_ros::Buffer and the one listener that fills
+// it from /tf and /tf_static (on the listener's own thread, so a lookup that
+// waits never waits on the queue that would deliver its transform). It lends
+// the buffer by reference to NodeOutput's TransformPublisher (odom -> camera),
+// NodeHints (a hint's frame), LearningFeed (SLAM's pose) and PoseHandoff
+// (camera -> handoff_frame), each with its own timeout and on its own thread.
+// Lifetime rule: the buffer is declared before every borrower, so it is built
+// before them and destroyed after them; a borrower keeps the reference only
+// while it lives. A clear() by one borrower (a time jump) clears it for all:
+// the old timeline's transforms are wrong for every part alike.
 
 #include <ros/ros.h>
 #include <tbb/global_control.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
 
 #include <atomic>
 #include <memory>
@@ -81,6 +93,9 @@ class RelocalizerNode {
   const NodeParams params_;
   std::unique_ptr<tbb::global_control> thread_limit_;
   const std::unique_ptr<NodePlaces> places_;
+  // Before every part that borrows it (see the lifetime rule above).
+  tf2_ros::Buffer tf_;
+  tf2_ros::TransformListener tf_listener_;
 
   std::atomic<uint64_t> frames_processed_{0};
   ThrottledLog log_;

@@ -8,13 +8,9 @@
 
 namespace relocalizer_ros {
 
-TransformPublisher::TransformPublisher(ros::NodeHandle nh, Options options)
-    : options_(std::move(options)) {
+TransformPublisher::TransformPublisher(ros::NodeHandle nh, Options options, tf2_ros::Buffer& tf)
+    : options_(std::move(options)), buffer_(tf) {
   if (options_.odom_frame.empty()) return;
-  buffer_ = std::make_unique<tf2_ros::Buffer>();
-  // The listener spins its own thread, so lookups with a timeout never wait
-  // on the callback queue of the thread that is waiting.
-  listener_ = std::make_unique<tf2_ros::TransformListener>(*buffer_, nh, true);
   if (options_.tf_rate > 0.0)
     timer_ = nh.createWallTimer(ros::WallDuration(1.0 / options_.tf_rate),
                                 &TransformPublisher::rebroadcast, this);
@@ -39,8 +35,8 @@ relocalizer::Expected<geometry_msgs::TransformStamped> TransformPublisher::prepa
                                   " -> camera cannot be looked up");
   geometry_msgs::TransformStamped odom_to_camera;
   try {
-    odom_to_camera = buffer_->lookupTransform(options_.odom_frame, camera_frame, stamp,
-                                              ros::Duration(options_.tf_timeout));
+    odom_to_camera = buffer_.lookupTransform(options_.odom_frame, camera_frame, stamp,
+                                             ros::Duration(options_.tf_timeout));
   } catch (const tf2::TransformException& e) {
     char timeout[32];
     std::snprintf(timeout, sizeof(timeout), "%.2f", options_.tf_timeout);
@@ -60,13 +56,13 @@ std::string TransformPublisher::clearIfOnlyFuture(const ros::Time& stamp,
                                                   const std::string& camera_frame) const {
   ros::Time latest;
   try {
-    latest = buffer_->lookupTransform(options_.odom_frame, camera_frame, ros::Time(0)).header.stamp;
+    latest = buffer_.lookupTransform(options_.odom_frame, camera_frame, ros::Time(0)).header.stamp;
   } catch (const tf2::TransformException&) {
     return {};  // nothing at all: the transform is simply missing
   }
   const ros::Duration ahead = latest - stamp;
-  if (ahead <= buffer_->getCacheLength()) return {};
-  buffer_->clear();
+  if (ahead <= buffer_.getCacheLength()) return {};
+  buffer_.clear();
   char text[160];
   std::snprintf(text, sizeof(text),
                 " (TF held %s -> camera only from %.2f s after the frame: time went back; "
@@ -90,7 +86,7 @@ void TransformPublisher::send(const geometry_msgs::TransformStamped& transform,
 }
 
 void TransformPublisher::reset() {
-  if (buffer_) buffer_->clear();
+  if (!options_.odom_frame.empty()) buffer_.clear();
 }
 
 void TransformPublisher::rebroadcast(const ros::WallTimerEvent&) {

@@ -15,7 +15,6 @@
 #include <ros/timer.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <memory>
 #include <mutex>
@@ -36,7 +35,8 @@ class TransformPublisher {
     double tf_timeout = 0.2;
   };
 
-  TransformPublisher(ros::NodeHandle nh, Options options);
+  // `tf`: the node's buffer (relocalizer_node.h), read in odom mode only; it outlives this.
+  TransformPublisher(ros::NodeHandle nh, Options options, tf2_ros::Buffer& tf);
 
   // The transform that publishes `map_T_camera` (the camera in `map_frame`,
   // the answering place's frame) for a frame of `camera_frame` at `stamp`. In odom mode this waits
@@ -72,8 +72,7 @@ class TransformPublisher {
 
   const Options options_;
   tf2_ros::TransformBroadcaster broadcaster_;
-  std::unique_ptr<tf2_ros::Buffer> buffer_;  // odom mode only
-  std::unique_ptr<tf2_ros::TransformListener> listener_;
+  tf2_ros::Buffer& buffer_;
   ros::WallTimer timer_;
 
   std::mutex mutex_;

@@ -11,7 +11,6 @@
 #endif
 
 #include "cli_support.h"
-#include "relocalizer/core/file_io.h"
 #include "relocalizer/core/progress.h"
 #include "relocalizer/data/frame_source.h"
 #include "relocalizer/forest/model_builder.h"
@@ -168,12 +167,10 @@ int main(int argc, char** argv) {
   const Model& model = *built;
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  // Written beside the target and renamed over it, as the node's ~save_model does: a train
-  // killed while writing leaves the old model whole, and a path that holds something other
-  // than a model (a folder, a symlink, another file) is refused rather than overwritten.
-  if (const Status saved =
-          replaceFiles({{output, kModelMagic, "relocalizer model file", serializeModel(model)}});
-      !saved)
+  // Atomic, as the node's ~save_model: a train killed while writing leaves the old model
+  // whole, and a path that holds something other than a model (a folder, a symlink, another
+  // file) is refused rather than overwritten.
+  if (const Status saved = saveModel(model, output); !saved)
     return cli::fail(app, saved.error(), 1);
   const auto bytes = std::filesystem::file_size(output);
 

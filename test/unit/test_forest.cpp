@@ -1,11 +1,14 @@
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
 #include <tbb/global_control.h>
 #include <zlib.h>
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <csignal>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -13,6 +16,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "relocalizer/core/file_io.h"
 #include "relocalizer/forest/forest.h"
 #include "relocalizer/forest/mean_shift.h"
 #include "relocalizer/forest/model_io.h"
@@ -716,6 +720,62 @@ TEST_F(ModelFile, RejectsOtherFileTypesAndMissingFiles) {
   ASSERT_FALSE(folder.ok());
   EXPECT_NE(folder.error().find("is a directory, not a model file"), std::string::npos)
       << folder.error();
+}
+
+std::vector<uint8_t> fileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::vector<std::string> namesIn(const std::string& folder) {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(folder))
+    names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// Issue 41: saveModel truncated the file and wrote in place, so a write that
+// failed half way (a full disk) left half a model where the old one was.
+TEST_F(ModelFile, ASaveThatFailsMidwayLeavesTheOldFileWholeAndNoTemporary) {
+  Model other = model_;
+  other.summary.dataset = "another";
+  const std::vector<uint8_t> other_bytes = serializeModel(other);
+  ASSERT_NE(other_bytes, bytes_);
+  // No file of this process may grow past half the new model: its write fails midway, as on a
+  // full disk (a read-only folder would not stop root).
+  struct rlimit unlimited = {};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &unlimited), 0);
+  struct rlimit half = unlimited;
+  half.rlim_cur = other_bytes.size() / 2;
+  const auto handler = std::signal(SIGXFSZ, SIG_IGN);
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &half), 0);
+  const Status failed = saveModel(other, path_);
+  ::setrlimit(RLIMIT_FSIZE, &unlimited);
+  std::signal(SIGXFSZ, handler);
+  ASSERT_FALSE(failed.ok());
+  EXPECT_EQ(failed.error().rfind(path_ + ": cannot write ", 0), 0u) << failed.error();
+  EXPECT_NE(failed.error().find(systemErrorText(EFBIG)), std::string::npos) << failed.error();
+  EXPECT_EQ(fileBytes(path_), bytes_);
+  EXPECT_EQ(namesIn(dir_.str()), std::vector<std::string>{"model.bin"});
+
+  // A folder where the model should go is refused and left as it is.
+  const std::string folder = dir_.str() + "/folder.model";
+  std::filesystem::create_directory(folder);
+  const Status refused = saveModel(other, folder);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().rfind(folder + ": is a directory", 0), 0u) << refused.error();
+  EXPECT_TRUE(std::filesystem::is_directory(folder));
+  std::filesystem::remove(folder);
+
+  // Without the limit the same save replaces the file, which reads back as the model.
+  const Status saved = saveModel(other, path_);
+  ASSERT_TRUE(saved.ok()) << saved.error();
+  EXPECT_EQ(fileBytes(path_), other_bytes);
+  const Expected<Model> loaded = loadModel(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  EXPECT_EQ(serializeModel(*loaded), other_bytes);
+  EXPECT_EQ(namesIn(dir_.str()), std::vector<std::string>{"model.bin"});
 }
 
 TEST(Config, ForestYamlMatchesCompiledDefaults) {

@@ -20,6 +20,7 @@
 #include <limits>
 
 #include "relocalizer/core/byte_io.h"
+#include "relocalizer/core/file_io.h"
 #include "relocalizer/eval/metrics.h"
 #include "relocalizer/forest/model_builder.h"
 #include "relocalizer/online/key_frame_feed.h"
@@ -567,13 +568,13 @@ TEST_F(OnlineRoom, FailedSavesSayWhy) {
   const std::string missing = dir.str() + "/no/such/folder/place.model";
   saved = learner->save(missing);
   ASSERT_FALSE(saved.ok());
-  EXPECT_TRUE(contains(saved.error(), std::strerror(ENOENT))) << saved.error();
+  EXPECT_TRUE(contains(saved.error(), systemErrorText(ENOENT))) << saved.error();
   EXPECT_TRUE(contains(saved.error(), missing)) << saved.error();
 
   const std::string long_name = dir.str() + "/" + std::string(250, 'm');
   saved = learner->save(long_name);
   ASSERT_FALSE(saved.ok());
-  EXPECT_TRUE(contains(saved.error(), std::strerror(ENAMETOOLONG))) << saved.error();
+  EXPECT_TRUE(contains(saved.error(), systemErrorText(ENAMETOOLONG))) << saved.error();
 
   // Whatever /proc answers to this user, the message must carry it.
   const std::string in_proc = "/proc/relocalizer_test.model";
@@ -582,7 +583,7 @@ TEST_F(OnlineRoom, FailedSavesSayWhy) {
   ASSERT_LT(probe, 0);
   saved = learner->save(in_proc);
   ASSERT_FALSE(saved.ok());
-  EXPECT_TRUE(contains(saved.error(), std::strerror(probe_errno))) << saved.error();
+  EXPECT_TRUE(contains(saved.error(), systemErrorText(probe_errno))) << saved.error();
 }
 
 // B4: temporaries of a save that was killed were left behind for good.

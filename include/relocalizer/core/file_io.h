@@ -62,8 +62,15 @@ std::string replaceableError(const std::string& path, std::string_view magic,
                              const std::string& what);
 
 // Replaces every target as described above; nothing is written unless every
-// target may be replaced. Messages name the path and carry the system's reason.
+// target may be replaced, and on any failure every target is as it was and no
+// temporary is left. Messages name the path, what failed and why
+// (systemErrorText).
 Status replaceFiles(const std::vector<FileReplacement>& files);
+
+// Why a system call failed (an errno value), in our words: the C library's
+// text follows the locale and may be translated or not UTF-8, and it goes
+// into ROS answers and logs.
+std::string systemErrorText(int error);
 
 // The stem of the path's last component, trailing separators ignored: what a
 // place is called by default, for a model file ("kitchen.model") and a folder

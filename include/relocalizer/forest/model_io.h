@@ -75,6 +75,12 @@ std::vector<uint8_t> serializeModel(const Model& model);
 // `source` names the bytes' origin in error messages.
 Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::string& source);
 
+// The one framing of a model file for writing: `serialized` (serializeModel's
+// bytes, which a writer may need too, for modelFileId) as a replacement of
+// `path` that only a model file or nothing may stand at (core/file_io.h).
+FileReplacement modelFileReplacement(const std::string& path, std::vector<uint8_t> serialized);
+// Writes `model` to `path` atomically (replaceFiles): on any failure the old
+// file is as it was, no temporary is left, and the error names the path.
 Status saveModel(const Model& model, const std::string& path);
 // Bytes of a model's forests and surface in memory.
 size_t modelBytes(const Model& model);

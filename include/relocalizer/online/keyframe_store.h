@@ -88,6 +88,9 @@ struct KeyFrameFile {
 std::string keyFramesPath(const std::string& model_path);
 std::vector<uint8_t> serializeKeyFrames(const std::vector<KeyFrameStore::Entry>& key_frames,
                                         const ModelFileId& model);
+// A key-frame file's bytes (serializeKeyFrames's, or a copy of a file) as a
+// replacement of `path` (core/file_io.h).
+FileReplacement keyFrameFileReplacement(const std::string& path, std::vector<uint8_t> bytes);
 Expected<KeyFrameFile> loadKeyFrames(const std::string& path);
 // How a key-frame file is read (core/file_io.h): its header first, then
 // the body length it names, which must be the rest of the file.

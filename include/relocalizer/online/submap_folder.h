@@ -77,6 +77,9 @@ std::string submapManifestPath(const std::string& folder);
 Expected<std::string> confinedSaveFolder(const std::string& root, const std::string& requested);
 
 std::string serializeSubmapManifest(const SubmapManifest& manifest);
+// The manifest as a replacement of `<folder>/manifest.json` (core/file_io.h).
+FileReplacement submapManifestReplacement(const std::string& folder,
+                                          const SubmapManifest& manifest);
 // Reads `<folder>/manifest.json` (neither a symbolic link nor larger than
 // kMaxSubmapManifestBytes). Errors name the file and, for a bad field, the
 // field (`submaps[2].keyframe_poses[5].pose`).
