@@ -54,9 +54,10 @@ Status writeAndSync(const std::string& path, const std::string& temporary,
       temporary.c_str());  // ours by name; O_EXCL below then never opens a planted FIFO or link
   const int fd =
       ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
-  if (fd < 0)
-    return makeError(path + ": cannot create the temporary file " + temporary + ": " +
-                     systemErrorText(errno));
+  if (fd < 0) {
+    const std::string why = systemErrorText(errno);  // before any allocation can touch errno
+    return makeError(path + ": cannot create the temporary file " + temporary + ": " + why);
+  }
   size_t written = 0;
   while (written < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
@@ -75,8 +76,10 @@ Status writeAndSync(const std::string& path, const std::string& temporary,
     ::close(fd);
     return makeError(path + ": cannot flush " + temporary + " to disk: " + systemErrorText(error));
   }
-  if (::close(fd) != 0)
-    return makeError(path + ": cannot write " + temporary + ": " + systemErrorText(errno));
+  if (::close(fd) != 0) {
+    const std::string why = systemErrorText(errno);
+    return makeError(path + ": cannot write " + temporary + ": " + why);
+  }
   return okStatus();
 }
 
@@ -85,7 +88,10 @@ std::string readInto(int fd, std::vector<uint8_t>& bytes, size_t offset, const s
   while (offset < bytes.size()) {
     const ssize_t n = ::read(fd, bytes.data() + offset, bytes.size() - offset);
     if (n < 0 && errno == EINTR) continue;
-    if (n < 0) return "cannot read " + what + ": " + systemErrorText(errno);
+    if (n < 0) {
+      const std::string why = systemErrorText(errno);
+      return "cannot read " + what + ": " + why;
+    }
     if (n == 0) return what + " shrank while it was read";
     offset += static_cast<size_t>(n);
   }
@@ -94,7 +100,10 @@ std::string readInto(int fd, std::vector<uint8_t>& bytes, size_t offset, const s
 
 // The refusal of what `fd` is, empty for a regular file that is not empty.
 std::string fileTypeRefusal(int fd, const std::string& what, struct stat& info) {
-  if (::fstat(fd, &info) != 0) return "cannot inspect " + what + ": " + systemErrorText(errno);
+  if (::fstat(fd, &info) != 0) {
+    const std::string why = systemErrorText(errno);
+    return "cannot inspect " + what + ": " + why;
+  }
   if (S_ISDIR(info.st_mode)) return "is a directory, not a " + what;
   if (!S_ISREG(info.st_mode)) return "is not a regular file (a device or a pipe?), not a " + what;
   if (info.st_size == 0) return what + " is empty";
@@ -216,7 +225,8 @@ std::string replaceableError(const std::string& path, std::string_view magic,
   struct stat info = {};
   if (::lstat(path.c_str(), &info) != 0) {
     if (errno == ENOENT) return {};  // a new file; a missing folder is reported by the write
-    return path + ": cannot check what is there: " + systemErrorText(errno);
+    const std::string why = systemErrorText(errno);
+    return path + ": cannot check what is there: " + why;
   }
   if (S_ISLNK(info.st_mode))
     return path +
@@ -225,8 +235,10 @@ std::string replaceableError(const std::string& path, std::string_view magic,
   if (!S_ISREG(info.st_mode))
     return path + ": is not a regular file (a FIFO, socket or device); refusing to replace it";
   const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOFOLLOW | O_CLOEXEC);
-  if (fd < 0)
-    return path + ": cannot read the existing file to check it: " + systemErrorText(errno);
+  if (fd < 0) {
+    const std::string why = systemErrorText(errno);
+    return path + ": cannot read the existing file to check it: " + why;
+  }
   std::string head(magic.size(), '\0');
   const ssize_t n = ::read(fd, head.data(), head.size());
   ::close(fd);

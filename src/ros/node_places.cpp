@@ -150,17 +150,23 @@ void NodePlaces::followLearner() {
     std::lock_guard<std::mutex> lock(learned_mutex_);
     // Pointers, not contents: the learner swaps in a new model, never changes one.
     if (current == learned_models_) return;
-    learned_models_ = current;
-    if (models.empty()) return;
+    if (models.empty()) {
+      learned_models_ = current;
+      return;
+    }
     std::vector<relocalizer::Place> group =
         relocalizer::submapPlaces(models, learned_name_, params_.map_frame);
     // The first submap alone is the place placeName() itself, as before submaps.
     if (models.size() == 1 && models[0].index == 0) group[0].name = learned_name_;
     if (const relocalizer::Status put = places_.putGroup(learned_name_, std::move(group)); !put) {
+      // Not remembered as followed: the next frame tries again, so the learned
+      // places answer as soon as what refused them (another place holding the
+      // same model, say) is unloaded, not only after the next retrain.
       if (log_.allow(put.error()))
         ROS_WARN("relocalizer: the learned submaps: %s", put.error().c_str());
       return;
     }
+    learned_models_ = current;
   }
   if (changed_) changed_();
 }

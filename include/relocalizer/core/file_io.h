@@ -62,9 +62,12 @@ std::string replaceableError(const std::string& path, std::string_view magic,
                              const std::string& what);
 
 // Replaces every target as described above; nothing is written unless every
-// target may be replaced, and on any failure every target is as it was and no
-// temporary is left. Messages name the path, what failed and why
-// (systemErrorText).
+// target may be replaced, and no temporary is left. A failure before the first
+// rename leaves every target as it was; a rename that fails leaves the targets
+// renamed before it replaced (callers order the files so that this is safe: key
+// frames, then the model, then the manifest); a failure to flush the folder comes
+// after every target was replaced (written, but maybe not yet durable). Messages
+// name the path, what failed and why (systemErrorText).
 Status replaceFiles(const std::vector<FileReplacement>& files);
 
 // Why a system call failed (an errno value), in our words: the C library's
