@@ -1,9 +1,8 @@
-// PlaceSet::relocalize: one frame searched across the set (place_set.h says
+// searchPlaces: one frame searched across the places (place_search.h says
 // how it chooses): shared samples, every place screened, the best solved with
-// its close runners-up, and the answers judged. The set's bookkeeping is in
-// place_set.cpp.
+// its close runners-up, and the answers judged.
 
-#include "relocalizer/relocalize/place_set.h"
+#include "relocalizer/relocalize/place_search.h"
 
 #include <tbb/parallel_for.h>
 
@@ -13,6 +12,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <numeric>
+#include <optional>
 
 namespace relocalizer {
 
@@ -87,10 +87,11 @@ std::string disagreementMessage(const std::string& a, const Relocalization& answ
 }
 
 // The frame screened: every place's screen, the hint's factor it was weighed
-// by, and the order they rank in.
+// by, whether it got the full screen, and the order they rank in.
 struct Screened {
   std::vector<ScreenResult> results;
   std::vector<float> factors;
+  std::vector<char> full;     // got the full screen (else the first look only)
   std::vector<size_t> order;  // best screened first
   double seconds = 0.0;
 };
@@ -269,11 +270,86 @@ void judge(const std::vector<std::shared_ptr<const Place>>& places, Solves& solv
   answer.relocalization = std::move(answered.front().second);
 }
 
+// Every place screened on `samples` (the shared point samples): the first
+// look, then the full screen where it came close.
+void screenPlaces(const std::vector<std::shared_ptr<const Place>>& places, const RgbdFrame& frame,
+                  const FrameSamples& samples, const PlaceSearchParams& params,
+                  Screened& screened) {
+  const auto screen_start = Clock::now();
+  std::vector<std::vector<Prediction>> predicted(places.size());
+  std::vector<char> shared_recipe(places.size());
+  for (size_t i = 0; i < places.size(); ++i)
+    shared_recipe[i] = samples.recipe.sameAs(places[i]->relocalizer->samplingRecipe());
+  // A place whose recipe differs screens fully, on samples of its own.
+  auto screenPlace = [&](size_t i, const ScreenParams& budget) {
+    const Relocalizer& relocalizer = *places[i]->relocalizer;
+    if (shared_recipe[i]) {
+      screened.results[i] = relocalizer.screen(samples, budget, &predicted[i]);
+    } else if (Expected<FrameSamples> sampled = relocalizer.sample(frame)) {
+      screened.results[i] = relocalizer.screen(*sampled, params.screen);
+    }
+  };
+  if (params.first_look.samples > 0) {
+    tbb::parallel_for(size_t{0}, places.size(), [&](size_t i) {
+      if (shared_recipe[i]) screenPlace(i, params.first_look);
+    });
+    float best = 0.0f;
+    for (size_t i = 0; i < places.size(); ++i)
+      if (shared_recipe[i])
+        best = std::max(best, screened.results[i].inliers * screened.factors[i]);
+    if (best >= params.rescreen_all_below)
+      for (size_t i = 0; i < places.size(); ++i)
+        screened.full[i] =
+            !shared_recipe[i] ||
+            (screened.results[i].inliers > 0 &&
+             screened.results[i].inliers * screened.factors[i] >= params.rescreen_ratio * best);
+  }
+  std::vector<size_t> rescreened;
+  for (size_t i = 0; i < places.size(); ++i)
+    if (screened.full[i]) rescreened.push_back(i);
+  // The lead alone came close: its full screen could change nothing (it
+  // ranks first and no runner-up is close), so the first look stands.
+  if (rescreened.size() == 1 && shared_recipe[rescreened.front()] &&
+      params.first_look.samples > 0) {
+    screened.full[rescreened.front()] = 0;
+    rescreened.clear();
+  }
+  tbb::parallel_for(size_t{0}, rescreened.size(),
+                    [&](size_t k) { screenPlace(rescreened[k], params.screen); });
+  screened.seconds = secondsSince(screen_start);
+}
+
 }  // namespace
 
-PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) const {
+std::string PlaceSearchParams::validationError() const {
+  if (screen.samples < 3 || screen.hypotheses < 1 || screen.sampling_attempts < 1 ||
+      screen.max_leaves < 1)
+    return "screen.samples must be >= 3, screen.hypotheses, screen.sampling_attempts and "
+           "screen.max_leaves >= 1";
+  if (first_look.samples != 0 &&
+      (first_look.samples < 3 || first_look.hypotheses < 1 || first_look.sampling_attempts < 1 ||
+       first_look.max_leaves != screen.max_leaves || first_look.samples > screen.samples))
+    return "first_look.samples must be 0 (no first look) or in 3..screen.samples, "
+           "first_look.hypotheses and first_look.sampling_attempts >= 1, and first_look.max_leaves "
+           "equal to screen.max_leaves (the screen reuses its predictions)";
+  if (!(rescreen_ratio >= 0 && rescreen_ratio <= 1))
+    return "rescreen_ratio must be a share between 0 and 1";
+  if (max_solved < 1) return "max_solved must be >= 1";
+  if (!(runner_up_ratio >= 0 && runner_up_ratio <= 1))
+    return "runner_up_ratio must be a share between 0 and 1";
+  if (!(ambiguity_ratio > 0 && ambiguity_ratio <= 1))
+    return "ambiguity_ratio must be a share in (0, 1]";
+  if (!(agreement_metres >= 0 && agreement_degrees >= 0))
+    return "agreement_metres and agreement_degrees must be >= 0";
+  if (std::isnan(screen_agreement_metres) || std::isnan(screen_agreement_degrees))
+    return "screen_agreement_metres and screen_agreement_degrees must be numbers";
+  return {};
+}
+
+PlaceAnswer searchPlaces(const std::vector<std::shared_ptr<const Place>>& places,
+                         const RgbdFrame& frame, const PoseHint* hint,
+                         const PlaceSearchParams& params) {
   const auto start = Clock::now();
-  const std::vector<std::shared_ptr<const Place>> places = snapshot();
   PlaceAnswer answer;
   if (places.empty()) {
     answer.relocalization.message = "no place is loaded";
@@ -301,51 +377,10 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) c
   screened.factors.resize(places.size());
   for (size_t i = 0; i < places.size(); ++i)
     screened.factors[i] = hintFactor(*places[i], hint, nullptr);
-  std::vector<char> full(places.size(), 1);
-  auto screen = [&](const FrameSamples& samples) {
-    const auto screen_start = Clock::now();
-    std::vector<std::vector<Prediction>> predicted(places.size());
-    std::vector<char> shared_recipe(places.size());
-    for (size_t i = 0; i < places.size(); ++i)
-      shared_recipe[i] = samples.recipe.sameAs(places[i]->relocalizer->samplingRecipe());
-    // A place whose recipe differs screens fully, on samples of its own.
-    auto screenPlace = [&](size_t i, const ScreenParams& budget) {
-      const Relocalizer& relocalizer = *places[i]->relocalizer;
-      if (shared_recipe[i]) {
-        screened.results[i] = relocalizer.screen(samples, budget, &predicted[i]);
-      } else if (Expected<FrameSamples> sampled = relocalizer.sample(frame)) {
-        screened.results[i] = relocalizer.screen(*sampled, params_.screen);
-      }
-    };
-    if (params_.first_look.samples > 0) {
-      tbb::parallel_for(size_t{0}, places.size(), [&](size_t i) {
-        if (shared_recipe[i]) screenPlace(i, params_.first_look);
-      });
-      float best = 0.0f;
-      for (size_t i = 0; i < places.size(); ++i)
-        if (shared_recipe[i])
-          best = std::max(best, screened.results[i].inliers * screened.factors[i]);
-      if (best >= params_.rescreen_all_below)
-        for (size_t i = 0; i < places.size(); ++i)
-          full[i] = !shared_recipe[i] || (screened.results[i].inliers > 0 &&
-                                          screened.results[i].inliers * screened.factors[i] >=
-                                              params_.rescreen_ratio * best);
-    }
-    std::vector<size_t> rescreened;
-    for (size_t i = 0; i < places.size(); ++i)
-      if (full[i]) rescreened.push_back(i);
-    // The lead alone came close: its full screen could change nothing (it
-    // ranks first and no runner-up is close), so the first look stands.
-    if (rescreened.size() == 1 && shared_recipe[rescreened.front()] &&
-        params_.first_look.samples > 0) {
-      full[rescreened.front()] = 0;
-      rescreened.clear();
-    }
-    tbb::parallel_for(size_t{0}, rescreened.size(),
-                      [&](size_t k) { screenPlace(rescreened[k], params_.screen); });
-    screened.seconds = secondsSince(screen_start);
-  };
-  Expected<FrameSamples> shared = places.front()->relocalizer->sample(frame, screen);
+  screened.full.assign(places.size(), 1);
+  Expected<FrameSamples> shared = places.front()->relocalizer->sample(
+      frame,
+      [&](const FrameSamples& samples) { screenPlaces(places, frame, samples, params, screened); });
   // The samples' own time: what the call waited for besides the screens.
   answer.search.sampling = secondsSince(start) - screened.seconds;
   if (!shared) {
@@ -357,17 +392,17 @@ PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) c
   for (size_t i = 0; i < places.size(); ++i) {
     answer.attempts[i].place = places[i]->name;
     answer.attempts[i].screen_inliers = screened.results[i].inliers;
-    answer.attempts[i].screened_fully = full[i];
-    answer.search.full_screens += full[i];
+    answer.attempts[i].screened_fully = screened.full[i];
+    answer.search.full_screens += screened.full[i];
   }
   screened.order = rankByScreen(answer.attempts, screened.factors);
 
   answer.search.screening = screened.seconds;
   const auto solve_start = Clock::now();
   Solves solves =
-      solveRanked(places, screened, params_, frame, *shared, hint, answer.attempts, answer.search);
+      solveRanked(places, screened, params, frame, *shared, hint, answer.attempts, answer.search);
   answer.search.solving = secondsSince(solve_start);
-  judge(places, solves, screened.order, hint, params_, answer);
+  judge(places, solves, screened.order, hint, params, answer);
   // Move the attempts into rank order for the reader.
   std::vector<PlaceAttempt> ranked;
   for (size_t i : screened.order) ranked.push_back(std::move(answer.attempts[i]));

@@ -1,17 +1,11 @@
+// The set's bookkeeping: the places, their names and model files, put and
+// removed under one lock; a search runs over a snapshot (place_search.cpp).
+
 #include "relocalizer/relocalize/place_set.h"
 
 #include "relocalizer/core/file_io.h"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
-#include <cmath>
-#include <cstdint>
-#include <cstdio>
-#include <fstream>
-#include <optional>
-
-#include "relocalizer/forest/model_io.h"
 
 namespace relocalizer {
 
@@ -89,65 +83,6 @@ std::string sameModelError(const Place& place, const Place& holder) {
 }
 
 }  // namespace
-
-std::string modelFileIdentity(const std::string& path) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  const std::streamoff size = in.tellg();
-  if (!in || size < 0) return {};
-  std::vector<uint8_t> bytes(static_cast<size_t>(size));
-  in.seekg(0);
-  if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) return {};
-  return modelIdentity(crc32Of(bytes.data(), bytes.size()), bytes.size());
-}
-
-std::string modelIdentity(uint32_t crc32, uint64_t bytes) {
-  char id[64];
-  std::snprintf(id, sizeof id, "crc32 %08x, %llu bytes", crc32,
-                static_cast<unsigned long long>(bytes));
-  return id;
-}
-
-std::string PlaceSearchParams::validationError() const {
-  if (screen.samples < 3 || screen.hypotheses < 1 || screen.sampling_attempts < 1 ||
-      screen.max_leaves < 1)
-    return "screen.samples must be >= 3, screen.hypotheses, screen.sampling_attempts and "
-           "screen.max_leaves >= 1";
-  if (first_look.samples != 0 &&
-      (first_look.samples < 3 || first_look.hypotheses < 1 || first_look.sampling_attempts < 1 ||
-       first_look.max_leaves != screen.max_leaves || first_look.samples > screen.samples))
-    return "first_look.samples must be 0 (no first look) or in 3..screen.samples, "
-           "first_look.hypotheses and first_look.sampling_attempts >= 1, and first_look.max_leaves "
-           "equal to screen.max_leaves (the screen reuses its predictions)";
-  if (!(rescreen_ratio >= 0 && rescreen_ratio <= 1))
-    return "rescreen_ratio must be a share between 0 and 1";
-  if (max_solved < 1) return "max_solved must be >= 1";
-  if (!(runner_up_ratio >= 0 && runner_up_ratio <= 1))
-    return "runner_up_ratio must be a share between 0 and 1";
-  if (!(ambiguity_ratio > 0 && ambiguity_ratio <= 1))
-    return "ambiguity_ratio must be a share in (0, 1]";
-  if (!(agreement_metres >= 0 && agreement_degrees >= 0))
-    return "agreement_metres and agreement_degrees must be >= 0";
-  if (std::isnan(screen_agreement_metres) || std::isnan(screen_agreement_degrees))
-    return "screen_agreement_metres and screen_agreement_degrees must be numbers";
-  return {};
-}
-
-PlaceFigures placeFigures(const Place& place) {
-  PlaceFigures figures;
-  figures.name = place.name;
-  figures.map_frame = place.map_frame;
-  figures.source = place.source;
-  figures.group = place.group;
-  if (!place.relocalizer) return figures;
-  const Model& model = place.relocalizer->model();
-  figures.point_trees = static_cast<int>(model.points.trees.size());
-  figures.line_trees = static_cast<int>(model.lines.trees.size());
-  figures.modes = static_cast<long>(model.points.modeCount() + model.lines.modeCount());
-  figures.surface_voxels = static_cast<long>(model.surface.elements().size());
-  figures.training_frames = model.summary.images;
-  figures.model_bytes = modelBytes(model);
-  return figures;
-}
 
 PlaceSet::PlaceSet(PlaceSearchParams params) : params_(std::move(params)) {}
 
@@ -265,6 +200,10 @@ std::vector<std::string> PlaceSet::names() const {
   std::vector<std::string> names;
   for (const auto& place : snapshot()) names.push_back(place->name);
   return names;
+}
+
+PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) const {
+  return searchPlaces(snapshot(), frame, hint, params_);
 }
 
 size_t PlaceSet::size() const {
