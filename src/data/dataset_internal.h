@@ -15,6 +15,8 @@
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/data/registration.h"
 
+#include "dataset_text_files.h"
+
 namespace relocalizer::detail {
 
 namespace fs = std::filesystem;
@@ -59,30 +61,7 @@ Expected<DatasetData> readSevenScenesScene(const ReaderInput& input);
 Expected<DatasetData> readTwelveScenes(const ReaderInput& input);
 Expected<DatasetData> readTum(const ReaderInput& input);
 
-// ---- helpers shared by the readers --------------------------------------------
-
-// Lines of a text file, without line terminators ("\r\n" too).
-Expected<std::vector<std::string>> readLines(const fs::path& file);
-
-// True for a line of only blanks or a '#' comment (TUM's lists and trajectories).
-bool isCommentOrBlank(const std::string& line);
-
-// Whitespace-separated numbers of one line; accepts inf and nan so callers
-// decide what they mean. Errors read "<file>: line <n>: '<token>' is not a number".
-Expected<std::vector<double>> parseNumbers(const std::string& line, const fs::path& file,
-                                           int line_number);
-
-// How a reader treats non-finite pose entries.
-enum class NonFinitePose {
-  Error,          // 7-Scenes: a corrupt file
-  NoGroundTruth,  // 12-Scenes: tracking lost for that frame
-};
-
-// A 4x4 camera-to-world matrix in a file of four lines of four numbers.
-Expected<std::optional<Pose>> readPoseFile(const fs::path& file, NonFinitePose non_finite);
-
-// A 3x3 K (7-Scenes camera-intrinsics.txt); width and height are left alone.
-Expected<CameraIntrinsics> readIntrinsicsFile(const fs::path& file);
+// ---- helpers shared by the readers (their text files: dataset_text_files.h) ---
 
 // The frame files of one 7-Scenes style folder (also 12-Scenes data/), read
 // into `out` for selected frame numbers. `id_offset` is added to the frame

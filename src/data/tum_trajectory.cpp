@@ -5,18 +5,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "dataset_internal.h"
+#include "dataset_text_files.h"
 
 namespace relocalizer {
-
-namespace detail {
-
-bool isCommentOrBlank(const std::string& line) {
-  const size_t first = line.find_first_not_of(" \t");
-  return first == std::string::npos || line[first] == '#';
-}
-
-}  // namespace detail
 
 Expected<std::vector<TrajectorySample>> readTumTrajectory(const std::string& path) {
   using namespace detail;
