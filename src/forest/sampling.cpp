@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "relocalizer/forest/line_detector_input.h"
 #include "relocalizer/forest/line_segment_detector.h"
 
 namespace relocalizer {

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <random>
 
+#include "relocalizer/forest/line_detector_input.h"
 #include "relocalizer/forest/line_segment_detector.h"
 #include "relocalizer/forest/sampling.h"
 

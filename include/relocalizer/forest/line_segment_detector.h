@@ -13,7 +13,8 @@
 // segment is computed here in plain loops from integers and IEEE double
 // arithmetic in a fixed order (no libm transcendental, no OpenCV filter whose
 // rounding may change with the version, no unstable sort), and the source is
-// compiled without floating-point contraction.
+// compiled without floating-point contraction. Its input image from colour:
+// line_detector_input.h.
 
 #include <opencv2/core.hpp>
 #include <vector>
@@ -32,11 +33,5 @@ struct LineSegment {
 // taken (strongest gradient first). Throws std::invalid_argument for another
 // image type.
 std::vector<LineSegment> detectLineSegments(const cv::Mat& grey);
-
-// The detector's input from a BGR8 colour image: BT.601 luma in 14-bit fixed
-// point, then shrunk by `scale` (<= 1) by averaging the source area each
-// output pixel covers (to round(cols * scale) x round(rows * scale)), in our
-// own loops so that the input, too, is the same everywhere.
-cv::Mat lineDetectorInput(const cv::Mat& bgr, float scale);
 
 }  // namespace relocalizer
