@@ -175,26 +175,14 @@ void printWritten(const BagSettings& settings, int written, int with_truth, doub
                 settings.tf_trajectory.c_str());
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  cli::App app{
-      "Writes the selected frames of a dataset as a rosbag: /camera/rgb/image_raw (bgr8), "
-      "/camera/depth/image_raw (16UC1 millimetres or 32FC1 metres, registered to colour), "
-      "/camera/rgb/camera_info, the camera-to-world ground truth on /ground_truth/pose "
-      "(PoseStamped, frame map), with --tf also on /tf, and a JSON description of the source on "
-      "/dataset/info. Every "
-      "header carries the frame's stamp and its dataset id as seq. Stamps are the dataset's, "
-      "or synthesized at --rate (7-Scenes and 12-Scenes stamps are frame numbers, so they are "
-      "synthesized at 30 Hz unless --rate says otherwise).",
-      "make_bag"};
-  cli::DatasetArguments arguments;
-  BagSettings settings;
+// The options into `arguments` and `settings`; the returned --rate option says
+// whether a rate was given.
+cli::Option* addOptions(cli::App& app, cli::DatasetArguments& arguments, BagSettings& settings) {
   arguments.add(app, "Dataset folder (7-Scenes, 12-Scenes, TUM, synthetic)",
                 "Frame ids to write, e.g. 100-199,300-399 (default: all)");
   app.addOption("-o,--output", settings.output, "Bag file to write (replaced if it exists)")
       ->required();
-  auto* rate_option =
+  auto* rate =
       app.addOption("--rate", settings.rate, "Synthesize stamps at this many frames per second")
           ->range(0.001, 10000.0);
   app.addOption("--depth-encoding", settings.depth_encoding, "16UC1 (millimetres) | 32FC1 (metres)")
@@ -216,6 +204,25 @@ int main(int argc, char** argv) {
   app.addOption("--compression", settings.compression, "none | lz4 | bz2")
       ->oneOf({"none", "lz4", "bz2"})
       ->showDefault();
+  return rate;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cli::App app{
+      "Writes the selected frames of a dataset as a rosbag: /camera/rgb/image_raw (bgr8), "
+      "/camera/depth/image_raw (16UC1 millimetres or 32FC1 metres, registered to colour), "
+      "/camera/rgb/camera_info, the camera-to-world ground truth on /ground_truth/pose "
+      "(PoseStamped, frame map), with --tf also on /tf, and a JSON description of the source on "
+      "/dataset/info. Every "
+      "header carries the frame's stamp and its dataset id as seq. Stamps are the dataset's, "
+      "or synthesized at --rate (7-Scenes and 12-Scenes stamps are frame numbers, so they are "
+      "synthesized at 30 Hz unless --rate says otherwise).",
+      "make_bag"};
+  cli::DatasetArguments arguments;
+  BagSettings settings;
+  const cli::Option* rate_option = addOptions(app, arguments, settings);
   if (const cli::Exit done = app.parse(argc, argv)) return *done;
   if (settings.frame_id.empty() || settings.frame_id[0] == '/')
     return cli::fail(app, "--frame-id must be a non-empty tf2 frame id without a leading slash");
