@@ -1,11 +1,12 @@
-"""No .cpp under src/ over 500 lines, no function over 120 lines outside src/sim/.
+"""No .cpp under src/ over 450 lines, no function over 100 lines outside src/sim/.
 
 Functions are scanned in src/ and in the public headers under include/.
 
 Long files and long functions are where concerns pile up unseen; these limits
 (written in the session's style notes) held once by splitting, and this keeps
-them. A function is measured from the line its header starts on to the line of
-its closing brace. The scan is a brace matcher over the code with comments,
+them (issue 41 lowered them from 500 and 120, splitting by concept what sat
+just under those). A function is measured from the line its header starts on
+to the line of its closing brace. The scan is a brace matcher over the code with comments,
 strings and character literals blanked: a `{` at namespace or class level opens
 a function body when the text since the previous declaration has a parameter
 list before any `=` (so `const T kTable[] = {...}` is no function), and a
@@ -17,8 +18,8 @@ import re
 import unittest
 
 SOURCE = pathlib.Path(__file__).resolve().parents[2]
-MAX_FILE_LINES = 500
-MAX_FUNCTION_LINES = 120
+MAX_FILE_LINES = 450
+MAX_FUNCTION_LINES = 100
 # The procedurally generated room is exempt from the function limit: its long
 # builders are tables of furniture written as code.
 FUNCTION_LIMIT_EXEMPT = ("src/sim/",)
