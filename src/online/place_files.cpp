@@ -12,8 +12,8 @@
 #include "relocalizer/core/file_io.h"
 #include "relocalizer/core/outside_text.h"
 #include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/submap_archive.h"
 #include "relocalizer/online/submap_folder.h"
-#include "relocalizer/online/submap_learner.h"
 
 namespace relocalizer {
 namespace {
@@ -65,24 +65,33 @@ bool opensWithMagic(const std::string& path, std::string_view magic, int flags =
   return ok;
 }
 
-Expected<PlaceFiles> loadUnbounded(const std::string& name, const std::string& path,
+// "place 'NAME': ", or nothing for a place opened under its saved name.
+std::string placePrefix(const std::string& name) {
+  return name.empty() ? std::string() : "place '" + name + "': ";
+}
+
+Expected<PlaceFiles> openUnbounded(const std::string& name, const std::string& path,
                                    const std::string& map_frame, const RelocalizerParams& params) {
   PlaceFiles files;
   std::error_code ec;
-  if (!std::filesystem::is_directory(path, ec)) {
-    auto place = PlaceSet::load(name, path, map_frame, params);
+  if (!placeIsFolder(path)) {
+    files.name = name.empty() ? pathStem(path) : name;
+    files.map_frame = map_frame.empty() ? std::string("map") : map_frame;
+    auto place = PlaceSet::load(files.name, path, files.map_frame, params);
     if (!place) return makeError(place.error());
     files.places.push_back(std::move(*place));
     return files;
   }
   if (!std::filesystem::exists(submapManifestPath(path), ec))
-    return makeError("place '" + name + "': " + path +
+    return makeError(placePrefix(name) + path +
                      ": is a directory, not a model file nor a folder of learned submaps (it has "
                      "no " +
                      kSubmapManifestName + ")");
   auto saved = loadSavedSubmaps(path, name, map_frame, params);
-  if (!saved) return makeError("place '" + name + "': " + saved.error());
+  if (!saved) return makeError(placePrefix(name) + saved.error());
   files.folder = true;
+  files.name = name.empty() ? saved->saved_place_name : name;
+  files.map_frame = map_frame.empty() ? saved->saved_map_frame : map_frame;
   files.places = std::move(saved->places);
   files.saved_map_frame = std::move(saved->saved_map_frame);
   files.warnings = std::move(saved->warnings);
@@ -91,14 +100,18 @@ Expected<PlaceFiles> loadUnbounded(const std::string& name, const std::string& p
 
 }  // namespace
 
-Expected<PlaceFiles> loadPlaceFiles(const std::string& name, const std::string& path,
-                                    const std::string& map_frame, const RelocalizerParams& params) {
+bool placeIsFolder(const std::string& path) {
+  std::error_code ec;
+  return !path.empty() && std::filesystem::is_directory(path, ec);
+}
+
+Expected<PlaceFiles> openPlace(const std::string& name, const std::string& path,
+                               const std::string& map_frame, const RelocalizerParams& params) {
   const LoadTurn turn;
   try {
-    return loadUnbounded(name, path, map_frame, params);
+    return openUnbounded(name, path, map_frame, params);
   } catch (const std::exception& e) {
-    return makeError("place '" + name + "': " + path +
-                     ": cannot be loaded: " + loadFailureReason(e));
+    return makeError(placePrefix(name) + path + ": cannot be loaded: " + loadFailureReason(e));
   }
 }
 

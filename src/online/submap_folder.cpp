@@ -169,6 +169,10 @@ std::string submapFileName(int index) {
   return name;
 }
 
+std::string submapPlaceName(const std::string& place, int index) {
+  return place + "/" + std::to_string(index);
+}
+
 std::string submapManifestPath(const std::string& folder) {
   return (std::filesystem::path(folder) / kSubmapManifestName).string();
 }

@@ -2,27 +2,15 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <optional>
 #include <stdexcept>
 
 #include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/learned_places.h"
+#include "relocalizer/online/submap_archive.h"
 
 namespace relocalizer {
-
-std::string submapPlaceName(const std::string& place, int index) {
-  return place + "/" + std::to_string(index);
-}
-
-std::vector<Place> submapPlaces(const std::vector<SubmapModel>& models, const std::string& group,
-                                const std::string& map_frame) {
-  std::vector<Place> places;
-  // A frozen submap is its file: the same file loaded as another place into
-  // the frame is refused (place_set.h).
-  for (const SubmapModel& m : models)
-    places.push_back({submapPlaceName(group, m.index), map_frame, "", m.relocalizer, group,
-                      m.file.size ? modelIdentity(m.file.crc, m.file.size) : std::string()});
-  return places;
-}
 
 SubmapLearner::SubmapLearner(LearningParams learning, SubmapParams submaps,
                              RelocalizerParams relocalizer_params, SubmapNames names,
@@ -36,19 +24,14 @@ SubmapLearner::SubmapLearner(LearningParams learning, SubmapParams submaps,
   if (const std::string why = learningParamsError(learning_); !why.empty())
     throw std::invalid_argument(why);
   if (mode_ == OnlineLearner::Mode::Background) {
-    freezer_ = std::thread(&SubmapLearner::freezeLoop, this);
-    retirer_ = std::thread(&SubmapLearner::retireLoop, this);
+    freezer_ = std::make_unique<SerialWorker>();
+    retirer_ = std::make_unique<SerialWorker>();
   }
 }
 
 SubmapLearner::~SubmapLearner() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stopping_ = true;
-  }
-  freeze_cv_.notify_all();
-  if (freezer_.joinable()) freezer_.join();
-  if (retirer_.joinable()) retirer_.join();
+  freezer_.reset();  // after the freezes handed over: each submap has its final model and files
+  retirer_.reset();
 }
 
 bool SubmapLearner::pending(int index) const {
@@ -78,10 +61,9 @@ Status SubmapLearner::freeze(const Pending& p) {
     std::lock_guard<std::mutex> lock(mutex_);
     folder = folder_;
   }
-  Status written = okStatus();
-  ModelFileId model_id;
   const bool write = retrained && model && !folder.empty();
-  if (write) written = writeFrozenPair(folder, p.index, *model, p.key_frames, model_id);
+  Expected<ModelFileId> written = ModelFileId{};
+  if (write) written = writeSubmapPair(folder, p.index, *model, p.key_frames);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     Frozen& f = frozen_[static_cast<std::size_t>(p.index)];
@@ -89,7 +71,7 @@ Status SubmapLearner::freeze(const Pending& p) {
     f.relocalizer = model;
     if (write && written) {
       f.written = true;
-      f.model_id = model_id;
+      f.model_id = *written;
     } else {
       // Kept until a save (or useFolder) writes them.
       f.key_frames = p.key_frames;
@@ -101,7 +83,7 @@ Status SubmapLearner::freeze(const Pending& p) {
     if (!written) {
       warnings_.push_back(written.error());
       freeze_error_ = written.error();
-      return written;
+      return makeError(written.error());
     }
   }
   if (!write) return okStatus();
@@ -116,45 +98,30 @@ Status SubmapLearner::freeze(const Pending& p) {
   return okStatus();
 }
 
-void SubmapLearner::freezeLoop() {
+Status SubmapLearner::freezeFront() {
   std::unique_lock<std::mutex> lock(mutex_);
-  while (true) {
-    freeze_cv_.wait(lock, [&] { return !pending_.empty() || stopping_; });
-    // Stopping with nothing handed over; freezes handed over still end, so
-    // that a submap frozen before shutdown has its final model (and files).
-    if (pending_.empty()) return;
-    const Pending next = pending_.front();
-    lock.unlock();
-    (void)freeze(next);  // a failure is in status().last_error and warnings()
-    lock.lock();
-    pending_.pop_front();
-    freeze_cv_.notify_all();
-  }
+  const Pending next = pending_.front();
+  lock.unlock();
+  const Status frozen = freeze(next);
+  lock.lock();
+  pending_.pop_front();
+  freeze_cv_.notify_all();
+  return frozen;
 }
 
-void SubmapLearner::retireLoop() {
-  std::unique_lock<std::mutex> lock(mutex_);
-  while (true) {
-    freeze_cv_.wait(lock, [&] { return !retiring_.empty() || stopping_; });
-    std::vector<std::shared_ptr<OnlineLearner>> retired;
-    retired.swap(retiring_);
-    lock.unlock();
-    retired.clear();  // each stops its worker: a running retrain is aborted
-    lock.lock();
-    if (stopping_ && retiring_.empty()) return;
-  }
-}
-
-Status SubmapLearner::resumeModelFile(const std::string& path) {
+Expected<std::vector<std::string>> SubmapLearner::resumeModelFile(const std::string& path) {
   auto learner = std::make_shared<OnlineLearner>(learning_, relocalizer_params_, mode_);
-  if (Status resumed = learner->resume(path); !resumed) return resumed;
+  if (Status resumed = learner->resume(path); !resumed) return makeError(resumed.error());
   std::vector<SubmapKeyFrame> key_frames;
   for (const KeyFrameStore::Entry& k : learner->keyFrames())
     key_frames.push_back({next_id_++, k->pose});
   added_ = static_cast<int>(key_frames.size());
   index_.restore({std::move(key_frames)}, 0);
   active_ = std::move(learner);
-  return okStatus();
+  warnings_.clear();
+  if (std::string note = active_->status().last_error; !note.empty())
+    warnings_.push_back(std::move(note));
+  return warnings_;
 }
 
 Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
@@ -167,7 +134,7 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
     return makeError("key frame " + std::to_string(frame.id) + ": " + why);
   SubmapPlacement placement;
   std::shared_ptr<OnlineLearner> active;
-  std::optional<Pending> inline_freeze;
+  bool freeze_inline = false;
   {
     std::unique_lock<std::mutex> lock(mutex_);
     // A new submap waits for room in the queue, and for a save waiting for
@@ -219,10 +186,12 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
         pending_.push_back(std::move(handed));
         pending_most_ = std::max(pending_most_, static_cast<int>(pending_.size()));
         if (mode_ == OnlineLearner::Mode::Background) {
-          retiring_.push_back(std::move(active_));
-          freeze_cv_.notify_all();
+          // Stopping the learner aborts a retrain it runs: off this thread.
+          retirer_->post([retired = std::move(active_)]() mutable { retired.reset(); });
+          // A failure is in status().last_error and warnings().
+          freezer_->post([this] { (void)freezeFront(); });
         } else {
-          inline_freeze = pending_.back();
+          freeze_inline = true;
         }
       }
       active_ = std::make_shared<OnlineLearner>(learning_, relocalizer_params_, mode_);
@@ -235,15 +204,7 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
   // read meanwhile. A submap that fails its last retrain (or its write) keeps
   // the model it had: the failure is the caller's to report, the run goes on
   // with the new submap, which the index has already started.
-  Status frozen = okStatus();
-  if (inline_freeze) {
-    frozen = freeze(*inline_freeze);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      pending_.pop_front();
-    }
-    freeze_cv_.notify_all();
-  }
+  const Status frozen = freeze_inline ? freezeFront() : okStatus();
   if (Status added = active->addKeyFrame(frame, camera_to_world); !added)
     return makeError(added.error());
   if (!frozen) return makeError(frozen.error());
@@ -258,6 +219,173 @@ Status SubmapLearner::drain() {
     active = active_;
   }
   return active ? active->drain() : okStatus();
+}
+
+// --- The set on disk (submap_archive.h) ---------------------------------------
+
+Status SubmapLearner::writeManifest(const std::string& folder, int finished) {
+  std::vector<FileReplacement> manifest_file;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    SubmapManifest manifest =
+        submapManifestHead(names_.place, names_.map_frame, learning_, submap_params_);
+    for (int s = 0; s < static_cast<int>(frozen_.size()); ++s) {
+      const Frozen& f = frozen_[static_cast<std::size_t>(s)];
+      if (s != index_.active() && (s == finished || !pending(s)) && f.relocalizer && f.written)
+        manifest.submaps.push_back(
+            frozenSubmapEntry(names_.place, s, index_.keyFrames(s), f.model_id));
+    }
+    manifest_file.push_back(submapManifestReplacement(folder, manifest));
+  }
+  return replaceFiles(manifest_file);
+}
+
+Status SubmapLearner::writeSet(const std::string& folder, bool with_active, bool adopt) {
+  if (Status ready = prepareSubmapFolder(folder); !ready) return ready;
+  std::error_code ec;
+  const bool working = !folder_.empty() && std::filesystem::equivalent(folder, folder_, ec);
+
+  SubmapManifest manifest =
+      submapManifestHead(names_.place, names_.map_frame, learning_, submap_params_);
+  std::vector<int> written_now;
+  for (int s = 0; s < static_cast<int>(frozen_.size()); ++s) {
+    Frozen& f = frozen_[static_cast<std::size_t>(s)];
+    if (s == index_.active() || pending(s) || !f.relocalizer) continue;
+    if (!f.written) {
+      auto written = writeSubmapPair(folder, s, *f.relocalizer, f.key_frames);
+      if (!written) return makeError(written.error());
+      f.model_id = *written;
+      written_now.push_back(s);
+    } else if (!working) {
+      if (Status copied = copySubmapPair(folder_, folder, s, *f.relocalizer, f.model_id, warnings_);
+          !copied)
+        return copied;
+    }
+    manifest.submaps.push_back(frozenSubmapEntry(names_.place, s, index_.keyFrames(s), f.model_id));
+  }
+
+  std::vector<FileReplacement> last;
+  if (with_active && active_) {
+    const int s = index_.active();
+    manifest.active = s;
+    manifest.submaps.push_back(
+        activeSubmapFiles(folder, names_.place, s, index_.keyFrames(s), *active_, last));
+  }
+  if (with_active && manifest.submaps.empty())
+    return makeError(folder + ": nothing to save yet: no submap has been learned");
+  last.push_back(submapManifestReplacement(folder, manifest));
+  if (Status done = replaceFiles(last); !done) return done;
+
+  if (!(adopt || working || folder_.empty())) return okStatus();
+  folder_ = folder;
+  for (int s : written_now) {
+    Frozen& f = frozen_[static_cast<std::size_t>(s)];
+    f.written = true;
+    f.key_frames.clear();
+    f.key_frames.shrink_to_fit();
+  }
+  return okStatus();
+}
+
+Status SubmapLearner::useFolder(const std::string& folder) {
+  // Pending freezes are not waited for: each writes its files into the
+  // working folder of when it ends.
+  std::lock_guard<std::mutex> files(files_mutex_);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (Status ready = prepareSubmapFolder(folder); !ready) return ready;
+  std::error_code ec;
+  const bool held = std::any_of(frozen_.begin(), frozen_.end(),
+                                [](const Frozen& f) { return f.relocalizer && !f.written; });
+  const bool moved = !folder_.empty() && !std::filesystem::equivalent(folder, folder_, ec);
+  if (held || moved) return writeSet(folder, false, true);
+  folder_ = folder;
+  return okStatus();
+}
+
+std::string SubmapLearner::workingFolder() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return folder_;
+}
+
+std::vector<std::string> SubmapLearner::warnings() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return warnings_;
+}
+
+Status SubmapLearner::save(const std::string& folder) {
+  {
+    // A submap being frozen is written with its final model, once: the save
+    // waits for the pending freezes, and no new one is handed over until it
+    // has written.
+    std::unique_lock<std::mutex> lock(mutex_);
+    ++saves_waiting_;
+    freeze_cv_.wait(lock, [&] { return pending_.empty(); });
+  }
+  Status saved = okStatus();
+  {
+    std::lock_guard<std::mutex> files(files_mutex_);
+    std::lock_guard<std::mutex> lock(mutex_);
+    saved = writeSet(folder, true, false);
+    --saves_waiting_;
+  }
+  freeze_cv_.notify_all();
+  return saved;
+}
+
+Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& folder) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (next_id_ != 0 || index_.submapCount() != 0)
+    return makeError("resume() must come before the first key frame, and only once");
+  if (std::error_code ec; !std::filesystem::is_directory(folder, ec))
+    return resumeModelFile(folder);
+  auto manifest = readSubmapManifest(folder);
+  if (!manifest) return makeError(manifest.error());
+  const int count = manifest->submaps.empty() ? 0 : manifest->submaps.back().index + 1;
+  std::vector<std::vector<SubmapKeyFrame>> slots(static_cast<std::size_t>(count));
+  std::shared_ptr<OnlineLearner> active;
+  int active_index = -1;
+  std::int64_t next_id = 0;
+  for (const SubmapEntry& e : manifest->submaps)
+    for (const SubmapKeyFrame& k : e.keyframe_poses) next_id = std::max(next_id, k.id + 1);
+  ReadSubmaps read = readSubmaps(
+      folder, *manifest, learning_.max_keyframes,
+      learnedModelParams(learning_, relocalizer_params_),
+      [&](const SubmapEntry& e) -> Expected<std::string> {
+        auto learner = continueActiveSubmap(folder, e, learning_, relocalizer_params_, mode_);
+        if (!learner) return makeError(learner.error());
+        // The index must list the store's key frames in the store's order (the
+        // next freeze finds its seeds by position). They are the manifest's
+        // unless a save was cut between the active's files and the manifest.
+        const std::vector<KeyFrameStore::Entry> stored = (*learner)->keyFrames();
+        std::vector<SubmapKeyFrame>& slot = slots[static_cast<std::size_t>(e.index)];
+        if (stored.size() == e.keyframe_poses.size()) {
+          slot = e.keyframe_poses;
+        } else {
+          for (const KeyFrameStore::Entry& k : stored) slot.push_back({next_id++, k->pose});
+        }
+        active = std::move(*learner);
+        active_index = e.index;
+        return active->status().last_error;
+      });
+  std::vector<std::string> warnings;
+  if (manifest->map_frame != names_.map_frame)
+    warnings.push_back(submapManifestPath(folder) + ": the set was learned in map frame " +
+                       manifest->map_frame + ", continued in " + names_.map_frame);
+  warnings.insert(warnings.end(), read.warnings.begin(), read.warnings.end());
+  frozen_.assign(static_cast<std::size_t>(count), Frozen{});
+  for (const SubmapEntry& e : manifest->submaps) {
+    const std::size_t i = static_cast<std::size_t>(e.index);
+    if (!read.frozen[i]) continue;
+    frozen_[i] = {std::move(read.frozen[i]), {}, true, e.model_id};
+    slots[i] = e.keyframe_poses;
+  }
+  for (const auto& slot : slots) added_ += static_cast<int>(slot.size());
+  index_.restore(std::move(slots), active_index);
+  active_ = std::move(active);
+  next_id_ = next_id;
+  folder_ = folder;
+  warnings_ = warnings;
+  return warnings;
 }
 
 std::vector<SubmapModel> SubmapLearner::models() const {
@@ -283,9 +411,7 @@ SlamPoseCheck::AskPlace SubmapLearner::askPlace() const {
   return [this](const RgbdFrame& frame) -> std::optional<Pose> {
     const std::vector<SubmapModel> learned = models();
     PlaceSet places;
-    if (learned.empty() ||
-        !places.putGroup(names_.place, submapPlaces(learned, names_.place, names_.map_frame)))
-      return std::nullopt;
+    if (learned.empty() || !putLearnedPlaces(places, learned, names_)) return std::nullopt;
     const PlaceAnswer answer = places.relocalize(frame);
     if (!answer.relocalization.success) return std::nullopt;
     return answer.relocalization.pose;

@@ -12,6 +12,7 @@
 
 #include "message_conversion.h"
 #include "relocalizer/core/outside_text.h"
+#include "relocalizer/online/learned_places.h"
 #include "relocalizer/online/place_files.h"
 
 namespace relocalizer_ros {
@@ -23,7 +24,7 @@ namespace {
 // (online/place_files.h); the folder's skipped submaps are logged.
 relocalizer::Expected<relocalizer::PlaceFiles> loadPlaces(
     const PlaceSpec& spec, const relocalizer::RelocalizerParams& params) {
-  auto loaded = relocalizer::loadPlaceFiles(spec.name, spec.model, spec.map_frame, params);
+  auto loaded = relocalizer::openPlace(spec.name, spec.model, spec.map_frame, params);
   if (!loaded || !loaded->folder) return loaded;
   for (const std::string& warning : loaded->warnings)
     ROS_WARN("relocalizer: place '%s': %s", spec.name.c_str(), warning.c_str());
@@ -154,11 +155,10 @@ void NodePlaces::followLearner() {
       learned_models_ = current;
       return;
     }
-    std::vector<relocalizer::Place> group =
-        relocalizer::submapPlaces(models, learned_name_, params_.map_frame);
-    // The first submap alone is the place placeName() itself, as before submaps.
-    if (models.size() == 1 && models[0].index == 0) group[0].name = learned_name_;
-    if (const relocalizer::Status put = places_.putGroup(learned_name_, std::move(group)); !put) {
+    if (const relocalizer::Status put =
+            relocalizer::putLearnedPlaces(places_, models, {learned_name_, params_.map_frame},
+                                          relocalizer::LoneSubmap::AsThePlace);
+        !put) {
       // Not remembered as followed: the next frame tries again, so the learned
       // places answer as soon as what refused them (another place holding the
       // same model, say) is unloaded, not only after the next retrain.

@@ -8,6 +8,7 @@
 #include <malloc.h>
 
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "cli_support.h"
@@ -15,7 +16,7 @@
 #include "relocalizer/data/frame_source.h"
 #include "relocalizer/eval/latency_benchmark.h"
 #include "relocalizer/eval/place_benchmark.h"
-#include "relocalizer/online/submap_learner.h"
+#include "relocalizer/online/place_files.h"
 
 using namespace relocalizer;
 
@@ -152,8 +153,10 @@ void printStages(const std::vector<PlaceCountRun>& runs, nlohmann::json& out) {
 
 // Every test set against the whole set; returns the wrong-place answers in all.
 // Submaps of one group are one place: an answer by any of them is the group's.
-int printPlaceChoice(const PlaceSet& all, const std::vector<TestSet>& tests,
-                     const std::string& group, nlohmann::json& out) {
+int printPlaceChoice(const PlaceSet& all, const std::vector<TestSet>& tests, nlohmann::json& out) {
+  std::map<std::string, std::string> group_of;
+  for (const auto& place : all.places())
+    if (!place->group.empty()) group_of[place->name] = place->group;
   std::printf(
       "\nagainst all %zu places\n  frames of    frames  own place  wrong place  no pose  "
       "within 5cm/5deg\n",
@@ -161,9 +164,9 @@ int printPlaceChoice(const PlaceSet& all, const std::vector<TestSet>& tests,
   int wrong_total = 0;
   for (const TestSet& test : tests) {
     std::vector<EvaluationRecord> records = relocalizeAgainstPlaces(all, test.frames);
-    if (!group.empty())
-      for (EvaluationRecord& record : records)
-        if (record.place.rfind(group + "/", 0) == 0) record.place = group;
+    for (EvaluationRecord& record : records)
+      if (const auto group = group_of.find(record.place); group != group_of.end())
+        record.place = group->second;
     const EvaluationSummary summary = summarizeEvaluation(records, test.place);
     const int answered = summary.accuracy.frames_with_pose;
     wrong_total += summary.wrong_place;
@@ -186,18 +189,66 @@ Status loadSubmaps(const cli::NamedPath& submaps, int lead, const RelocalizerPar
                    std::vector<Place>& places, PlaceSet& all) {
   const auto& [group, folder] = submaps;
   const ResidentMemory before = trimmedResidentMemory();
-  auto saved = loadSavedSubmaps(folder, group, group, params);
-  if (!saved) return makeError(saved.error());
-  for (const std::string& warning : saved->warnings) std::printf("warning: %s\n", warning.c_str());
-  std::printf("submaps %s: %zu of %s, %.1f MiB resident\n", group.c_str(), saved->places.size(),
+  auto opened = openPlace(group, folder, group, params);
+  if (!opened) return makeError(opened.error());
+  if (!opened->folder)
+    return makeError("--submaps " + folder + ": not a folder of learned submaps");
+  for (const std::string& warning : opened->warnings) std::printf("warning: %s\n", warning.c_str());
+  std::printf("submaps %s: %zu of %s, %.1f MiB resident\n", group.c_str(), opened->places.size(),
               folder.c_str(), (trimmedResidentMemory().current - before.current) / 1048576.0);
-  places = std::move(saved->places);
+  places = std::move(opened->places);
   const std::string lead_name = group + "/" + std::to_string(lead);
   const auto first = std::find_if(places.begin(), places.end(),
                                   [&](const Place& place) { return place.name == lead_name; });
   if (first == places.end()) return makeError("--lead: no submap " + lead_name);
   std::rotate(places.begin(), first, first + 1);
   return all.putGroup(group, places);
+}
+
+// Each --place NAME=PATH (a model file, or a folder of learned submaps as
+// one group), in map frame NAME, into `places` and `all`, with the resident
+// memory it adds.
+Status loadPlaces(const std::vector<cli::NamedPath>& named, const RelocalizerParams& params,
+                  std::vector<Place>& places, PlaceSet& all, nlohmann::json& out) {
+  for (const auto& [name, path] : named) {
+    const ResidentMemory before = trimmedResidentMemory();
+    auto opened = openPlace(name, path, name, params);
+    if (!opened) return makeError(opened.error());
+    const ResidentMemory after = trimmedResidentMemory();
+    for (const std::string& warning : opened->warnings)
+      std::printf("warning: %s\n", warning.c_str());
+    const std::vector<Place> of_path = opened->places;
+    if (Status added = putPlaceFiles(all, name, std::move(*opened)); !added) return added;
+    uint64_t model_bytes = 0;
+    long modes = 0;
+    int training_frames = 0;
+    for (const Place& place : of_path) {
+      const PlaceFigures figures = placeFigures(place);
+      model_bytes += figures.model_bytes;
+      modes += figures.modes;
+      training_frames += static_cast<int>(figures.training_frames);
+    }
+    std::printf("place %-12s %6.1f MiB resident (model %.1f MiB), %ld modes, %d training frames\n",
+                name.c_str(), (after.current - before.current) / 1048576.0, model_bytes / 1048576.0,
+                modes, training_frames);
+    out["places"].push_back({{"name", name},
+                             {"model", path},
+                             {"resident_bytes", after.current - before.current},
+                             {"model_bytes", model_bytes}});
+    places.insert(places.end(), of_path.begin(), of_path.end());
+  }
+  return okStatus();
+}
+
+// --test's frames, each set taken in its place.
+Expected<std::vector<TestSet>> loadTestSets(const std::vector<cli::NamedPath>& named) {
+  std::vector<TestSet> tests;
+  for (const cli::NamedPath& argument : named) {
+    auto test = loadTestSet(argument);
+    if (!test) return makeError(test.error());
+    tests.push_back(std::move(*test));
+  }
+  return tests;
 }
 
 }  // namespace
@@ -215,7 +266,8 @@ int main(int argc, char** argv) {
   std::string submaps_argument;
   auto* place_option =
       app.addOption("--place", place_arguments,
-                    "NAME=MODEL, repeated; the first is the place whose frames are timed");
+                    "NAME=PATH (a model file, or a folder of learned submaps as one group), "
+                    "repeated; the first is the place whose frames are timed");
   app.addOption("--submaps", submaps_argument,
                 "NAME=FOLDER: a saved folder of learned submaps as the places, one group NAME "
                 "(places NAME/i in folder order; the first --test is taken in NAME)")
@@ -263,43 +315,22 @@ int main(int argc, char** argv) {
   std::printf("CPU: %s; %d thread(s)\n", cpuModel().c_str(), threads);
   std::vector<Place> places;
   PlaceSet all;
-  if (!submaps_argument.empty())
-    if (Status loaded = loadSubmaps(named_places->front(), lead, params, places, all); !loaded)
-      return cli::fail(app, loaded.error());
-  for (const auto& [name, path] :
-       submaps_argument.empty() ? *named_places : std::vector<cli::NamedPath>{}) {
-    const ResidentMemory before = trimmedResidentMemory();
-    auto place = PlaceSet::load(name, path, name, params);
-    if (!place) return cli::fail(app, place.error());
-    const ResidentMemory after = trimmedResidentMemory();
-    const PlaceFigures figures = placeFigures(*place);
-    std::printf("place %-12s %6.1f MiB resident (model %.1f MiB), %ld modes, %d training frames\n",
-                name.c_str(), (after.current - before.current) / 1048576.0,
-                figures.model_bytes / 1048576.0, figures.modes,
-                static_cast<int>(figures.training_frames));
-    out["places"].push_back({{"name", name},
-                             {"model", path},
-                             {"resident_bytes", after.current - before.current},
-                             {"model_bytes", figures.model_bytes}});
-    if (Status added = all.put(*place); !added) return cli::fail(app, added.error());
-    places.push_back(std::move(*place));
-  }
+  if (Status loaded = submaps_argument.empty()
+                          ? loadPlaces(*named_places, params, places, all, out)
+                          : loadSubmaps(named_places->front(), lead, params, places, all);
+      !loaded)
+    return cli::fail(app, loaded.error());
   auto counts = parseCounts(counts_text, static_cast<int>(places.size()));
   if (!counts) return cli::fail(app, counts.error());
-  std::vector<TestSet> tests;
-  for (const cli::NamedPath& argument : *named_tests) {
-    auto test = loadTestSet(argument);
-    if (!test) return cli::fail(app, test.error());
-    tests.push_back(std::move(*test));
-  }
+  auto tests = loadTestSets(*named_tests);
+  if (!tests) return cli::fail(app, tests.error());
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
 
   const std::vector<PlaceCountRun> runs =
-      timePlaceCounts(places, tests.front().frames, *counts, repeat);
-  printLatency(runs, tests.front(), repeat, out);
+      timePlaceCounts(places, tests->front().frames, *counts, repeat);
+  printLatency(runs, tests->front(), repeat, out);
   printStages(runs, out);
-  const int wrong_total = printPlaceChoice(
-      all, tests, submaps_argument.empty() ? std::string() : named_places->front().name, out);
+  const int wrong_total = printPlaceChoice(all, *tests, out);
   const ResidentMemory end = residentMemory();
   std::printf("wrong-place answers in all: %d; peak resident memory %.0f MiB\n", wrong_total,
               end.peak / 1048576.0);

@@ -4,7 +4,6 @@
 // as one group of places in one map frame (relocalize/place_set.h).
 
 #include <cstdio>
-#include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
@@ -12,44 +11,42 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/eval/frame_evaluation.h"
-#include "relocalizer/online/submap_folder.h"
+#include "relocalizer/online/learned_places.h"
+#include "relocalizer/online/place_files.h"
 #include "relocalizer/online/submap_learner.h"
 #include "relocalizer/relocalize/place_set.h"
 
 namespace relocalizer::cli {
 
 // `models` (the learner's models(), read once by the caller) as the places
-// of the learner's group, in its map frame.
+// of the learner's group, in its map frame (online/learned_places.h).
 inline Status putSubmaps(const SubmapLearner& submaps, const std::vector<SubmapModel>& models,
                          PlaceSet& places) {
-  const SubmapNames& names = submaps.names();
-  return places.putGroup(names.place, submapPlaces(models, names.place, names.map_frame));
+  return putLearnedPlaces(places, models, submaps.names());
 }
 
 // A --model folder is a set of learned submaps (its manifest.json says what is in it).
-inline bool isFolder(const std::string& path) {
-  std::error_code ec;
-  return !path.empty() && std::filesystem::is_directory(path, ec);
-}
+inline bool isFolder(const std::string& path) { return placeIsFolder(path); }
 
-// --model FOLDER: a saved set of learned submaps, relocalized across as --submaps
-// does (a submap that cannot be loaded is skipped with a warning); `hints_in`
-// makes the hints (or none) for the set's map frame.
+// --model FOLDER: a saved set of learned submaps, opened as the node opens
+// one (online/place_files.h) under the name and map frame it was saved with,
+// and relocalized across as --submaps does (a submap that cannot be loaded is
+// skipped with a warning); `hints_in` makes the hints (or none) for the set's
+// map frame.
 inline Expected<FrameEvaluation> evaluateSubmapFolder(
     const std::string& folder, const RelocalizerParams& params, const FrameSource& data,
     const std::function<std::unique_ptr<SimulatedHints>(const std::string&)>& hints_in) {
-  auto manifest = readSubmapManifest(folder);
-  if (!manifest) return makeError(manifest.error());
-  auto saved = loadSavedSubmaps(folder, manifest->place_name, manifest->map_frame, params);
-  if (!saved) return makeError(saved.error());
-  for (const std::string& warning : saved->warnings) std::printf("warning: %s\n", warning.c_str());
+  auto opened = openPlace("", folder, "", params);
+  if (!opened) return makeError(opened.error());
+  for (const std::string& warning : opened->warnings) std::printf("warning: %s\n", warning.c_str());
+  const std::string name = opened->name, map_frame = opened->map_frame;
   PlaceSet places;
-  if (Status put = places.putGroup(manifest->place_name, std::move(saved->places)); !put)
+  if (Status put = putPlaceFiles(places, name, std::move(*opened)); !put)
     return makeError(put.error());
-  std::printf("%s: %zu submaps of %s in %s\n", folder.c_str(), places.size(),
-              manifest->place_name.c_str(), manifest->map_frame.c_str());
+  std::printf("%s: %zu submaps of %s in %s\n", folder.c_str(), places.size(), name.c_str(),
+              map_frame.c_str());
   return evaluateFrames(places, data, "evaluating " + std::to_string(places.size()) + " submaps",
-                        hints_in(manifest->map_frame).get());
+                        hints_in(map_frame).get());
 }
 
 }  // namespace relocalizer::cli

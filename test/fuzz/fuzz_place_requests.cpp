@@ -43,7 +43,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string unreadable = unreadablePlaceError(name, path);
   if (!printableText(unreadable)) std::abort();
   if (unreadable.empty()) {
-    auto loaded = loadPlaceFiles(name, path, frame, {});
+    auto loaded = openPlace(name, path, frame, {});
     if (!loaded) {
       if (!printableText(loaded.error())) std::abort();
     } else {

@@ -14,8 +14,8 @@
 
 #include "fuzz_support.h"
 #include "relocalizer/core/outside_text.h"
+#include "relocalizer/online/submap_archive.h"
 #include "relocalizer/online/submap_folder.h"
-#include "relocalizer/online/submap_learner.h"
 
 using namespace relocalizer;
 

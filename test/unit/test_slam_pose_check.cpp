@@ -15,6 +15,7 @@
 #include "relocalizer/core/statistics.h"
 
 #include "relocalizer/online/key_frame_feed.h"
+#include "relocalizer/online/learned_places.h"
 #include "relocalizer/online/submap_learner.h"
 #include "relocalizer/sim/synthetic_scene.h"
 #include "support.h"
@@ -144,7 +145,7 @@ Fed feedSubmaps(SubmapLearner& submaps, FeedTrack& track, const std::vector<Rgbd
 
 Relocalization acrossSubmaps(const SubmapLearner& submaps, const RgbdFrame& frame) {
   PlaceSet places;
-  EXPECT_TRUE(places.putGroup("learned", submapPlaces(submaps.models(), "learned", "map")));
+  EXPECT_TRUE(putLearnedPlaces(places, submaps.models(), {"learned", "map"}));
   return places.relocalize(frame).relocalization;
 }
 

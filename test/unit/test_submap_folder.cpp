@@ -18,6 +18,7 @@
 #include "relocalizer/core/file_io.h"
 #include "relocalizer/core/outside_text.h"
 #include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/learned_places.h"
 #include "relocalizer/online/place_files.h"
 #include "relocalizer/online/submap_folder.h"
 #include "relocalizer/online/submap_learner.h"
@@ -391,7 +392,7 @@ TEST_F(SubmapFolder, AHugeSubmapIndexIsAnErrorNamingItAndNothingIsSizedByIt) {
       const std::string field = frozen ? "submaps[4].index" : "active";
       EXPECT_TRUE(mentions({resumed.error()}, field + " must be from 0 to 99999"))
           << resumed.error();
-      auto place = loadPlaceFiles("hostile", folder, "map", {});
+      auto place = openPlace("hostile", folder, "map", {});
       ASSERT_FALSE(place.ok()) << index;
       EXPECT_TRUE(mentions({place.error()}, "place 'hostile'")) << place.error();
     }
@@ -482,7 +483,7 @@ TEST(FileHeads, AFileThatIsNotAModelIsRefusedFromItsHeadWhateverItsSize) {
   auto key_frames = loadKeyFrames(huge.string());
   ASSERT_FALSE(key_frames.ok());
   EXPECT_TRUE(mentions({key_frames.error()}, "bad magic")) << key_frames.error();
-  auto place = loadPlaceFiles("big", huge.string(), "map", {});
+  auto place = openPlace("big", huge.string(), "map", {});
   ASSERT_FALSE(place.ok());
   EXPECT_TRUE(mentions({place.error()}, "wrong magic number")) << place.error();
 
@@ -507,7 +508,7 @@ TEST_F(SubmapFolder, OneFolderTwiceInOneFrameIsRefusedNamingItsHolder) {
   const RelocalizerParams params = relocalizer::testing::onlineRoomRelocalizer();
   const auto load = [&](const std::string& name, const std::string& path,
                         const std::string& frame = "map") {
-    auto files = loadPlaceFiles(name, path, frame, params);
+    auto files = openPlace(name, path, frame, params);
     EXPECT_TRUE(files.ok()) << files.error();
     return std::move(*files);
   };
@@ -537,13 +538,75 @@ TEST_F(SubmapFolder, OneFolderTwiceInOneFrameIsRefusedNamingItsHolder) {
   // it saved, loaded beside it into its frame (the node's learned group),
   // is refused.
   PlaceSet learning;
-  ASSERT_TRUE(
-      learning.putGroup("learned", submapPlaces(learner_->models(), "learned", "map")).ok());
+  ASSERT_TRUE(putLearnedPlaces(learning, learner_->models(), {"learned", "map"}).ok());
   const Status beside = putPlaceFiles(learning, "old", load("old", saved()));
   ASSERT_FALSE(beside.ok());
   EXPECT_TRUE(
       mentions({beside.error()}, "is already loaded as place learned/0 (learned) of group learned"))
       << beside.error();
+}
+
+// Issue 41: one opener of a place on disk. A folder opened under no name is
+// the set as it was saved (evaluate --model FOLDER), each submap answering
+// with the model the learner had, named and identified by its file.
+TEST_F(SubmapFolder, AFolderOpensUnderItsSavedNameWithTheLearnersModels) {
+  const RelocalizerParams params = relocalizer::testing::onlineRoomRelocalizer();
+  const std::vector<SubmapModel> learned = learner_->models();
+  auto opened = openPlace("", saved(), "", params);
+  ASSERT_TRUE(opened.ok()) << opened.error();
+  EXPECT_TRUE(opened->folder);
+  EXPECT_EQ(opened->name, "learned");
+  EXPECT_EQ(opened->map_frame, "map");
+  ASSERT_EQ(opened->places.size(), learned.size());
+  for (std::size_t s = 0; s < learned.size(); ++s) {
+    const Place& place = opened->places[s];
+    EXPECT_EQ(place.name, "learned/" + std::to_string(learned[s].index));
+    EXPECT_EQ(place.group, "learned");
+    EXPECT_EQ(place.map_frame, "map");
+    EXPECT_EQ(place.source, (fs::path(saved()) / submapFileName(learned[s].index)).string());
+    EXPECT_EQ(place.model_id, modelFileIdentity(place.source));
+    EXPECT_EQ(serializeModel(place.relocalizer->model()),
+              serializeModel(learned[s].relocalizer->model()))
+        << place.name;
+  }
+  // Asked for by name and frame, the same folder answers as those.
+  auto named = openPlace("walk", saved(), "building", params);
+  ASSERT_TRUE(named.ok()) << named.error();
+  EXPECT_EQ(named->places.front().name, "walk/0");
+  EXPECT_EQ(named->places.front().map_frame, "building");
+  EXPECT_EQ(named->saved_map_frame, "map");
+  // A folder with no manifest says what was expected there.
+  const fs::path empty = dir_->path() / "no_manifest";
+  fs::create_directory(empty);
+  auto nothing = openPlace("", empty.string(), "", params);
+  ASSERT_FALSE(nothing.ok());
+  EXPECT_TRUE(mentions({nothing.error()}, empty.string() +
+                                              ": is a directory, not a model file nor a folder "
+                                              "of learned submaps (it has no manifest.json)"))
+      << nothing.error();
+}
+
+// Issue 41: one naming of a learner's models as places. The node keeps a
+// lone submap 0 under the place's own name; the tools index it.
+TEST_F(SubmapFolder, ALearnersModelsArePlacesOfItsGroupNamedOneWay) {
+  const std::vector<SubmapModel> models = learner_->models();
+  const std::vector<Place> places = learnedPlaces(models, {"walk", "building"});
+  ASSERT_EQ(places.size(), models.size());
+  for (std::size_t s = 0; s < models.size(); ++s) {
+    EXPECT_EQ(places[s].name, "walk/" + std::to_string(models[s].index));
+    EXPECT_EQ(places[s].group, "walk");
+    EXPECT_EQ(places[s].map_frame, "building");
+    EXPECT_EQ(places[s].relocalizer, models[s].relocalizer);
+    // A frozen submap is its file; the active one is no file's.
+    EXPECT_EQ(places[s].model_id,
+              models[s].frozen ? modelIdentity(models[s].file.crc, models[s].file.size) : "");
+  }
+  const std::vector<SubmapModel> first(models.begin(), models.begin() + 1);
+  EXPECT_EQ(learnedPlaces(first, {"walk", "building"}).front().name, "walk/0");
+  EXPECT_EQ(learnedPlaces(first, {"walk", "building"}, LoneSubmap::AsThePlace).front().name,
+            "walk");
+  EXPECT_EQ(learnedPlaces(models, {"walk", "building"}, LoneSubmap::AsThePlace).front().name,
+            "walk/0");
 }
 
 TEST_F(SubmapFolder, APeersPathThatIsNotOursGetsOneAnswerWhateverIsThere) {

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/submap_archive.h"
 #include "relocalizer/online/submap_learner.h"
 #include "support.h"
 

@@ -64,6 +64,8 @@ struct SubmapManifest {
 
 // `submap-0003.model`: the model file name of submap `index`.
 std::string submapFileName(int index);
+// `learned/3`: the place name of submap `index` of place `place`.
+std::string submapPlaceName(const std::string& place, int index);
 // `<folder>/manifest.json`.
 std::string submapManifestPath(const std::string& folder);
 

@@ -33,6 +33,7 @@
 #include "relocalizer/core/expected.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/online/online_learner.h"
+#include "relocalizer/online/serial_worker.h"
 #include "relocalizer/online/slam_pose_check.h"
 #include "relocalizer/online/submap_folder.h"
 #include "relocalizer/online/submap_rule.h"
@@ -59,9 +60,6 @@ struct SubmapNames {
 // submap at once after a burst of one extra submap.
 // docs/online_learning.md has the measurements (taken with 8).
 constexpr int kMaxPendingFreezes = 2;
-
-// `learned/3`: the place name of submap `index`.
-std::string submapPlaceName(const std::string& place, int index);
 
 // One submap's model, when it has one.
 struct SubmapModel {
@@ -189,26 +187,16 @@ class SubmapLearner {
     bool learned_all = false;                      // that model knows every key frame
   };
 
-  // Background: the freeze thread's loop, and the retiring thread's (a
-  // handed-over learner's worker is stopped there, off the learning thread).
-  void freezeLoop();
-  void retireLoop();
+  // The first pending submap's freeze, then out of the queue (Background:
+  // a job of the freezer's).
+  Status freezeFront();
   // A freeze: the last retrain, then the files (into the working folder, if
   // any) under files_mutex_, then the result under mutex_. Takes neither lock
   // on entry. A failed retrain leaves the submap the model it had.
   Status freeze(const Pending& pending);
   bool pending(int index) const;  // under mutex_
   // resume() of one model file (a place learned before submaps), under mutex_.
-  Status resumeModelFile(const std::string& path);
-  // Submap `index`'s key frames and model into `folder` (key frames first, as
-  // OnlineLearner::save: their model identity then tells a pair cut by a
-  // crash); `model_id` is the model file's. Touches no member.
-  Status writeFrozenPair(const std::string& folder, int index, const Relocalizer& model,
-                         const std::vector<KeyFrameStore::Entry>& key_frames,
-                         ModelFileId& model_id) const;
-  // The manifest's settings, and frozen submap `index`'s entry. Under mutex_.
-  SubmapManifest manifestHead() const;
-  SubmapEntry frozenEntry(int index) const;
+  Expected<std::vector<std::string>> resumeModelFile(const std::string& path);
   // The manifest of the frozen submaps written into the working folder
   // `folder`, `finished` among them though still pending (its freeze is
   // ending), built under mutex_ and written outside it (the caller holds
@@ -228,13 +216,11 @@ class SubmapLearner {
   // mutex_, never while waiting for a freeze.
   std::mutex files_mutex_;
   mutable std::mutex mutex_;  // everything below; never held across a retrain or compression
-  std::condition_variable freeze_cv_;  // a freeze handed over or ended, a save ended, or stopping
+  std::condition_variable freeze_cv_;  // a freeze ended, or a save ended
   std::deque<Pending> pending_;        // in order; the front's freeze runs (Background)
-  std::vector<std::shared_ptr<OnlineLearner>> retiring_;  // Background: to be stopped
   int saves_waiting_ = 0;  // saves waiting for the pending freezes: no hand-over meanwhile
   int pending_most_ = 0, freeze_waits_ = 0;
   double freeze_wait_seconds_ = 0.0;
-  bool stopping_ = false;
   SubmapIndex index_;
   std::shared_ptr<OnlineLearner> active_;
   std::vector<Frozen> frozen_;  // by submap index
@@ -243,27 +229,9 @@ class SubmapLearner {
   std::string freeze_error_;
   std::string folder_;  // the working folder; empty: none yet
   std::vector<std::string> warnings_;
-  // Background only; last, so they start after the rest is built.
-  std::thread freezer_, retirer_;
+  // Background only: the freezes in order, and the stopping of handed-over
+  // learners. Last, so they start after the rest is built.
+  std::unique_ptr<SerialWorker> freezer_, retirer_;
 };
-
-// Submaps' models as places `<group>/<index>` of `group` in `map_frame`: how
-// every holder of a set (the node, the tools, a loaded folder) names them.
-std::vector<Place> submapPlaces(const std::vector<SubmapModel>& models, const std::string& group,
-                                const std::string& map_frame);
-
-// A saved set loaded to answer, not to learn more: every submap that loads,
-// as places `<group>/<index>` of `group` in `map_frame`, with the models
-// served as the learner served them (learnedModelParams).
-struct SavedSubmaps {
-  std::vector<Place> places;
-  std::string saved_map_frame;        // the frame the set was learned in (manifest)
-  std::vector<std::string> warnings;  // the submaps skipped, naming each file and why
-};
-// Fails, naming the file, when the manifest is missing or unreadable, or when
-// no submap could be loaded.
-Expected<SavedSubmaps> loadSavedSubmaps(const std::string& folder, const std::string& group,
-                                        const std::string& map_frame,
-                                        const RelocalizerParams& params);
 
 }  // namespace relocalizer
