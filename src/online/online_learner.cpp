@@ -77,10 +77,12 @@ RelocalizerParams learnedModelParams(const LearningParams& learning, Relocalizer
   return params;
 }
 
-OnlineLearner::OnlineLearner(LearningParams params, RelocalizerParams relocalizer_params, Mode mode)
+OnlineLearner::OnlineLearner(LearningParams params, RelocalizerParams relocalizer_params, Mode mode,
+                             LearnerNames names)
     : params_(std::move(params)),
       relocalizer_params_(learnedModelParams(params_, std::move(relocalizer_params))),
       mode_(mode),
+      names_(std::move(names)),
       store_(params_.max_keyframes) {
   if (const std::string why = learningParamsError(params_); !why.empty())
     throw std::invalid_argument("learning parameters: " + why);
@@ -163,9 +165,8 @@ Status OnlineLearner::resume(const std::string& model_path) {
   return resume(std::move(*model), std::move(saved->key_frames));
 }
 
-Status OnlineLearner::addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world) {
-  if (const std::string why = slamPoseError(camera_to_world); !why.empty())
-    return makeError("key frame " + std::to_string(frame.id) + ": " + why);
+Expected<KeyFrameAdded> OnlineLearner::addKeyFrame(const RgbdFrame& frame,
+                                                   const Pose& camera_to_world) {
   auto compressed = compressKeyFrame(frame, camera_to_world, params_.jpeg_quality);
   if (!compressed) return makeError(compressed.error());
   {
@@ -176,7 +177,7 @@ Status OnlineLearner::addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_
     status_.keyframes_added = static_cast<int>(generation_);
   }
   wake_.notify_all();
-  return okStatus();
+  return KeyFrameAdded::Stored;
 }
 
 bool OnlineLearner::retrainDue() const {
@@ -313,6 +314,17 @@ std::shared_ptr<const Relocalizer> OnlineLearner::current() const {
   return current_;
 }
 
+std::vector<Place> OnlineLearner::places() const {
+  std::shared_ptr<const Relocalizer> model = current();
+  if (!model) return {};
+  return {{names_.place, names_.map_frame, "", std::move(model), names_.place, ""}};
+}
+
+LearnerSummary OnlineLearner::summary() const {
+  const LearningStatus s = status();
+  return {s.keyframes_added, s.keyframes_learned, s.backlog, s.last_error};
+}
+
 LearningStatus OnlineLearner::status() const {
   std::lock_guard<std::mutex> lock(mutex_);
   LearningStatus s = status_;
@@ -322,7 +334,7 @@ LearningStatus OnlineLearner::status() const {
   return s;
 }
 
-Status OnlineLearner::save(const std::string& path) const {
+Status OnlineLearner::save(const std::string& path) {
   std::shared_ptr<const Relocalizer> model;
   std::vector<KeyFrameStore::Entry> entries;
   {

@@ -124,10 +124,8 @@ Expected<std::vector<std::string>> SubmapLearner::resumeModelFile(const std::str
   return warnings_;
 }
 
-Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
-                                                     const Pose& camera_to_world) {
-  if (const std::string why = slamPoseError(camera_to_world); !why.empty())
-    return makeError("key frame " + std::to_string(frame.id) + ": " + why);
+Expected<SubmapPlacement> SubmapLearner::place(const RgbdFrame& frame,
+                                               const Pose& camera_to_world) {
   // Checked before the index records it: what the store refuses must not be
   // placed (only an encoder failure is left, which the store reports).
   if (const std::string why = frameValidationError(frame); !why.empty())
@@ -205,10 +203,18 @@ Expected<SubmapPlacement> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
   // the model it had: the failure is the caller's to report, the run goes on
   // with the new submap, which the index has already started.
   const Status frozen = freeze_inline ? freezeFront() : okStatus();
-  if (Status added = active->addKeyFrame(frame, camera_to_world); !added)
+  if (auto added = active->addKeyFrame(frame, camera_to_world); !added)
     return makeError(added.error());
   if (!frozen) return makeError(frozen.error());
   return placement;
+}
+
+Expected<KeyFrameAdded> SubmapLearner::addKeyFrame(const RgbdFrame& frame,
+                                                   const Pose& camera_to_world) {
+  auto placed = place(frame, camera_to_world);
+  if (!placed) return makeError(placed.error());
+  return placed->decision == SubmapDecision::Covered ? KeyFrameAdded::Covered
+                                                     : KeyFrameAdded::Stored;
 }
 
 Status SubmapLearner::drain() {
@@ -406,16 +412,13 @@ std::vector<SubmapModel> SubmapLearner::models() const {
   return out;
 }
 
-SlamPoseCheck::AskPlace SubmapLearner::askPlace() const {
-  // Built when asked: the check asks only when the images cannot tell.
-  return [this](const RgbdFrame& frame) -> std::optional<Pose> {
-    const std::vector<SubmapModel> learned = models();
-    PlaceSet places;
-    if (learned.empty() || !putLearnedPlaces(places, learned, names_)) return std::nullopt;
-    const PlaceAnswer answer = places.relocalize(frame);
-    if (!answer.relocalization.success) return std::nullopt;
-    return answer.relocalization.pose;
-  };
+std::vector<Place> SubmapLearner::places() const { return learnedPlaces(models(), names_); }
+
+LearnerSummary SubmapLearner::summary() const {
+  const SubmapStatus s = status();
+  return {s.keyframes_added,
+          s.keyframes_added - s.active.keyframes_stored + s.active.keyframes_learned,
+          s.active.backlog, s.last_error};
 }
 
 SubmapStatus SubmapLearner::status() const {

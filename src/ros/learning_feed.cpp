@@ -68,7 +68,10 @@ relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> LearningFeed:
 LearningFeed::LearningFeed(ros::NodeHandle private_nh, const NodeParams& params,
                            tf2_ros::Buffer& tf, std::unique_ptr<relocalizer::SubmapLearner> learner,
                            ServiceCallQueue& calls)
-    : params_(params), learner_(std::move(learner)), track_(params.learning), tf_buffer_(tf) {
+    : params_(params),
+      learner_(std::move(learner)),
+      feed_(*learner_, params.learning),
+      tf_buffer_(tf) {
   auto save_options = ros::AdvertiseServiceOptions::create<relocalizer::SaveModel>(
       "save_model",
       boost::bind(&LearningFeed::onSaveModel, this, boost::placeholders::_1,
@@ -111,7 +114,7 @@ void LearningFeed::fill(relocalizer::RelocalizationResult& result) const {
   result.submaps = saturate(static_cast<uint64_t>(status.submaps));
   result.keyframes_covered = saturate(static_cast<uint64_t>(status.keyframes_covered));
   result.learning_error = status.last_error;
-  const relocalizer::SlamCheckStatus check = track_.check.status();
+  const relocalizer::SlamCheckStatus check = feed_.check().status();
   result.slam_poses_refused = saturate(static_cast<uint64_t>(check.refused));
   result.learning_stopped = check.map_moved;
   // Louder than a failed retrain: every key frame is refused until SLAM's
@@ -130,6 +133,7 @@ std::string LearningFeed::noModelYet() const {
 void LearningFeed::learnLoop() {
   using Outcome = relocalizer::KeyFrameFeed::Result::Outcome;
   int map_moves_told = 0;
+  int submaps = learner_->index().submapCount();
   while (true) {
     auto entry = frames_.take();
     if (!entry) return;
@@ -153,23 +157,16 @@ void LearningFeed::learnLoop() {
             stamp.toSec(), params_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(),
             messageExcerpt(e.what(), 256).c_str());
     }
-    const relocalizer::KeyFrameFeed::Result fed = relocalizer::KeyFrameFeed::offerTo(
-        track_, pose,
-        [&] {
-          auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
-          if (frame) frame->id = static_cast<int>(entry->seq);
-          return frame;
-        },
-        [&](const relocalizer::RgbdFrame& frame,
-            const relocalizer::Pose& camera_to_world) -> relocalizer::Expected<bool> {
-          auto placed = learner_->addKeyFrame(frame, camera_to_world);
-          if (!placed) return relocalizer::makeError(placed.error());
-          if (placed->decision == relocalizer::SubmapDecision::NewFull ||
-              placed->decision == relocalizer::SubmapDecision::NewLeft)
-            keepFrozenOnDisk();
-          return placed->decision != relocalizer::SubmapDecision::Covered;
-        },
-        learner_->askPlace());
+    const relocalizer::KeyFrameFeed::Result fed = feed_.offer(pose, [&] {
+      auto frame = frameFromMessages(*input.colour, *input.depth, *input.info);
+      if (frame) frame->id = static_cast<int>(entry->seq);
+      return frame;
+    });
+    // A new submap froze the one before: it needs a folder to go to.
+    if (const int now = learner_->index().submapCount(); now != submaps) {
+      if (submaps > 0) keepFrozenOnDisk();
+      submaps = now;
+    }
     if (fed.outcome == Outcome::Untracked) {
       ++frames_untracked_;  // no pose, or one SLAM got wrong (fed.why)
       if (!fed.why.empty() && log_.allow("learn: bad SLAM pose"))
@@ -178,7 +175,7 @@ void LearningFeed::learnLoop() {
     } else if (fed.outcome == Outcome::Failed && log_.allow(fed.why)) {
       ROS_WARN("relocalizer: not learning from a key frame: %s", fed.why.c_str());
     } else if (fed.outcome == Outcome::Refused) {
-      const relocalizer::SlamCheckStatus check = track_.check.status();
+      const relocalizer::SlamCheckStatus check = feed_.check().status();
       if (check.map_moves > map_moves_told) {
         map_moves_told = check.map_moves;
         ROS_ERROR("relocalizer: %s", check.map_moved_why.c_str());

@@ -4,7 +4,7 @@
 // one: a frame TF cannot cover was not tracked), checked, filtered by the
 // key-frame rule, its SLAM motion checked against its images (jumps and map
 // resets are refused, counted and logged: slam_pose_check.h) and handed to
-// the submap learner (submap_learner.h): the
+// the submap learner (submap_learner.h), all by the one feed (key_frame_feed.h): the
 // active submap's own low-priority worker retrains, and a full submap is
 // frozen. Also ~save_model and save_on_exit.
 //
@@ -77,8 +77,7 @@ class LearningFeed {
 
   const NodeParams& params_;
   const std::unique_ptr<relocalizer::SubmapLearner> learner_;
-  relocalizer::FeedTrack
-      track_;  // the rule's and the SLAM check's references (the learning thread's)
+  relocalizer::KeyFrameFeed feed_;  // into learner_; offered to on the learning thread
   // The newest frame only: key frames are chosen by motion, so a skipped
   // frame is covered by the next.
   FrameBuffer<FrameInputPtr> frames_{FrameBuffer<FrameInputPtr>::Policy::Latest};

@@ -30,120 +30,172 @@ using relocalizer::cli::Options;
 
 namespace {
 
+// What the learn frames came to in the feed.
+struct FeedCounts {
+  int offered = 0, untracked = 0, stored = 0, covered = 0;
+  double store_seconds = 0.0;  // storing key frames, on this thread
+};
+
+// --learn-frames' parameters checked into `l.learning` and its frames opened;
+// the first line says `what` is learned, capped at `cap`.
+Expected<std::unique_ptr<Dataset>> openLearning(const Options& o, LearnOptions& l, const char* what,
+                                                const char* cap) {
+  auto checked = readLearningParams(l.learning, l.learn_min_motion, l.learn_config);
+  if (!checked) return makeError("learning: " + checked.error());
+  l.learning = *checked;
+  auto learn =
+      cli::DatasetArguments{o.source.path, o.source.format, l.learn_frames, o.source.split}.open();
+  if (!learn) return makeError(learn.error());
+  std::printf("%s from %zu frames (%s), key frames at %s m,deg, at most %d %s\n", what,
+              (*learn)->size(), l.learn_frames.c_str(), l.learn_min_motion.c_str(),
+              l.learning.max_keyframes, cap);
+  return std::move(*learn);
+}
+
+// The learning loop of --learn-frames, whichever learner the feed holds: every
+// learn frame offered in order, its ground truth as SLAM's pose (a frame
+// without one is SLAM having lost track: never learned from), and `point`
+// drawn every `curve_every` frames and after the last. A refused key frame is
+// printed; any other failure is returned.
+Status learnFrames(KeyFrameFeed& feed, const Dataset& learn, int curve_every, FeedCounts& counts,
+                   const std::function<Status()>& point) {
+  using Outcome = KeyFrameFeed::Result::Outcome;
+  for (size_t i = 0; i < learn.size(); ++i) {
+    const KeyFrameFeed::Result fed =
+        feed.offer(learn.groundTruth(i), [&] { return learn.load(i); });
+    if (fed.outcome == Outcome::Refused)
+      std::printf("not learned: %s\n", fed.why.c_str());
+    else if (!fed.why.empty())
+      return makeError(fed.why);
+    counts.untracked += fed.outcome == Outcome::Untracked;
+    counts.stored += fed.outcome == Outcome::Learned;
+    counts.covered += fed.outcome == Outcome::Covered;
+    counts.store_seconds += fed.store_seconds;
+    if (++counts.offered % curve_every != 0 && i + 1 != learn.size()) continue;
+    if (Status drawn = point(); !drawn) return drawn;
+  }
+  return okStatus();
+}
+
+// One store's curve point: the retrain, then `data` relocalized on the model
+// (into `out`).
+Status onlinePoint(const Options& o, OnlineLearner& learner, const FrameSource& data, int learned,
+                   cli::LearningCurve& curve, Learned& out) {
+  // Inline: the retrain runs inside drain(), on this thread and TBB's, so
+  // the process's CPU time over it is the retrain's.
+  const auto start = std::chrono::steady_clock::now();
+  const double cpu_start = processCpuSeconds();
+  if (Status drained = learner.drain(); !drained) return drained;
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double cpu_seconds = processCpuSeconds() - cpu_start;
+  const LearningStatus status = learner.status();
+  out.relocalizer = learner.current();
+  double accuracy = 0.0;
+  if (out.relocalizer) {
+    auto evaluated = evaluateFrames(*out.relocalizer, data, false,
+                                    "curve " + std::to_string(learned), o.hints("").get());
+    if (!evaluated) return makeError(evaluated.error());
+    out.evaluation = std::move(*evaluated);
+    accuracy = summarizeEvaluation(out.evaluation.records).accuracy.within_5cm_5deg;
+  }
+  std::printf(
+      "after %4d frames: %3d key frames (%d stored), retrain %.2f s (%.2f CPU-s), %.1f %% "
+      "within 5 cm / 5 deg\n",
+      learned, status.keyframes_added, status.keyframes_stored, seconds, cpu_seconds,
+      100.0 * accuracy);
+  if (status.last_retrain_seconds > 0.0) {
+    const RetrainStages& t = status.last_retrain_stages;
+    std::printf(
+        "  last retrain %.2f s: decode %.2f, surface %.2f, sampling %.2f, growing %.2f, "
+        "serving %.2f\n",
+        status.last_retrain_seconds, t.decode, t.surface, t.sampling, t.growing, t.serving);
+  }
+  curve.add(learned, accuracy,
+            {{"keyframes", status.keyframes_added},
+             {"keyframes_stored", status.keyframes_stored},
+             {"retrain_seconds", seconds},
+             {"retrain_cpu_seconds", cpu_seconds}});
+  return okStatus();
+}
+
 // --learn-frames: learns the model online from the learn frames, evaluating
 // `data` at every curve point. Exits when learning or saving failed.
 cli::Exit learnOnline(const cli::App& app, const Options& o, LearnOptions l,
                       const RelocalizerParams& params, const FrameSource& data, int thread_count,
                       Learned& out) {
-  LearningParams& learning = l.learning;
-  const std::string& learn_frames = l.learn_frames;
-  const std::string& learn_min_motion = l.learn_min_motion;
-  const std::string& model_path = o.model_path;
-  const std::string& dataset_path = data.path();
-  std::shared_ptr<const Relocalizer>& relocalizer = out.relocalizer;
-  {
-    auto checked = readLearningParams(learning, learn_min_motion, l.learn_config);
-    if (!checked) return cli::fail(app, "learning: " + checked.error());
-    learning = *checked;
-    auto learn_data =
-        cli::DatasetArguments{o.source.path, o.source.format, learn_frames, o.source.split}.open();
-    if (!learn_data) return cli::fail(app, learn_data.error());
-    const Dataset& learn = **learn_data;
-    std::printf("learning from %zu frames (%s), key frames at %s m,deg, at most %d stored\n",
-                learn.size(), learn_frames.c_str(), learn_min_motion.c_str(),
-                learning.max_keyframes);
-    KeyFrameFeed feed(learning, params, OnlineLearner::Mode::Inline);
-    OnlineLearner& learner = feed.learner();
-    if (!model_path.empty())
-      if (Status resumed = learner.resume(model_path); !resumed)
-        return cli::fail(app, resumed.error());
-    cli::LearningCurve curve(dataset_path);
-    double compress_seconds = 0.0, retrain_seconds = 0.0;
-    int without_pose = 0, learned = 0;
-    for (size_t i = 0; i < learn.size(); ++i) {
-      // A frame without a pose is SLAM having lost track: never learned from.
-      const KeyFrameFeed::Result fed =
-          feed.offer(learn.groundTruth(i), [&] { return learn.load(i); });
-      if (fed.outcome == KeyFrameFeed::Result::Outcome::Refused)
-        std::printf("not learned: %s\n", fed.why.c_str());
-      else if (!fed.why.empty())
-        return cli::fail(app, fed.why);
-      if (fed.outcome == KeyFrameFeed::Result::Outcome::Untracked) ++without_pose;
-      compress_seconds += fed.store_seconds;
-      ++learned;
-      if (learned % l.curve_every != 0 && i + 1 != learn.size()) continue;
-      // Inline: the retrain runs inside drain(), on this thread and TBB's, so
-      // the process's CPU time over it is the retrain's.
-      const auto start = std::chrono::steady_clock::now();
-      const double cpu_start = processCpuSeconds();
-      if (Status drained = learner.drain(); !drained) return cli::fail(app, drained.error());
-      const double seconds =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      const double cpu_seconds = processCpuSeconds() - cpu_start;
-      const LearningStatus status = learner.status();
-      retrain_seconds = status.last_retrain_seconds;
-      relocalizer = learner.current();
-      double accuracy = 0.0;
-      if (relocalizer) {
-        auto evaluated = evaluateFrames(*relocalizer, data, false,
-                                        "curve " + std::to_string(learned), o.hints("").get());
-        if (!evaluated) return cli::fail(app, evaluated.error());
-        out.evaluation = std::move(*evaluated);
-        accuracy = summarizeEvaluation(out.evaluation.records).accuracy.within_5cm_5deg;
-      }
-      std::printf(
-          "after %4d frames: %3d key frames (%d stored), retrain %.2f s (%.2f CPU-s), %.1f %% "
-          "within 5 cm / 5 deg\n",
-          learned, status.keyframes_added, status.keyframes_stored, seconds, cpu_seconds,
-          100.0 * accuracy);
-      if (status.last_retrain_seconds > 0.0) {
-        const RetrainStages& t = status.last_retrain_stages;
-        std::printf(
-            "  last retrain %.2f s: decode %.2f, surface %.2f, sampling %.2f, growing %.2f, "
-            "serving %.2f\n",
-            status.last_retrain_seconds, t.decode, t.surface, t.sampling, t.growing, t.serving);
-      }
-      curve.add(learned, accuracy,
-                {{"keyframes", status.keyframes_added},
-                 {"keyframes_stored", status.keyframes_stored},
-                 {"retrain_seconds", seconds},
-                 {"retrain_cpu_seconds", cpu_seconds}});
-    }
-    const LearningStatus status = learner.status();
-    if (!relocalizer)
-      return cli::fail(app, "learned no model: only " + std::to_string(status.keyframes_added) +
-                                " key frames in --learn-frames " + learn_frames);
-    if (without_pose)
-      std::printf("%d learn frames without ground truth were not learned from\n", without_pose);
-    const double per_keyframe_retrain = retrain_seconds / std::max(1, status.keyframes_learned);
-    const double per_keyframe_compress = compress_seconds / std::max(1, status.keyframes_added);
-    std::printf(
-        "update time per key frame: %.1f ms to store (caller's thread), %.2f s of retraining "
-        "(%d threads; the last retrain took %.1f s for %d key frames); model %.1f MB, key frames "
-        "%.1f MB\n",
-        1000.0 * per_keyframe_compress, per_keyframe_retrain, thread_count, retrain_seconds,
-        status.keyframes_learned, status.model_bytes / 1e6, status.store_bytes / 1e6);
-    if (!l.save_model.empty()) {
-      if (Status saved = learner.save(l.save_model); !saved)
-        return cli::fail(app, saved.error(), 1);
-      std::printf("wrote %s and %s\n", l.save_model.c_str(), keyFramesPath(l.save_model).c_str());
-    }
-    out.json = {{"learn_frames", learn_frames},
-                {"learn_min_motion", learn_min_motion},
-                {"max_keyframes", learning.max_keyframes},
-                {"surface_gate", learning.surface_gate},
-                {"keyframes_added", status.keyframes_added},
-                {"keyframes_stored", status.keyframes_stored},
-                {"keyframes_evicted", status.keyframes_evicted},
-                {"store_seconds_per_keyframe", per_keyframe_compress},
-                {"retrain_seconds_per_keyframe", per_keyframe_retrain},
-                {"last_retrain_seconds", retrain_seconds},
-                {"model_bytes", status.model_bytes},
-                {"store_bytes", status.store_bytes},
-                {"curve", curve.json()}};
-    if (Status saved = curve.save(o.output); !saved) return cli::fail(app, saved.error(), 1);
+  auto learn = openLearning(o, l, "learning", "stored");
+  if (!learn) return cli::fail(app, learn.error());
+  const LearningParams& learning = l.learning;
+  OnlineLearner learner(learning, params, OnlineLearner::Mode::Inline);
+  if (!o.model_path.empty())
+    if (Status resumed = learner.resume(o.model_path); !resumed)
+      return cli::fail(app, resumed.error());
+  KeyFrameFeed feed(learner, learning);
+  cli::LearningCurve curve(data.path());
+  FeedCounts counts;
+  const auto point = [&] { return onlinePoint(o, learner, data, counts.offered, curve, out); };
+  if (Status learned = learnFrames(feed, **learn, l.curve_every, counts, point); !learned)
+    return cli::fail(app, learned.error());
+  // Inline: nothing retrains after the last curve point.
+  const LearningStatus status = learner.status();
+  const double retrain_seconds = status.last_retrain_seconds;
+  if (!out.relocalizer)
+    return cli::fail(app, "learned no model: only " + std::to_string(status.keyframes_added) +
+                              " key frames in --learn-frames " + l.learn_frames);
+  if (counts.untracked)
+    std::printf("%d learn frames without ground truth were not learned from\n", counts.untracked);
+  const double per_keyframe_retrain = retrain_seconds / std::max(1, status.keyframes_learned);
+  const double per_keyframe_compress = counts.store_seconds / std::max(1, status.keyframes_added);
+  std::printf(
+      "update time per key frame: %.1f ms to store (caller's thread), %.2f s of retraining "
+      "(%d threads; the last retrain took %.1f s for %d key frames); model %.1f MB, key frames "
+      "%.1f MB\n",
+      1000.0 * per_keyframe_compress, per_keyframe_retrain, thread_count, retrain_seconds,
+      status.keyframes_learned, status.model_bytes / 1e6, status.store_bytes / 1e6);
+  if (!l.save_model.empty()) {
+    if (Status saved = learner.save(l.save_model); !saved) return cli::fail(app, saved.error(), 1);
+    std::printf("wrote %s and %s\n", l.save_model.c_str(), keyFramesPath(l.save_model).c_str());
   }
+  out.json = {{"learn_frames", l.learn_frames},
+              {"learn_min_motion", l.learn_min_motion},
+              {"max_keyframes", learning.max_keyframes},
+              {"surface_gate", learning.surface_gate},
+              {"keyframes_added", status.keyframes_added},
+              {"keyframes_stored", status.keyframes_stored},
+              {"keyframes_evicted", status.keyframes_evicted},
+              {"store_seconds_per_keyframe", per_keyframe_compress},
+              {"retrain_seconds_per_keyframe", per_keyframe_retrain},
+              {"last_retrain_seconds", retrain_seconds},
+              {"model_bytes", status.model_bytes},
+              {"store_bytes", status.store_bytes},
+              {"curve", curve.json()}};
+  if (Status saved = curve.save(o.output); !saved) return cli::fail(app, saved.error(), 1);
   return std::nullopt;
+}
+
+// Submaps' curve point: every submap trained, then `data` relocalized across
+// them as places of one group (into `out`).
+Status submapPoint(const Options& o, SubmapLearner& submaps, const FrameSource& data,
+                   const FeedCounts& counts, cli::LearningCurve& curve, Learned& out) {
+  if (Status drained = submaps.drain(); !drained) return drained;
+  PlaceSet places;
+  if (Status put = putLearned(submaps.places(), places); !put) return put;
+  auto evaluated = evaluateFrames(places, data, "curve " + std::to_string(counts.offered),
+                                  o.hints(submaps.names().map_frame).get());
+  if (!evaluated) return makeError(evaluated.error());
+  out.evaluation = std::move(*evaluated);
+  const double accuracy = summarizeEvaluation(out.evaluation.records).accuracy.within_5cm_5deg;
+  std::printf(
+      "after %4d frames: %3d key frames in %d submaps (%d covered), %.1f %% within 5 cm "
+      "/ 5 deg\n",
+      counts.offered, counts.stored, submaps.index().submapCount(), counts.covered,
+      100.0 * accuracy);
+  curve.add(counts.offered, accuracy,
+            {{"keyframes", counts.stored},
+             {"submaps", submaps.index().submapCount()},
+             {"keyframes_covered", counts.covered}});
+  return okStatus();
 }
 
 // --learn-frames --submaps: the learn frames cut into submaps of --max-keyframes
@@ -152,16 +204,9 @@ cli::Exit learnOnline(const cli::App& app, const Options& o, LearnOptions l,
 // `out`). Exits when learning or saving failed.
 cli::Exit learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
                        const RelocalizerParams& params, const FrameSource& data, Learned& out) {
-  auto checked = readLearningParams(l.learning, l.learn_min_motion, l.learn_config);
-  if (!checked) return cli::fail(app, "learning: " + checked.error());
-  auto learn_data =
-      cli::DatasetArguments{o.source.path, o.source.format, l.learn_frames, o.source.split}.open();
-  if (!learn_data) return cli::fail(app, learn_data.error());
-  const Dataset& learn = **learn_data;
-  std::printf("learning submaps from %zu frames (%s), key frames at %s m,deg, at most %d each\n",
-              learn.size(), l.learn_frames.c_str(), l.learn_min_motion.c_str(),
-              checked->max_keyframes);
-  SubmapLearner submaps(*checked, SubmapParams{}, params);
+  auto learn = openLearning(o, l, "learning submaps", "each");
+  if (!learn) return cli::fail(app, learn.error());
+  SubmapLearner submaps(l.learning, SubmapParams{}, params);
   if (!o.model_path.empty()) {
     auto resumed = submaps.resume(o.model_path);
     if (!resumed) return cli::fail(app, resumed.error());
@@ -173,41 +218,14 @@ cli::Exit learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
   if (!l.save_model.empty())
     if (Status used = submaps.useFolder(l.save_model); !used)
       return cli::fail(app, used.error(), 1);
-  FeedTrack track(*checked);
-  const KeyFrameFeed::Store store = KeyFrameFeed::storeIn(submaps);
+  KeyFrameFeed feed(submaps, l.learning);
   cli::LearningCurve curve(data.path());
-  int learned = 0, stored = 0, covered = 0;
-  for (size_t i = 0; i < learn.size(); ++i) {
-    const auto load_frame = [&] { return learn.load(i); };
-    const KeyFrameFeed::Result fed =
-        KeyFrameFeed::offerTo(track, learn.groundTruth(i), load_frame, store, submaps.askPlace());
-    if (fed.outcome == KeyFrameFeed::Result::Outcome::Refused)
-      std::printf("not learned: %s\n", fed.why.c_str());
-    else if (!fed.why.empty())
-      return cli::fail(app, fed.why);
-    stored += fed.outcome == KeyFrameFeed::Result::Outcome::Learned;
-    covered += fed.outcome == KeyFrameFeed::Result::Outcome::Covered;
-    if (++learned % l.curve_every != 0 && i + 1 != learn.size()) continue;
-    if (Status drained = submaps.drain(); !drained) return cli::fail(app, drained.error());
-    PlaceSet places;
-    if (Status put = cli::putSubmaps(submaps, submaps.models(), places); !put)
-      return cli::fail(app, put.error());
-    auto evaluated = evaluateFrames(places, data, "curve " + std::to_string(learned),
-                                    o.hints(submaps.names().map_frame).get());
-    if (!evaluated) return cli::fail(app, evaluated.error());
-    out.evaluation = std::move(*evaluated);
-    const double accuracy = summarizeEvaluation(out.evaluation.records).accuracy.within_5cm_5deg;
-    std::printf(
-        "after %4d frames: %3d key frames in %d submaps (%d covered), %.1f %% within 5 cm "
-        "/ 5 deg\n",
-        learned, stored, submaps.index().submapCount(), covered, 100.0 * accuracy);
-    curve.add(learned, accuracy,
-              {{"keyframes", stored},
-               {"submaps", submaps.index().submapCount()},
-               {"keyframes_covered", covered}});
-  }
+  FeedCounts counts;
+  const auto point = [&] { return submapPoint(o, submaps, data, counts, curve, out); };
+  if (Status learned = learnFrames(feed, **learn, l.curve_every, counts, point); !learned)
+    return cli::fail(app, learned.error());
   if (submaps.models().empty())
-    return cli::fail(app, "learned no model: only " + std::to_string(stored) +
+    return cli::fail(app, "learned no model: only " + std::to_string(counts.stored) +
                               " key frames in --learn-frames " + l.learn_frames);
   std::vector<int> per_submap;
   for (int s = 0; s < submaps.index().submapCount(); ++s)
@@ -223,11 +241,11 @@ cli::Exit learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
   }
   out.json = {{"learn_frames", l.learn_frames},
               {"learn_min_motion", l.learn_min_motion},
-              {"max_keyframes", checked->max_keyframes},
+              {"max_keyframes", l.learning.max_keyframes},
               {"submaps", per_submap.size()},
               {"submap_keyframes", per_submap},
-              {"keyframes_stored", stored},
-              {"keyframes_covered", covered},
+              {"keyframes_stored", counts.stored},
+              {"keyframes_covered", counts.covered},
               {"curve", curve.json()}};
   if (Status saved = curve.save(o.output); !saved) return cli::fail(app, saved.error(), 1);
   return std::nullopt;
@@ -268,17 +286,17 @@ std::string combinationError(const Options& o, const LearnOptions& learn, bool m
     return "--model is required (or --learn-frames to learn the model online)";
   if (!learn.learn_frames.empty() && !o.source.bag.empty())
     return "--learn-frames learns from a --dataset folder, not from --bag";
-  if (learn.submaps && !o.model_path.empty() && !cli::isFolder(o.model_path))
+  if (learn.submaps && !o.model_path.empty() && !placeIsFolder(o.model_path))
     return "--submaps continues a folder of learned submaps: " + o.model_path + " is not a folder";
   // Frozen submaps are written into the working folder as they freeze: a
   // continued folder is only changed when asked to.
   if (learn.submaps && !o.model_path.empty() && learn.save_model.empty())
     return "continuing " + o.model_path +
            " with --submaps needs --save-model (the same folder updates it in place)";
-  if (!learn.submaps && !learn.learn_frames.empty() && cli::isFolder(o.model_path))
+  if (!learn.submaps && !learn.learn_frames.empty() && placeIsFolder(o.model_path))
     return "--model " + o.model_path +
            " is a folder of learned submaps: continue it with --submaps";
-  if (o.prediction_quality && cli::isFolder(o.model_path))
+  if (o.prediction_quality && placeIsFolder(o.model_path))
     return "--prediction-quality measures one model's forests, not a folder of submaps";
   if (learn.submaps && o.prediction_quality)
     return "--prediction-quality measures one model's forests, not --submaps";
@@ -286,6 +304,19 @@ std::string combinationError(const Options& o, const LearnOptions& learn, bool m
   if (many_places && !o.hint.empty() && o.expect_place.empty())
     return "--hint with many places needs --expect-place (the map frame the hint is in)";
   return {};
+}
+
+// --config's relocalizer parameters (defaults without one), with the --forests used.
+Expected<RelocalizerParams> relocalizerParams(const Options& o) {
+  RelocalizerParams params;
+  if (!o.config.empty()) {
+    auto loaded = loadRelocalizerParams(o.config);
+    if (!loaded) return makeError(loaded.error());
+    params = *loaded;
+  }
+  params.use_points = o.forests != "lines";
+  params.use_lines = o.forests != "points";
+  return params;
 }
 
 // What summary.json adds to the evaluation's own figures.
@@ -337,14 +368,9 @@ int main(int argc, char** argv) {
   if (const std::string error = combinationError(o, learn, many_places); !error.empty())
     return cli::fail(app, error);
 
-  RelocalizerParams params;
-  if (!o.config.empty()) {
-    auto loaded = loadRelocalizerParams(o.config);
-    if (!loaded) return cli::fail(app, loaded.error());
-    params = *loaded;
-  }
-  params.use_points = o.forests != "lines";
-  params.use_lines = o.forests != "points";
+  auto configured = relocalizerParams(o);
+  if (!configured) return cli::fail(app, configured.error());
+  const RelocalizerParams& params = *configured;
 
   auto source = o.source.open();
   if (!source) return cli::fail(app, source.error());
@@ -358,7 +384,7 @@ int main(int argc, char** argv) {
   Learned learned;
   FrameEvaluation evaluation;
   // Answers come from a set of places (places.csv names each frame's).
-  const bool submap_folder = learn.learn_frames.empty() && cli::isFolder(o.model_path);
+  const bool submap_folder = learn.learn_frames.empty() && placeIsFolder(o.model_path);
   const bool by_places = many_places || learn.submaps || submap_folder;
   if (submap_folder) {
     auto evaluated = cli::evaluateSubmapFolder(

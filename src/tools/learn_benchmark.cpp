@@ -24,8 +24,8 @@
 #include "relocalizer/eval/latency_benchmark.h"
 #include "relocalizer/eval/metrics.h"
 #include "relocalizer/online/key_frame_feed.h"
+#include "relocalizer/online/learner.h"
 #include "relocalizer/online/submap_learner.h"
-#include "submap_places.h"
 
 using namespace relocalizer;
 using Clock = std::chrono::steady_clock;
@@ -49,41 +49,31 @@ struct Attempt {
   int frame;  // its id, so that latency can be read per place
 };
 
-// What is learned so far, as the relocalizing thread sees it: one learner's
-// current model, or every submap's as places of one group.
+// What is learned so far, as the relocalizing thread sees it: the learner's
+// places (one store's model, or every submap's) as one group.
 class Learned {
  public:
-  explicit Learned(const OnlineLearner& learner) : learner_(&learner) {}
-  explicit Learned(const SubmapLearner& submaps) : submaps_(&submaps) {}
+  explicit Learned(const Learner& learner) : learner_(learner) {}
 
-  // False while nothing is learned yet. The submaps' places are put again
-  // only when a model changed (a retrain or a freeze swapped one in).
+  // False while nothing is learned yet. The places are put again only when a
+  // model changed (a retrain or a freeze swapped one in).
   bool ready() {
-    if (learner_) return (model_ = learner_->current()) != nullptr;
-    const std::vector<SubmapModel> models = submaps_->models();
+    std::vector<Place> places = learner_.places();
     std::vector<std::shared_ptr<const Relocalizer>> now;
-    for (const SubmapModel& m : models) now.push_back(m.relocalizer);
+    for (const Place& place : places) now.push_back(place.relocalizer);
     if (now != models_ && !now.empty()) {
-      if (!cli::putSubmaps(*submaps_, models, places_)) return false;
+      if (!putLearned(std::move(places), places_)) return false;
       models_ = std::move(now);
     }
     return !models_.empty();
   }
   Relocalization relocalize(const RgbdFrame& frame) const {
-    if (learner_) return model_->relocalize(frame);
     return places_.relocalize(frame).relocalization;
   }
-  int keyFramesLearned() const {
-    if (learner_) return learner_->status().keyframes_learned;
-    // Frozen submaps are learned whole; the active one as far as its model goes.
-    const SubmapStatus s = submaps_->status();
-    return s.keyframes_added - s.active.keyframes_stored + s.active.keyframes_learned;
-  }
+  int keyFramesLearned() const { return learner_.summary().keyframes_learned; }
 
  private:
-  const OnlineLearner* learner_ = nullptr;
-  const SubmapLearner* submaps_ = nullptr;
-  std::shared_ptr<const Relocalizer> model_;
+  const Learner& learner_;
   std::vector<std::shared_ptr<const Relocalizer>> models_;
   PlaceSet places_;
 };
@@ -250,6 +240,45 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
   std::ofstream(output + "/summary.json") << summary.dump(2) << '\n';
 }
 
+// learn_benchmark's command line.
+struct BenchOptions {
+  cli::DatasetArguments arguments;
+  std::string learn_frames, min_motion = formatMinMotion(KeyFrameMotion{}), learn_config, output,
+                            learn_folder;
+  double rate = 30.0, reloc_rate = 2.0, seconds = 60.0;
+  int threads = 1;
+  bool submaps = false;
+  LearningParams learning;
+};
+
+void addOptions(cli::App& app, BenchOptions& o) {
+  o.arguments.add(app, "Dataset folder with ground truth", "Held-out frames to relocalize");
+  app.addOption("--learn-frames", o.learn_frames, "Frames streamed to the learner, in order")
+      ->required();
+  app.addOption("--rate", o.rate, "Stream rate, Hz")->range(0.1, 1000.0)->showDefault();
+  app.addOption("--seconds", o.seconds, "Stream length, s (the learn frames loop)")
+      ->range(1.0, 1e6)
+      ->showDefault();
+  app.addOption("--reloc-rate", o.reloc_rate, "Relocalizations per second (the node's max_rate)")
+      ->range(0.01, 100.0)
+      ->showDefault();
+  app.addOption("--min-motion", o.min_motion, "Key frames: METRES,DEGREES")->showDefault();
+  app.addFlag("--submaps", o.submaps,
+              "Learn submaps (--max-keyframes each) and relocalize across them, as the node");
+  app.addOption("--learn-folder", o.learn_folder,
+                "With --submaps: the working folder, where frozen submaps are written as they "
+                "freeze and their key frames leave memory, as in the node");
+  app.addOption("--max-keyframes", o.learning.max_keyframes,
+                "Cap on stored key frames (with --submaps: per submap)")
+      ->range(2, 100000)
+      ->showDefault();
+  app.addOption("--learn-config", o.learn_config, "Training YAML for the retrains");
+  app.addOption("-j,--threads", o.threads, "Threads of one relocalization")
+      ->range(1, 1024)
+      ->showDefault();
+  app.addOption("-o,--output", o.output, "Folder for timeline.csv and summary.json");
+}
+
 // Submaps learned as the node learns them, frozen ones written into
 // `learn_folder` when one is given.
 Expected<std::unique_ptr<SubmapLearner>> backgroundSubmaps(const LearningParams& learning,
@@ -273,45 +302,15 @@ int main(int argc, char** argv) {
       "latency, retrains and memory; --output writes timeline.csv and summary.json. --submaps "
       "learns submaps of --max-keyframes each, as the node does, and relocalizes across them.",
       "learn_benchmark"};
-  cli::DatasetArguments arguments;
-  std::string learn_frames, min_motion = formatMinMotion(KeyFrameMotion{}), learn_config, output,
-                            learn_folder;
-  double rate = 30.0, reloc_rate = 2.0, seconds = 60.0;
-  int threads = 1;
-  bool submaps = false;
-  LearningParams learning;
-  arguments.add(app, "Dataset folder with ground truth", "Held-out frames to relocalize");
-  app.addOption("--learn-frames", learn_frames, "Frames streamed to the learner, in order")
-      ->required();
-  app.addOption("--rate", rate, "Stream rate, Hz")->range(0.1, 1000.0)->showDefault();
-  app.addOption("--seconds", seconds, "Stream length, s (the learn frames loop)")
-      ->range(1.0, 1e6)
-      ->showDefault();
-  app.addOption("--reloc-rate", reloc_rate, "Relocalizations per second (the node's max_rate)")
-      ->range(0.01, 100.0)
-      ->showDefault();
-  app.addOption("--min-motion", min_motion, "Key frames: METRES,DEGREES")->showDefault();
-  app.addFlag("--submaps", submaps,
-              "Learn submaps (--max-keyframes each) and relocalize across them, as the node");
-  app.addOption("--learn-folder", learn_folder,
-                "With --submaps: the working folder, where frozen submaps are written as they "
-                "freeze and their key frames leave memory, as in the node");
-  app.addOption("--max-keyframes", learning.max_keyframes,
-                "Cap on stored key frames (with --submaps: per submap)")
-      ->range(2, 100000)
-      ->showDefault();
-  app.addOption("--learn-config", learn_config, "Training YAML for the retrains");
-  app.addOption("-j,--threads", threads, "Threads of one relocalization")
-      ->range(1, 1024)
-      ->showDefault();
-  app.addOption("-o,--output", output, "Folder for timeline.csv and summary.json");
+  BenchOptions o;
+  addOptions(app, o);
   if (const cli::Exit done = app.parse(argc, argv)) return *done;
-  auto checked = readLearningParams(learning, min_motion, learn_config);
+  auto checked = readLearningParams(o.learning, o.min_motion, o.learn_config);
   if (!checked) return cli::fail(app, "learning: " + checked.error());
-  auto test = arguments.open();
+  auto test = o.arguments.open();
   if (!test) return cli::fail(app, test.error());
-  auto learn =
-      cli::DatasetArguments{arguments.path, arguments.format, learn_frames, arguments.split}.open();
+  const cli::DatasetArguments& a = o.arguments;
+  auto learn = cli::DatasetArguments{a.path, a.format, o.learn_frames, a.split}.open();
   if (!learn) return cli::fail(app, learn.error());
   const Dataset& test_data = **test;
   const Dataset& learn_data = **learn;
@@ -322,50 +321,43 @@ int main(int argc, char** argv) {
     if (test_data.groundTruth(i)) test_frames.push_back(i);
   if (test_frames.empty()) return cli::fail(app, "--frames: no frame with ground truth");
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
-                            static_cast<size_t>(threads) + 1);
+                            static_cast<size_t>(o.threads) + 1);
 
   // One learner (a capped store) or submaps, as the node learns them.
-  std::unique_ptr<KeyFrameFeed> feed;
-  std::unique_ptr<SubmapLearner> submap_learner;
-  FeedTrack track(*checked);
-  if (!learn_folder.empty() && !submaps) return cli::fail(app, "--learn-folder needs --submaps");
-  if (submaps) {
-    auto made = backgroundSubmaps(*checked, learn_folder);
+  std::unique_ptr<OnlineLearner> one_store;
+  std::unique_ptr<SubmapLearner> submaps;
+  if (!o.learn_folder.empty() && !o.submaps)
+    return cli::fail(app, "--learn-folder needs --submaps");
+  if (o.submaps) {
+    auto made = backgroundSubmaps(*checked, o.learn_folder);
     if (!made) return cli::fail(app, made.error());
-    submap_learner = std::move(*made);
+    submaps = std::move(*made);
   } else
-    feed = std::make_unique<KeyFrameFeed>(*checked, RelocalizerParams{},
-                                          OnlineLearner::Mode::Background);
+    one_store = std::make_unique<OnlineLearner>(*checked, RelocalizerParams{},
+                                                OnlineLearner::Mode::Background);
+  Learner& learner = submaps ? static_cast<Learner&>(*submaps) : *one_store;
+  KeyFrameFeed feed(learner, *checked);
   // The relocalizing thread's alone (its place set is not shared).
-  auto learned = submaps ? std::make_unique<Learned>(*submap_learner)
-                         : std::make_unique<Learned>(feed->learner());
-  const auto offer = [&](size_t i) {
-    const auto load = [&] { return learn_data.load(i); };
-    if (!submaps) return feed->offer(learn_data.groundTruth(i), load);
-    return KeyFrameFeed::offerTo(track, learn_data.groundTruth(i), load,
-                                 KeyFrameFeed::storeIn(*submap_learner),
-                                 submap_learner->askPlace());
-  };
-  const auto learningStatus = [&] {
-    return submaps ? submap_learner->status().active : feed->learner().status();
-  };
+  Learned learned(learner);
   std::atomic<bool> done{false};
   const Clock::time_point start = Clock::now();
 
   std::vector<Attempt> attempts;
   std::thread relocalizing([&] {
-    attempts = relocalizeUntilDone(test_data, test_frames, *learned, reloc_rate, start, done);
+    attempts = relocalizeUntilDone(test_data, test_frames, learned, o.reloc_rate, start, done);
   });
 
   Stream stream;
-  stream.rate = rate;
+  stream.rate = o.rate;
   const std::string failure = streamFrames(
-      learn_data.size(), seconds, start, offer,
+      learn_data.size(), o.seconds, start,
+      [&](size_t i) {
+        return feed.offer(learn_data.groundTruth(i), [&] { return learn_data.load(i); });
+      },
       [&] {
-        const LearningStatus s = learningStatus();
-        const int added = submaps ? submap_learner->status().keyframes_added : s.keyframes_added;
-        return std::array<double, 3>{static_cast<double>(added),
-                                     static_cast<double>(learned->keyFramesLearned()),
+        const LearnerSummary s = learner.summary();
+        return std::array<double, 3>{static_cast<double>(s.keyframes_added),
+                                     static_cast<double>(s.keyframes_learned),
                                      static_cast<double>(s.backlog)};
       },
       stream);
@@ -373,8 +365,8 @@ int main(int argc, char** argv) {
   relocalizing.join();  // also on a failure: a running std::thread may not be destroyed
   if (!failure.empty()) return cli::fail(app, failure);
   const std::optional<SubmapStatus> status =
-      submaps ? std::optional(submap_learner->status()) : std::nullopt;
-  report(stream, attempts, status ? status->active : feed->learner().status(),
-         status ? &*status : nullptr, output);
+      submaps ? std::optional(submaps->status()) : std::nullopt;
+  report(stream, attempts, status ? status->active : one_store->status(),
+         status ? &*status : nullptr, o.output);
   return 0;
 }

@@ -11,22 +11,11 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/eval/frame_evaluation.h"
-#include "relocalizer/online/learned_places.h"
 #include "relocalizer/online/place_files.h"
 #include "relocalizer/online/submap_learner.h"
 #include "relocalizer/relocalize/place_set.h"
 
 namespace relocalizer::cli {
-
-// `models` (the learner's models(), read once by the caller) as the places
-// of the learner's group, in its map frame (online/learned_places.h).
-inline Status putSubmaps(const SubmapLearner& submaps, const std::vector<SubmapModel>& models,
-                         PlaceSet& places) {
-  return putLearnedPlaces(places, models, submaps.names());
-}
-
-// A --model folder is a set of learned submaps (its manifest.json says what is in it).
-inline bool isFolder(const std::string& path) { return placeIsFolder(path); }
 
 // --model FOLDER: a saved set of learned submaps, opened as the node opens
 // one (online/place_files.h) under the name and map frame it was saved with,

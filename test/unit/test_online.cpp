@@ -285,7 +285,8 @@ TEST_F(OnlineRoom, ModelBuilderGivesTheForestsAndSurfaceOfTheirOwnTraining) {
 // only key frames are loaded, and a frame that fails to load says why.
 TEST_F(OnlineRoom, KeyFrameFeedLoadsAndLearnsOnlyKeyFrames) {
   LearningParams p = smallLearning();
-  KeyFrameFeed feed(p, fastRelocalizer(), OnlineLearner::Mode::Inline);
+  OnlineLearner learner(p, fastRelocalizer(), OnlineLearner::Mode::Inline);
+  KeyFrameFeed feed(learner, p);
   using Outcome = KeyFrameFeed::Result::Outcome;
   int loads = 0;
   const auto load = [&](const RgbdFrame& frame) {
@@ -310,9 +311,10 @@ TEST_F(OnlineRoom, KeyFrameFeedLoadsAndLearnsOnlyKeyFrames) {
   EXPECT_EQ(failed.outcome, Outcome::Failed);
   EXPECT_EQ(failed.why, "unreadable");
   EXPECT_EQ(feed.offer(*learn_[2].ground_truth, load(learn_[2])).outcome, Outcome::Learned);
-  EXPECT_EQ(feed.learner().status().keyframes_added, 2);
+  EXPECT_EQ(learner.status().keyframes_added, 2);
   ASSERT_TRUE(feed.learner().drain().ok());
-  EXPECT_TRUE(feed.learner().current());
+  EXPECT_TRUE(learner.current());
+  EXPECT_EQ(feed.learner().places().size(), 1u);
 }
 
 // From nothing: no model until a retrain, then one that relocalizes frames of
@@ -675,9 +677,17 @@ TEST_F(OnlineRoom, KeyFrameLoaderRefusesAFifo) {
 }
 
 // B7: learn mode took any SLAM pose, 1e30 m included, and answered there.
-TEST_F(OnlineRoom, LearnerRefusesImplausibleSlamPoses) {
+// The feed is the one place a SLAM pose is judged: nothing unusable reaches
+// the learner, and the frame is not even loaded.
+TEST_F(OnlineRoom, FeedRefusesImplausibleSlamPoses) {
   OnlineLearner learner(smallLearning(), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  KeyFrameFeed feed(learner, smallLearning());
   const RgbdFrame& frame = learn_[0];
+  int loads = 0;
+  const auto load = [&]() -> Expected<RgbdFrame> {
+    ++loads;
+    return frame;
+  };
   Pose far = *frame.ground_truth;
   far.translation().x() = 1e30;
   Pose nan = *frame.ground_truth;
@@ -691,12 +701,14 @@ TEST_F(OnlineRoom, LearnerRefusesImplausibleSlamPoses) {
                                                  {nan, "not finite"},
                                                  {scaled, "not a rotation"},
                                                  {mirrored, "not a rotation"}}) {
-    const Status added = learner.addKeyFrame(frame, pose);
-    ASSERT_FALSE(added.ok()) << why;
-    EXPECT_TRUE(contains(added.error(), why)) << added.error();
+    const KeyFrameFeed::Result fed = feed.offer(pose, load);
+    EXPECT_EQ(fed.outcome, KeyFrameFeed::Result::Outcome::Untracked) << why;
+    EXPECT_TRUE(contains(fed.why, why)) << fed.why;
   }
-  EXPECT_EQ(learner.status().keyframes_added, 0);
-  EXPECT_TRUE(learner.addKeyFrame(frame, *frame.ground_truth).ok());
+  EXPECT_EQ(loads, 0);
+  EXPECT_EQ(learner.summary().keyframes_added, 0);
+  EXPECT_EQ(feed.offer(*frame.ground_truth, load).outcome, KeyFrameFeed::Result::Outcome::Learned);
+  EXPECT_EQ(learner.summary().keyframes_added, 1);
 }
 
 // Key-frame files from before the model identity (version 1) still load and

@@ -105,9 +105,9 @@ struct Fed {
   int learned = 0, refused = 0;
 };
 
-// The walk through one learner's feed as evaluate and learn_benchmark use it;
-// the learner retrains at the walk's middle (the place then answers the
-// check's questions) and at its end.
+// The walk through the feed as the node, evaluate and learn_benchmark use it,
+// into either learner; the learner retrains at the walk's middle (the place
+// then answers the check's questions) and at its end.
 template <typename Pose_>
 Fed feedOne(KeyFrameFeed& feed, const std::vector<RgbdFrame>& walk, const Pose_& slam) {
   Fed fed;
@@ -118,26 +118,6 @@ Fed feedOne(KeyFrameFeed& feed, const std::vector<RgbdFrame>& walk, const Pose_&
     fed.refused += r.outcome == KeyFrameFeed::Result::Outcome::Refused;
     if (i + 1 == walk.size() / 2 || i + 1 == walk.size()) {
       EXPECT_TRUE(feed.learner().drain());
-    }
-  }
-  return fed;
-}
-
-// The same through submaps, as the node feeds them (place answers across them).
-template <typename Pose_>
-Fed feedSubmaps(SubmapLearner& submaps, FeedTrack& track, const std::vector<RgbdFrame>& walk,
-                const Pose_& slam) {
-  Fed fed;
-  const KeyFrameFeed::Store store = KeyFrameFeed::storeIn(submaps);
-  for (size_t i = 0; i < walk.size(); ++i) {
-    const auto load_frame = [&] { return walk[i]; };
-    const KeyFrameFeed::Result r =
-        KeyFrameFeed::offerTo(track, slam(i), load_frame, store, submaps.askPlace());
-    EXPECT_NE(r.outcome, KeyFrameFeed::Result::Outcome::Failed) << r.why;
-    fed.learned += r.outcome == KeyFrameFeed::Result::Outcome::Learned;
-    fed.refused += r.outcome == KeyFrameFeed::Result::Outcome::Refused;
-    if (i + 1 == walk.size() / 2 || i + 1 == walk.size()) {
-      EXPECT_TRUE(submaps.drain());
     }
   }
   return fed;
@@ -172,10 +152,12 @@ TEST(SlamCheckBounds, ReadAsTextAndCheckedByName) {
 
 // A true walk loses nothing to the check.
 TEST_F(LyingSlam, ATrueWalkIsLearnedWhole) {
-  KeyFrameFeed checked(learning(true), relocalizer::testing::onlineRoomRelocalizer(),
-                       OnlineLearner::Mode::Inline);
-  KeyFrameFeed unchecked(learning(false), relocalizer::testing::onlineRoomRelocalizer(),
-                         OnlineLearner::Mode::Inline);
+  OnlineLearner checked_learner(learning(true), relocalizer::testing::onlineRoomRelocalizer(),
+                                OnlineLearner::Mode::Inline);
+  OnlineLearner unchecked_learner(learning(false), relocalizer::testing::onlineRoomRelocalizer(),
+                                  OnlineLearner::Mode::Inline);
+  KeyFrameFeed checked(checked_learner, learning(true));
+  KeyFrameFeed unchecked(unchecked_learner, learning(false));
   const auto truth = [](size_t i) { return *walk_[i].ground_truth; };
   const Fed with = feedOne(checked, walk_, truth);
   const Fed without = feedOne(unchecked, walk_, truth);
@@ -202,10 +184,11 @@ TEST_F(LyingSlam, ATrueWalkIsLearnedWhole) {
 
 TEST_F(LyingSlam, JumpingTfIsRefusedAndNoAnswerIsMetresOff) {
   const auto run = [&](bool check) {
-    KeyFrameFeed feed(learning(check), relocalizer::testing::onlineRoomRelocalizer(),
-                      OnlineLearner::Mode::Inline);
+    OnlineLearner learner(learning(check), relocalizer::testing::onlineRoomRelocalizer(),
+                          OnlineLearner::Mode::Inline);
+    KeyFrameFeed feed(learner, learning(check));
     const Fed fed = feedOne(feed, walk_, jumping);
-    const auto place = feed.learner().current();
+    const auto place = learner.current();
     EXPECT_TRUE(place);
     const Answers a = answer([&](const RgbdFrame& f) { return place->relocalize(f); });
     std::printf(
@@ -229,7 +212,7 @@ TEST_F(LyingSlam, JumpingTfIsRefusedAndNoAnswerIsMetresOff) {
   EXPECT_GT(answers_before.worst_metres, 1.0);
 }
 
-// The node's path: submaps fed through offerTo, the place asked across them.
+// The node's path: submaps fed through the same feed, the place asked across them.
 TEST_F(LyingSlam, AMapResetStopsLearningIntoThePlaceLoudly) {
   const size_t at = walk_.size() / 2 + 4;
   ASSERT_GT(walk_[at].ground_truth->translation().norm(), 1.0);  // a reset is a jump here
@@ -237,15 +220,15 @@ TEST_F(LyingSlam, AMapResetStopsLearningIntoThePlaceLoudly) {
   const auto run = [&](bool check) {
     SubmapLearner submaps(learning(check), SubmapParams{},
                           relocalizer::testing::onlineRoomRelocalizer());
-    FeedTrack track(learning(check));
-    const Fed fed = feedSubmaps(submaps, track, walk_, reset);
+    KeyFrameFeed feed(submaps, learning(check));
+    const Fed fed = feedOne(feed, walk_, reset);
     const Answers a = answer([&](const RgbdFrame& f) { return acrossSubmaps(submaps, f); });
     std::printf(
         "map reset at frame %zu, check %s: %d key frames learned, %d refused; held-out: %d "
         "right, %d wrong (> 10 cm / 10 deg, worst %.2f m), %d no pose\n",
         at, check ? "on" : "off", fed.learned, fed.refused, a.right, a.wrong, a.worst_metres,
         a.none);
-    return std::make_tuple(fed, a, track.check.status());
+    return std::make_tuple(fed, a, feed.check().status());
   };
   const auto [fed, answers, status] = run(true);
   // Every frame after the reset is a key frame by motion, and each is refused.

@@ -293,7 +293,7 @@ TEST_F(SubmapFolder, AContinuedRunCoversWhatWasLearnedAndNumbersNewSubmapsAfter)
   // The walk again from its start: submap 0's key frames are covered, not stored again.
   int covered = 0;
   for (size_t i = 0; i < learn_.size(); ++i) {
-    auto placed = resumed->addKeyFrame(learn_[i], *learn_[i].ground_truth);
+    auto placed = resumed->place(learn_[i], *learn_[i].ground_truth);
     ASSERT_TRUE(placed.ok()) << placed.error();
     if (i < 6) {
       EXPECT_EQ(placed->decision, SubmapDecision::Covered) << "key frame " << i;

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "relocalizer/forest/model_io.h"
+#include "relocalizer/online/key_frame_feed.h"
 #include "relocalizer/online/submap_archive.h"
 #include "relocalizer/online/submap_learner.h"
 #include "support.h"
@@ -55,7 +56,7 @@ TEST_F(SubmapRoom, CappedSubmapsKeepWhatOneCappedStoreThinsOut) {
   SubmapLearner submaps(smallLearning(cap), rule, fastRelocalizer());
   OnlineLearner one_store(smallLearning(cap), fastRelocalizer(), OnlineLearner::Mode::Inline);
   for (const RgbdFrame& frame : learn_) {
-    auto placed = submaps.addKeyFrame(frame, *frame.ground_truth);
+    auto placed = submaps.place(frame, *frame.ground_truth);
     ASSERT_TRUE(placed.ok()) << placed.error();
     ASSERT_TRUE(one_store.addKeyFrame(frame, *frame.ground_truth));
   }
@@ -119,13 +120,52 @@ TEST_F(SubmapRoom, AWalkThatFitsOneSubmapLearnsWhatOneLearnerDoes) {
   EXPECT_EQ(serializeModel(submap_model), serializeModel(one_model));
 }
 
+// One feed over either learner (learner.h), as the node and the tools drive
+// them: the same walk gives the same outcomes, and each learner sums up and
+// gives its models as one group of places alike.
+TEST_F(SubmapRoom, OneFeedDrivesEitherLearner) {
+  const int cap = 6;
+  OnlineLearner one_store(smallLearning(cap), fastRelocalizer(), OnlineLearner::Mode::Inline);
+  SubmapLearner submaps(smallLearning(cap), SubmapParams{}, fastRelocalizer());
+  KeyFrameFeed to_store(one_store, smallLearning(cap)), to_submaps(submaps, smallLearning(cap));
+  int learned = 0;
+  for (const RgbdFrame& frame : learn_) {
+    const auto load = [&] { return frame; };
+    const KeyFrameFeed::Result a = to_store.offer(frame.ground_truth, load);
+    const KeyFrameFeed::Result b = to_submaps.offer(frame.ground_truth, load);
+    EXPECT_EQ(a.outcome, b.outcome) << "frame " << frame.id << ": " << a.why << b.why;
+    learned += b.outcome == KeyFrameFeed::Result::Outcome::Learned;
+  }
+  for (Learner* learner : {static_cast<Learner*>(&one_store), static_cast<Learner*>(&submaps)}) {
+    ASSERT_TRUE(learner->drain());
+    const LearnerSummary summary = learner->summary();
+    EXPECT_EQ(summary.keyframes_added, learned);
+    EXPECT_EQ(summary.backlog, 0);
+    EXPECT_EQ(summary.last_error, "");
+  }
+  // The capped store knows what it kept; the submaps every key frame (seeds once).
+  EXPECT_EQ(one_store.summary().keyframes_learned, cap);
+  EXPECT_EQ(submaps.summary().keyframes_learned, learned);
+  const std::vector<Place> store_places = one_store.places(), submap_places = submaps.places();
+  ASSERT_EQ(store_places.size(), 1u);
+  EXPECT_EQ(store_places[0].relocalizer, one_store.current());
+  EXPECT_EQ(static_cast<int>(submap_places.size()), submaps.index().submapCount());
+  for (const std::vector<Place>& places : {store_places, submap_places}) {
+    PlaceSet set;
+    ASSERT_TRUE(putLearned(places, set));
+    EXPECT_EQ(set.size(), places.size());
+    for (const auto& place : set.places()) EXPECT_EQ(place->group, "learned");
+  }
+}
+
 TEST_F(SubmapRoom, UnusablePosesAndFramesAreRefusedAndPlacedNowhere) {
   SubmapLearner submaps(smallLearning(6), SubmapParams{}, fastRelocalizer());
+  KeyFrameFeed feed(submaps, smallLearning(6));
   Pose broken = *learn_[0].ground_truth;
   broken.translation().x() = std::nan("");
-  auto refused = submaps.addKeyFrame(learn_[0], broken);
-  ASSERT_FALSE(refused.ok());
-  EXPECT_NE(refused.error().find("not finite"), std::string::npos) << refused.error();
+  const KeyFrameFeed::Result refused = feed.offer(broken, [&] { return learn_[0]; });
+  ASSERT_EQ(refused.outcome, KeyFrameFeed::Result::Outcome::Untracked);
+  EXPECT_NE(refused.why.find("not finite"), std::string::npos) << refused.why;
   RgbdFrame empty = learn_[0];
   empty.depth = cv::Mat();
   EXPECT_FALSE(submaps.addKeyFrame(empty, *learn_[0].ground_truth).ok());
@@ -161,7 +201,7 @@ TEST_F(SubmapRoom, BackgroundSubmapsCutAsInlineOnesWhileAnotherThreadReads) {
     }
   });
   for (const RgbdFrame& frame : learn_) {
-    auto placed = submaps.addKeyFrame(frame, *frame.ground_truth);
+    auto placed = submaps.place(frame, *frame.ground_truth);
     ASSERT_TRUE(placed.ok()) << placed.error();
   }
   // drain() waits for the last freeze too.
@@ -201,7 +241,7 @@ TEST_F(SubmapRoom, BackgroundSubmapsCutAsInlineOnesWhileAnotherThreadReads) {
 
   // Walked again, the frozen submaps' key frames are covered: not stored.
   for (size_t i = 0; i < 6; ++i) {
-    auto placed = submaps.addKeyFrame(learn_[i], *learn_[i].ground_truth);
+    auto placed = submaps.place(learn_[i], *learn_[i].ground_truth);
     ASSERT_TRUE(placed.ok()) << placed.error();
     EXPECT_EQ(placed->decision, SubmapDecision::Covered) << i;
   }
@@ -280,7 +320,7 @@ TEST_F(SubmapRoom, QueuedFreezesLoseNoKeyFrameAndEqualInlineOnesWhileSavesRace) 
     }
   });
   for (const RgbdFrame& frame : learn_) {
-    auto placed = submaps.addKeyFrame(frame, *frame.ground_truth);
+    auto placed = submaps.place(frame, *frame.ground_truth);
     ASSERT_TRUE(placed.ok()) << placed.error();
     ASSERT_TRUE(inline_submaps.addKeyFrame(frame, *frame.ground_truth).ok());
   }
@@ -354,7 +394,7 @@ TEST_F(SubmapRoom, AOneFilePlaceResumesAsTheActiveSubmap) {
   EXPECT_FALSE(submaps.resume(path));
 
   // Full: the next key frame starts submap 1 with the 2 resumed key frames nearest to it.
-  auto placed = submaps.addKeyFrame(learn_[6], *learn_[6].ground_truth);
+  auto placed = submaps.place(learn_[6], *learn_[6].ground_truth);
   ASSERT_TRUE(placed.ok()) << placed.error();
   EXPECT_EQ(placed->decision, SubmapDecision::NewFull);
   EXPECT_EQ(placed->submap, 1);

@@ -32,6 +32,7 @@
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/key_frame_rule.h"
 #include "relocalizer/online/keyframe_store.h"
+#include "relocalizer/online/learner.h"
 #include "relocalizer/online/setting_name.h"
 #include "relocalizer/online/slam_pose_check.h"
 #include "relocalizer/relocalize/relocalizer.h"
@@ -117,14 +118,16 @@ struct LearningStatus {
                            // found by resume(); empty if none
 };
 
-class OnlineLearner {
+class OnlineLearner : public Learner {
  public:
   enum class Mode { Background, Inline };
 
   // Every model served answers with learnedModelParams(params, relocalizer_params).
   // Throws std::invalid_argument when learningParamsError(params) says why.
-  OnlineLearner(LearningParams params, RelocalizerParams relocalizer_params, Mode mode);
-  ~OnlineLearner();
+  // `names` name the one place places() gives.
+  OnlineLearner(LearningParams params, RelocalizerParams relocalizer_params, Mode mode,
+                LearnerNames names = {});
+  ~OnlineLearner() override;
   OnlineLearner(const OnlineLearner&) = delete;
   OnlineLearner& operator=(const OnlineLearner&) = delete;
 
@@ -146,25 +149,29 @@ class OnlineLearner {
   std::vector<KeyFrameStore::Entry> keyFrames() const;
 
   // A key frame with its camera-to-world pose (from SLAM, never from this
-  // relocalizer); refused when slamPoseError(pose) says why. Compresses it on the caller's thread
-  // (about 20 ms for 640x480) and wakes the worker; never waits for a retrain.
-  Status addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world);
+  // relocalizer, as the feed checked it: key_frame_feed.h); always Stored.
+  // Compresses it on the caller's thread (about 20 ms for 640x480) and wakes
+  // the worker; never waits for a retrain.
+  Expected<KeyFrameAdded> addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world) override;
 
   // Blocks until the current model has been trained on every stored key frame
   // (Inline: retrains now). A failed retrain is returned.
-  Status drain();
+  Status drain() override;
 
   // The newest model, or null before the first retrain. Callers keep the
   // pointer for as long as they use it; a swap never frees it under them.
   std::shared_ptr<const Relocalizer> current() const;
+  // current() as the one place of group names.place, named names.place.
+  std::vector<Place> places() const override;
   LearningStatus status() const;
+  LearnerSummary summary() const override;
 
   // Writes the current model to `path` and the stored key frames, bound to
   // it, to keyFramesPath(path), as one unit (core/file_io.h: only the
   // package's own files are replaced; fsynced; key frames renamed first, so
   // an interrupted save is detected by resume()). Fails when there is no
   // model yet.
-  Status save(const std::string& path) const;
+  Status save(const std::string& path) override;
 
  private:
   bool retrainDue() const;  // under mutex_
@@ -177,6 +184,7 @@ class OnlineLearner {
   const LearningParams params_;
   const RelocalizerParams relocalizer_params_;
   const Mode mode_;
+  const LearnerNames names_;
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;      // the worker: work or stop

@@ -32,9 +32,9 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/core/frame.h"
+#include "relocalizer/online/learner.h"
 #include "relocalizer/online/online_learner.h"
 #include "relocalizer/online/serial_worker.h"
-#include "relocalizer/online/slam_pose_check.h"
 #include "relocalizer/online/submap_folder.h"
 #include "relocalizer/online/submap_rule.h"
 #include "relocalizer/relocalize/place_set.h"
@@ -42,10 +42,7 @@
 namespace relocalizer {
 
 // What the set's places are called: `<place>/<index>` in `map_frame`.
-struct SubmapNames {
-  std::string place = "learned";
-  std::string map_frame = "map";
-};
+using SubmapNames = LearnerNames;
 
 // Submaps waiting for their last retrain (Background), the one being
 // retrained included, before addKeyFrame waits for room. A pending submap
@@ -96,7 +93,7 @@ struct SubmapStatus {
 // written once, with its final model), and a new submap meanwhile waits for
 // the save; a key frame waits for a save's writes (the active submap's files
 // and the manifest).
-class SubmapLearner {
+class SubmapLearner : public Learner {
  public:
   // `learning.max_keyframes` caps each submap; `mode` is each submap
   // learner's (online_learner.h). Throws std::invalid_argument when
@@ -105,7 +102,7 @@ class SubmapLearner {
                 SubmapNames names = {}, OnlineLearner::Mode mode = OnlineLearner::Mode::Inline);
   // Background: waits for the pending freezes (their retrains are not
   // aborted: a submap handed over has its final model and files).
-  ~SubmapLearner();
+  ~SubmapLearner() override;
   SubmapLearner(const SubmapLearner&) = delete;
   SubmapLearner& operator=(const SubmapLearner&) = delete;
 
@@ -137,7 +134,7 @@ class SubmapLearner {
   // written then renamed (core/file_io.h: an existing manifest.json that is
   // not ours is refused, not overwritten). Fails when no submap has a model
   // or key frames yet.
-  Status save(const std::string& folder);
+  Status save(const std::string& folder) override;
 
   // The working folder (empty: none yet).
   std::string workingFolder() const;
@@ -147,25 +144,29 @@ class SubmapLearner {
   const SubmapNames& names() const { return names_; }
 
   // A key frame (already chosen by the key-frame rule) with SLAM's
-  // camera-to-world pose. Refused when slamPoseError says why; a covered key
-  // frame is placed nowhere (placement.submap -1). A new submap freezes the
-  // active, which retrains it (seconds: Inline here, Background on the freeze
-  // thread); a failed freeze is returned (Inline) or in status().last_error.
-  Expected<SubmapPlacement> addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world);
+  // camera-to-world pose, as the feed checked it (key_frame_feed.h); a
+  // covered key frame is placed nowhere (placement.submap -1). A new submap
+  // freezes the active, which retrains it (seconds: Inline here, Background
+  // on the freeze thread); a failed freeze is returned (Inline) or in
+  // status().last_error.
+  Expected<SubmapPlacement> place(const RgbdFrame& frame, const Pose& camera_to_world);
+  // place() as the learning loop sees it: Covered when placed nowhere.
+  Expected<KeyFrameAdded> addKeyFrame(const RgbdFrame& frame, const Pose& camera_to_world) override;
 
   // Every submap's model trained on all its key frames: waits for the
   // pending freezes, then for the active's retrain (Inline: retrains now).
-  Status drain();
+  Status drain() override;
 
   // Every submap with a model, frozen ones first in order, then the active.
   std::vector<SubmapModel> models() const;
+  // models() as places `<place>/<index>` of group `place` (submapPlaces).
+  std::vector<Place> places() const override;
   SubmapStatus status() const;
+  // Key frames learned: frozen submaps whole, the active as far as its model goes.
+  LearnerSummary summary() const override;
   const SubmapIndex& index() const { return index_; }
   // The active submap's learner, or null before the first key frame.
   const OnlineLearner* active() const { return active_.get(); }
-  // The SLAM check's question to the place (slam_pose_check.h): every
-  // submap's model searched as one group, as the node searches them.
-  SlamPoseCheck::AskPlace askPlace() const;
 
  private:
   // A frozen submap. Why key frames are kept at all: its key-frame file must
