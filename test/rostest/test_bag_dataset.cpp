@@ -1,4 +1,4 @@
-// Rosbags as datasets (src/ros/bag_dataset.h), without a ROS master: bags are
+// Rosbags as datasets (src/ros/bag/bag_dataset.h), without a ROS master: bags are
 // written here with the rosbag API. Covers frame association, the two pose
 // sources, key frames, the bad bags' errors, and `train --bag` against
 // `train --dataset` on the same frames (same frames kept, same model bytes).
@@ -24,8 +24,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "../../src/ros/bag_dataset.h"
-#include "../../src/ros/message_conversion.h"
+#include "../../src/ros/bag/bag_dataset.h"
+#include "../../src/ros/conversion/message_conversion.h"
 #include "../unit/support.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/core/id_ranges.h"

@@ -10,7 +10,7 @@
 
 #include <cmath>
 
-#include "../../src/ros/node_hints.h"
+#include "../../src/ros/node/node_hints.h"
 #include "node_test_support.h"
 
 using namespace relocalizer_test;

@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "message_conversion.h"
+#include "../conversion/message_conversion.h"
 #include "node_text.h"
 #include "relocalizer/core/file_io.h"
 #include "relocalizer/online/submap_folder.h"

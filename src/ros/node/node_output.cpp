@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "message_conversion.h"
+#include "../conversion/message_conversion.h"
 #include "node_text.h"
 
 namespace relocalizer_ros {

@@ -1,6 +1,6 @@
 #include "node_inputs.h"
 
-#include "message_conversion.h"
+#include "../conversion/message_conversion.h"
 #include "node_text.h"
 
 namespace relocalizer_ros {

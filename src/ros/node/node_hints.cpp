@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "message_conversion.h"
+#include "../conversion/message_conversion.h"
 #include "node_text.h"
 #include "relocalizer/core/outside_text.h"
 

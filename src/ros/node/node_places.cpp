@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <thread>
 
-#include "message_conversion.h"
+#include "../conversion/message_conversion.h"
 #include "relocalizer/core/outside_text.h"
 #include "relocalizer/online/place_files.h"
 

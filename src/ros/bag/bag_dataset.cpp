@@ -20,9 +20,9 @@
 #include <set>
 #include <sstream>
 
+#include "../conversion/message_conversion.h"
 #include "bag_poses.h"
 #include "bag_text.h"
-#include "message_conversion.h"
 #include "relocalizer/core/id_ranges.h"
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/data/stamp_association.h"

@@ -12,7 +12,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "message_conversion.h"
+#include "../conversion/message_conversion.h"
 #include "relocalizer/core/progress.h"
 #include "relocalizer/core/statistics.h"
 #include "relocalizer/core/version.h"

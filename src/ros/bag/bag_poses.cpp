@@ -8,8 +8,8 @@
 #include <map>
 #include <set>
 
+#include "../conversion/message_conversion.h"
 #include "bag_text.h"
-#include "message_conversion.h"
 #include "relocalizer/core/statistics.h"
 #include "stamp_search.h"
 

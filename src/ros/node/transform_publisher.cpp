@@ -4,7 +4,7 @@
 
 #include <cstdio>
 
-#include "message_conversion.h"
+#include "../conversion/message_conversion.h"
 
 namespace relocalizer_ros {
 

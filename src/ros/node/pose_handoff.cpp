@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-#include "message_conversion.h"
+#include "../conversion/message_conversion.h"
 #include "node_text.h"
 
 namespace relocalizer_ros {

@@ -11,9 +11,9 @@
 #include <mutex>
 #include <set>
 
+#include "../conversion/message_conversion.h"
 #include "bag_dataset.h"
 #include "bag_poses.h"
-#include "message_conversion.h"
 
 namespace relocalizer_ros {
 

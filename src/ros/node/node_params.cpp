@@ -7,7 +7,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
-#include "message_conversion.h"
+#include "../conversion/message_conversion.h"
 #include "relocalizer/core/config.h"
 #include "relocalizer/core/file_io.h"
 #include "relocalizer/core/outside_text.h"
