@@ -92,7 +92,7 @@ std::string joined(const std::vector<std::string>& frames) {
 
 }  // namespace
 
-NodeHints::NodeHints(ros::NodeHandle nh, const NodeParams& params, tf2_ros::Buffer& tf,
+NodeHints::NodeHints(ros::NodeHandle nh, const HintSettings& params, tf2_ros::Buffer& tf,
                      std::function<std::vector<std::string>()> map_frames)
     : params_(params), map_frames_(std::move(map_frames)), buffer_(tf) {
   subscriber_ = nh.subscribe("initialpose", 1, &NodeHints::onMessage, this);

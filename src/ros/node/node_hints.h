@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "node_params.h"
+#include "hint_settings.h"
 #include "relocalizer/pose/pose_hint.h"
 #include "relocalizer/relocalize/place_set.h"
 #include "throttled_log.h"
@@ -34,7 +34,7 @@ class NodeHints {
 
   // `map_frames`: the frames a hint may be brought into, in order of
   // preference; `tf`: the node's buffer (relocalizer_node.h), which outlives this.
-  NodeHints(ros::NodeHandle nh, const NodeParams& params, tf2_ros::Buffer& tf,
+  NodeHints(ros::NodeHandle nh, const HintSettings& params, tf2_ros::Buffer& tf,
             std::function<std::vector<std::string>()> map_frames);
 
   // A message as a hint in one of the map frames (its own frame when it is
@@ -63,7 +63,7 @@ class NodeHints {
   void onMessage(const ros::MessageEvent<const HintMsg>& event);
   std::optional<Pending> current() const;
 
-  const NodeParams& params_;
+  const HintSettings& params_;
   const std::function<std::vector<std::string>()> map_frames_;
   tf2_ros::Buffer& buffer_;
   ros::Subscriber subscriber_;

@@ -17,10 +17,11 @@ const char* const kInputNames[3] = {"colour", "depth", "camera_info"};
 
 }  // namespace
 
-NodeInputs::NodeInputs(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-                       Handlers handlers)
+NodeInputs::NodeInputs(ros::NodeHandle nh, ros::NodeHandle private_nh, const InputSettings& params,
+                       const TfSettings& tf_settings, Handlers handlers)
     : nh_(std::move(nh)),
       params_(params),
+      tf_settings_(tf_settings),
       handlers_(std::move(handlers)),
       start_ns_(steadyNanoseconds()) {
   image_transport_ = std::make_unique<image_transport::ImageTransport>(nh_);
@@ -133,7 +134,7 @@ void NodeInputs::onTimeJump(const StampGate::Jump& jump) {
   const std::string done =
       std::string("; a looping bag or a restarted source? synchronizer reset, ") +
       std::to_string(dropped) + " pending frame" + (dropped == 1 ? "" : "s") + " dropped" +
-      (params_.publish_tf && !params_.odom_frame.empty() ? ", TF buffer cleared" : "");
+      (tf_settings_.publish_tf && !tf_settings_.odom_frame.empty() ? ", TF buffer cleared" : "");
   const auto now = Clock::now();
   if (jumps == 1 || now - last_jump_log_ >= kJumpLogPeriod) {
     const std::string more = unlogged_jumps_ ? " (" + std::to_string(unlogged_jumps_) +

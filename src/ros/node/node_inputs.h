@@ -20,8 +20,9 @@
 #include <string>
 
 #include "frame_input.h"
+#include "input_settings.h"
 #include "input_synchronizer.h"
-#include "node_params.h"
+#include "tf_settings.h"
 #include "throttled_log.h"
 
 namespace relocalizer_ros {
@@ -38,8 +39,8 @@ class NodeInputs {
   };
 
   // Subscribes at once (relative names rgb/image, depth/image, rgb/camera_info).
-  NodeInputs(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-             Handlers handlers);
+  NodeInputs(ros::NodeHandle nh, ros::NodeHandle private_nh, const InputSettings& params,
+             const TfSettings& tf_settings, Handlers handlers);
   ~NodeInputs();
   NodeInputs(const NodeInputs&) = delete;
   NodeInputs& operator=(const NodeInputs&) = delete;
@@ -80,7 +81,8 @@ class NodeInputs {
   double secondsSince(int64_t last_ns, int64_t now_ns) const;
 
   ros::NodeHandle nh_;
-  const NodeParams& params_;
+  const InputSettings& params_;
+  const TfSettings& tf_settings_;
   const Handlers handlers_;
   ThrottledLog log_;
 

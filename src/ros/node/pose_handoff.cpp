@@ -21,8 +21,9 @@ Matrix6d moveCovariance(const Matrix6d& covariance, const Pose& map_T_camera,
   return jacobian * covariance * jacobian.transpose();
 }
 
-PoseHandoff::PoseHandoff(ros::NodeHandle nh, const NodeParams& params, tf2_ros::Buffer& tf)
-    : params_(params), nh_(std::move(nh)), buffer_(tf) {
+PoseHandoff::PoseHandoff(ros::NodeHandle nh, const HandoffSettings& params, double tf_timeout,
+                         tf2_ros::Buffer& tf)
+    : params_(params), tf_timeout_(tf_timeout), nh_(std::move(nh)), buffer_(tf) {
   if (params_.forward_initialpose)
     initialpose_pub_ = nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("initialpose", 2);
   if (!params_.handoff_frame.empty()) {
@@ -70,8 +71,8 @@ bool PoseHandoff::claim(uint64_t epoch, const ros::Time& stamp) {
 }
 
 void PoseHandoff::waitForTransform(const std::string& camera_frame, const ros::Time& stamp) const {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(params_.tf_timeout);
-  const ros::Duration slice(std::min(0.1, params_.tf_timeout));
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(tf_timeout_);
+  const ros::Duration slice(std::min(0.1, tf_timeout_));
   while (!stopping_ && !buffer_.canTransform(camera_frame, params_.handoff_frame, stamp, slice) &&
          ros::WallTime::now() < deadline) {
   }
@@ -87,10 +88,10 @@ relocalizer::Expected<geometry_msgs::PoseWithCovarianceStamped> PoseHandoff::han
         buffer_.lookupTransform(answer.camera_frame, params_.handoff_frame, pose.header.stamp)
             .transform);
   } catch (const tf2::TransformException& e) {
-    return relocalizer::makeError(
-        "no TF " + messageExcerpt(answer.camera_frame) + " -> " +
-        messageExcerpt(params_.handoff_frame) + " at the answer's stamp within " +
-        secondsText(params_.tf_timeout) + " s (tf_timeout): " + messageExcerpt(e.what(), 256));
+    return relocalizer::makeError("no TF " + messageExcerpt(answer.camera_frame) + " -> " +
+                                  messageExcerpt(params_.handoff_frame) +
+                                  " at the answer's stamp within " + secondsText(tf_timeout_) +
+                                  " s (tf_timeout): " + messageExcerpt(e.what(), 256));
   }
   const Pose map_T_camera = fromPoseMsg(pose.pose.pose);
   const Matrix6d covariance = covarianceFromMsg(pose.pose);

@@ -30,8 +30,8 @@
 #include <string>
 #include <thread>
 
+#include "handoff_settings.h"
 #include "node_output.h"
-#include "node_params.h"
 #include "relocalizer/core/expected.h"
 #include "relocalizer/core/pose.h"
 #include "throttled_log.h"
@@ -50,13 +50,14 @@ Matrix6d moveCovariance(const Matrix6d& covariance, const Pose& map_T_camera,
 class PoseHandoff {
  public:
   // Whether the parameters ask for any hand-off at all.
-  static bool wanted(const NodeParams& params) {
+  static bool wanted(const HandoffSettings& params) {
     return params.forward_initialpose || !params.set_pose_service.empty();
   }
 
   // `tf`: the node's buffer (relocalizer_node.h), read with handoff_frame
   // set only, on this part's own lookup thread; it outlives this.
-  PoseHandoff(ros::NodeHandle nh, const NodeParams& params, tf2_ros::Buffer& tf);
+  PoseHandoff(ros::NodeHandle nh, const HandoffSettings& params, double tf_timeout,
+              tf2_ros::Buffer& tf);
   ~PoseHandoff();
   PoseHandoff(const PoseHandoff&) = delete;
   PoseHandoff& operator=(const PoseHandoff&) = delete;
@@ -84,7 +85,8 @@ class PoseHandoff {
   void lookupLoop();
   void callLoop();
 
-  const NodeParams& params_;
+  const HandoffSettings& params_;
+  const double tf_timeout_;  // seconds (tf_settings.h)
   ros::NodeHandle nh_;
   ros::Publisher initialpose_pub_;
   tf2_ros::Buffer& buffer_;

@@ -17,7 +17,7 @@ constexpr double kQueuedReportSeconds = 0.1;
 
 }  // namespace
 
-RelocalizeService::RelocalizeService(ros::NodeHandle private_nh, const NodeParams& params,
+RelocalizeService::RelocalizeService(ros::NodeHandle private_nh, const InputSettings& params,
                                      Sources sources, ServiceCallQueue& calls)
     : params_(params), sources_(std::move(sources)) {
   auto options = ros::AdvertiseServiceOptions::create<relocalizer::Relocalize>(

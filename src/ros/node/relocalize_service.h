@@ -15,8 +15,8 @@
 
 #include "frame_buffer.h"
 #include "frame_input.h"
+#include "input_settings.h"
 #include "node_output.h"
-#include "node_params.h"
 #include "relocalizer/pose/pose_hint.h"
 #include "service_call_queue.h"
 #include "throttled_log.h"
@@ -38,7 +38,7 @@ class RelocalizeService {
     NodeOutput* output;                         // reports of calls without a frame
   };
 
-  RelocalizeService(ros::NodeHandle private_nh, const NodeParams& params, Sources sources,
+  RelocalizeService(ros::NodeHandle private_nh, const InputSettings& params, Sources sources,
                     ServiceCallQueue& calls);
   std::string name() const { return server_.getService(); }
   void shutdown() { server_.shutdown(); }
@@ -55,7 +55,7 @@ class RelocalizeService {
   ResultMsg processHinted(const relocalizer::Relocalize::Request& request,
                           const FrameInputPtr& input);
 
-  const NodeParams& params_;
+  const InputSettings& params_;
   const Sources sources_;
   ThrottledLog log_;
   std::mutex shared_mutex_;

@@ -73,7 +73,7 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   places_->onChange([this] { visuals_->placesChanged(); });
   visuals_->placesChanged();
   if (PoseHandoff::wanted(params_)) {
-    handoff_ = std::make_unique<PoseHandoff>(nh_, params_, tf_);
+    handoff_ = std::make_unique<PoseHandoff>(nh_, params_, params_.tf_timeout, tf_);
     output_.addListener(
         [handoff = handoff_.get()](const NodeOutput::Published& p) { handoff->onPublished(p); });
   }
@@ -112,7 +112,7 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
     ResultMsg result = output_.failure(stamp, what);
     output_.report(result);
   };
-  inputs_ = std::make_unique<NodeInputs>(nh_, private_nh_, params_, std::move(handlers));
+  inputs_ = std::make_unique<NodeInputs>(nh_, private_nh_, params_, params_, std::move(handlers));
   diagnostics_->start();
   logStartup();
 }
