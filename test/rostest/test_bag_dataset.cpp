@@ -29,11 +29,11 @@
 #include "../unit/support.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/core/id_ranges.h"
+#include "relocalizer/core/key_frame_rule.h"
 #include "relocalizer/data/dataset.h"
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/data/tum_trajectory.h"
 #include "relocalizer/forest/model_io.h"
-#include "relocalizer/online/key_frame_rule.h"
 
 using namespace relocalizer_ros;
 using relocalizer::testing::TempDir;

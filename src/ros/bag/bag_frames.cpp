@@ -8,9 +8,9 @@
 #include "bag_dataset_impl.h"
 #include "bag_text.h"
 #include "relocalizer/core/id_ranges.h"
+#include "relocalizer/core/key_frame_rule.h"
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/data/stamp_association.h"
-#include "relocalizer/online/key_frame_rule.h"
 #include "stamp_search.h"
 
 namespace relocalizer_ros {

@@ -1,6 +1,6 @@
 #include "frame_sources.h"
 
-#include "relocalizer/online/key_frame_rule.h"
+#include "relocalizer/core/key_frame_rule.h"
 
 namespace relocalizer_ros {
 

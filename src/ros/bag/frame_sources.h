@@ -26,7 +26,7 @@ struct FrameSourceRequest {
   relocalizer::DatasetOptions dataset_options;
   std::string bag;
   BagOptions bag_options;
-  // Key frames among a bag's frames, "METRES,DEGREES" (online/key_frame_rule.h); "" keeps every
+  // Key frames among a bag's frames, "METRES,DEGREES" (core/key_frame_rule.h); "" keeps every
   // frame.
   std::string min_motion;
 };

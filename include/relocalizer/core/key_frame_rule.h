@@ -2,8 +2,11 @@
 // The key-frame rule: a 30 Hz recording holds many near-duplicate frames,
 // which cost training time and teach nothing new. A frame is kept when the
 // camera moved or turned enough since the last kept frame. The learner's feed
-// (key_frame_feed.h) and rosbags read as datasets (`train --bag`) choose their
-// frames by it; the key-frame store measures redundancy in its default step.
+// (online/key_frame_feed.h) and rosbags read as datasets (`train --bag`) choose
+// their frames by it; the key-frame store measures redundancy in its default
+// step. It is in core, beside the frame-id sets (id_ranges.h), because it needs
+// only poses and both sides use it: in data, the learner (and so the node)
+// would link the dataset readers; in online, the bag reader linked the learner.
 
 #include <optional>
 #include <string>

@@ -1,4 +1,4 @@
-#include "relocalizer/online/key_frame_rule.h"
+#include "relocalizer/core/key_frame_rule.h"
 
 #include <cmath>
 #include <cstdio>
