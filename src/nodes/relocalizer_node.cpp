@@ -1,8 +1,8 @@
-// rosrun relocalizer relocalizer_node _model:=MODEL: see src/ros/relocalizer_node.h.
+// rosrun relocalizer relocalizer_node _model:=MODEL: see src/ros/node/relocalizer_node.h.
 
 #include <ros/ros.h>
 
-#include "../ros/relocalizer_node.h"
+#include "../ros/node/relocalizer_node.h"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "relocalizer");

@@ -1,9 +1,9 @@
 // roslaunch relocalizer replay.launch model:=MODEL bag:=BAG [output:=DIR]
-// runs this beside the node: see src/ros/replay_evaluator.h.
+// runs this beside the node: see src/ros/replay/replay_evaluator.h.
 
 #include <ros/ros.h>
 
-#include "../ros/replay_evaluator.h"
+#include "../ros/replay/replay_evaluator.h"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "replay_evaluator");

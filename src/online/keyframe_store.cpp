@@ -2,8 +2,8 @@
 
 #include "relocalizer/core/byte_io.h"
 #include "relocalizer/core/file_io.h"
+#include "relocalizer/core/key_frame_rule.h"
 #include "relocalizer/forest/model_io.h"
-#include "relocalizer/online/key_frame_rule.h"
 
 #include <cmath>
 #include <cstring>

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "relocalizer/online/key_frame_rule.h"
+#include "relocalizer/core/key_frame_rule.h"
 
 namespace relocalizer {
 

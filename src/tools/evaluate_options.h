@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "relocalizer/core/key_frame_rule.h"
 #include "relocalizer/eval/frame_evaluation.h"
 #include "relocalizer/eval/simulated_hints.h"
-#include "relocalizer/online/key_frame_rule.h"
 #include "relocalizer/online/online_learner.h"
 #include "relocalizer/relocalize/relocalizer.h"
 #include "source_arguments.h"

@@ -18,7 +18,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "../ros/message_conversion.h"
+#include "../ros/conversion/message_conversion.h"
 #include "dataset_arguments.h"
 #include "relocalizer/core/progress.h"
 #include "relocalizer/core/version.h"

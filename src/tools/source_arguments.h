@@ -1,13 +1,13 @@
 #pragma once
 // The options that choose a tool's posed frames: a dataset folder
 // (dataset_arguments.h) or a rosbag with its topics and pose source, opened
-// by the one factory (src/ros/frame_sources.h). Tools with these options link
+// by the one factory (src/ros/bag/frame_sources.h). Tools with these options link
 // relocalizer_bag.
 
 #include <memory>
 #include <string>
 
-#include "../ros/frame_sources.h"
+#include "../ros/bag/frame_sources.h"
 #include "dataset_arguments.h"
 
 namespace relocalizer::cli {

@@ -1,4 +1,4 @@
-// The node's input stamp handling (src/ros/stamp_gate.h, input_synchronizer.h)
+// The node's input stamp handling (src/ros/node/stamp_gate.h, input_synchronizer.h)
 // on arbitrary stamps, in front of the real message_filters synchronizers, as
 // the node feeds them: any exception (ros::Duration's "out of dual 32-bit
 // range" aborted the node, issue 23) or broken promise is a crash.

@@ -8,9 +8,9 @@ checks the ones that look like a path or a C++ name:
 - a path (it contains '/' or ends in a source, script, launch, config or doc
   suffix) must exist relative to the repository root, to include/ or to
   include/relocalizer/ (`pose/refinement_costs.h`, as the headers are
-  included). A bare file name must exist in src/ros/ in the ROS layer's section
-  (its table names `node_inputs.h`), or beside a path named earlier in the same
-  paragraph or table row (`room_layout.cpp` after `src/sim/room_builder.h`).
+  included). A bare file name must exist in a folder of src/ros/ (one per build
+  target) in the ROS layer's section (its tables name `node_inputs.h`), or
+  beside a path named earlier in the same paragraph or table row (`room_layout.cpp` after `src/sim/room_builder.h`).
   `<placeholder>` stands for any text; paths above the repository
   (`../shared/...`) are not the repository's to check.
 - a C++ name (CamelCase types like `KeyFrameFeed`, lowerCamel functions like
@@ -41,6 +41,9 @@ DOC = SOURCE / "docs" / "architecture.md"
 PATH_ROOTS = ("", "include", "include/relocalizer")
 ROS_SECTION_START = "ROS layer (`src/ros/`"
 ROS_FOLDER = "src/ros"
+# The ROS layer's folders, one per build target (node, bag, replay, conversion).
+ROS_FOLDERS = sorted(path.relative_to(SOURCE).as_posix()
+                     for path in (SOURCE / ROS_FOLDER).iterdir() if path.is_dir())
 PATH_SUFFIXES = (".h", ".cpp", ".py", ".sh", ".test", ".launch", ".yaml", ".md")
 # Where the names a doc gives as C++ must live; a name used only by a test or a script counts
 # where the doc names that file beside it.
@@ -180,7 +183,7 @@ def stale_names(text, code):
             in_ros_section = True
         elif block[0].startswith("#"):
             in_ros_section = False
-        ros = [ROS_FOLDER] if in_ros_section else []
+        ros = ROS_FOLDERS if in_ros_section else []
         prose = [line for line in block if not line.startswith("|")]
         prose_tokens = [token for line in prose for token in backticked(line)]
         prose_files = named_files(prose_tokens, ros + block_folders(prose, prose[-1])) if prose else []
@@ -346,7 +349,7 @@ class ArchitectureDocTest(unittest.TestCase):
         named = set(backticked(text)) | set(re.findall(r"[\w/]*\w\.h\b", text))
         headers = [path.relative_to(SOURCE / "include" / "relocalizer").as_posix()
                    for path in sorted((SOURCE / "include" / "relocalizer").rglob("*.h"))]
-        headers += [path.name for path in sorted((SOURCE / ROS_FOLDER).glob("*.h"))]
+        headers += [path.name for path in sorted((SOURCE / ROS_FOLDER).rglob("*.h"))]
         unnamed = [header for header in headers if header not in named]
         self.assertEqual(unnamed, [], f"{DOC.relative_to(SOURCE)} does not say what these "
                          "headers hold (the Files tables):\n" + "\n".join(unnamed))

@@ -207,6 +207,19 @@ class ModuleDependencyTest(unittest.TestCase):
                     problems.append(f"{node} links {library} (module {module.name})")
         self.assertEqual(problems, [], "the node carries what a camera relocalization does not need")
 
+    def test_the_bag_reader_links_no_learner(self):
+        # The tools' --bag reads frames; it selects key frames by a pose-only
+        # rule (core/key_frame_rule.h), not by linking the learner.
+        links = cmake_links()
+        seen, todo = set(), ["relocalizer_bag"]
+        while todo:
+            for dep in links.get(todo.pop(), ()):
+                if dep not in seen:
+                    seen.add(dep)
+                    todo.append(dep)
+        self.assertIn("relocalizer_data", seen, "relocalizer_bag's links are not found")
+        self.assertNotIn("relocalizer_online", seen, "relocalizer_bag links the learner")
+
     def test_the_fuzz_build_compiles_every_module_its_modules_use(self):
         # The fuzz build compiles the modules of the fuzzed parsers from source,
         # listed by hand in test/fuzz/CMakeLists.txt; a module those come to use

@@ -1,7 +1,7 @@
 """Facts that have one owner in the code stay with it (issue 41).
 
 - TF: the node owns one tf2_ros::Buffer and one TransformListener and lends
-  the buffer to its parts (src/ros/relocalizer_node.h). roscpp merges a
+  the buffer to its parts (src/ros/node/relocalizer_node.h). roscpp merges a
   process's subscriptions to one topic into one connection, so the master and
   `rosnode info` show the node once on /tf however many listeners it has; each
   listener still keeps its own cache and thread, and only the source tells.
@@ -43,7 +43,7 @@ def files_matching(pattern, *folders):
 # made on the heap (a reference or pointer to one is a loan, not a buffer).
 BUFFER_MADE = r"tf2_ros::Buffer\s+\w+\s*[;({]|(make_unique|make_shared|new)\s*<?\s*tf2_ros::Buffer\b"
 LISTENER_MADE = r"tf2_ros::TransformListener\s+\w+\s*[;({]|(make_unique|make_shared|new)\s*<?\s*tf2_ros::TransformListener\b"
-NODE_FILES = {"src/ros/relocalizer_node.h", "src/ros/relocalizer_node.cpp"}
+NODE_FILES = {"src/ros/node/relocalizer_node.h", "src/ros/node/relocalizer_node.cpp"}
 
 
 class OneTfBuffer(unittest.TestCase):

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include <relocalizer/RelocalizationResult.h>
-#include "../../src/ros/message_conversion.h"
+#include "../../src/ros/conversion/message_conversion.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/core/pose.h"
 #include "relocalizer/data/dataset.h"

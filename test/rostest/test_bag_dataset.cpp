@@ -1,4 +1,4 @@
-// Rosbags as datasets (src/ros/bag_dataset.h), without a ROS master: bags are
+// Rosbags as datasets (src/ros/bag/bag_dataset.h), without a ROS master: bags are
 // written here with the rosbag API. Covers frame association, the two pose
 // sources, key frames, the bad bags' errors, and `train --bag` against
 // `train --dataset` on the same frames (same frames kept, same model bytes).
@@ -24,16 +24,16 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "../../src/ros/bag_dataset.h"
-#include "../../src/ros/message_conversion.h"
+#include "../../src/ros/bag/bag_dataset.h"
+#include "../../src/ros/conversion/message_conversion.h"
 #include "../unit/support.h"
 #include "relocalizer/core/frame.h"
 #include "relocalizer/core/id_ranges.h"
+#include "relocalizer/core/key_frame_rule.h"
 #include "relocalizer/data/dataset.h"
 #include "relocalizer/data/frame_selection.h"
 #include "relocalizer/data/tum_trajectory.h"
 #include "relocalizer/forest/model_io.h"
-#include "relocalizer/online/key_frame_rule.h"
 
 using namespace relocalizer_ros;
 using relocalizer::testing::TempDir;

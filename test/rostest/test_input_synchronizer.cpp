@@ -7,8 +7,8 @@
 
 #include <vector>
 
-#include "../../src/ros/input_synchronizer.h"
-#include "../../src/ros/stamp_gate.h"
+#include "../../src/ros/node/input_synchronizer.h"
+#include "../../src/ros/node/stamp_gate.h"
 
 using relocalizer_ros::InputSynchronizer;
 using relocalizer_ros::StampGate;

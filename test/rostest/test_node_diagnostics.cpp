@@ -12,7 +12,7 @@
 #include <optional>
 #include <thread>
 
-#include "../../src/ros/node_params.h"
+#include "../../src/ros/node/node_params.h"
 #include "node_test_support.h"
 
 using namespace relocalizer_test;

@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "../../src/ros/node_health.h"
+#include "../../src/ros/node/node_health.h"
 
 using relocalizer_ros::HealthLevel;
 using relocalizer_ros::HealthLimits;

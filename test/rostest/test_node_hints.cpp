@@ -10,7 +10,7 @@
 
 #include <cmath>
 
-#include "../../src/ros/node_hints.h"
+#include "../../src/ros/node/node_hints.h"
 #include "node_test_support.h"
 
 using namespace relocalizer_test;
@@ -193,7 +193,7 @@ TEST(Hints, ANodeIgnoresItsOwnInitialposeMessages) {
   // This test node listens too: what it publishes itself on initialpose (as
   // forward_initialpose does) must not become its hint, while the relocalizer
   // node, another node, takes the same message.
-  relocalizer_ros::NodeParams params;
+  relocalizer_ros::HintSettings params;
   tf2_ros::Buffer tf;  // the hint is in the map frame: no TF needed, so no listener
   relocalizer_ros::NodeHints own(ros::NodeHandle(), params, tf,
                                  [] { return std::vector<std::string>{"map"}; });

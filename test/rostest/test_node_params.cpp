@@ -17,7 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "../../src/ros/node_params.h"
+#include "../../src/ros/node/node_params.h"
 #include "relocalizer/forest/model_io.h"
 
 using relocalizer_ros::loadNodeParams;

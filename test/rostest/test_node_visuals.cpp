@@ -8,7 +8,7 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 
-#include "../../src/ros/node_visuals.h"
+#include "../../src/ros/node/node_visuals.h"
 #include "node_test_support.h"
 #include "relocalizer/forest/model_io.h"
 

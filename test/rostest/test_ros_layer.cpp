@@ -10,9 +10,9 @@
 #include <limits>
 #include <thread>
 
-#include "../../src/ros/frame_buffer.h"
-#include "../../src/ros/message_conversion.h"
-#include "../../src/ros/pose_handoff.h"
+#include "../../src/ros/conversion/message_conversion.h"
+#include "../../src/ros/node/frame_buffer.h"
+#include "../../src/ros/node/pose_handoff.h"
 
 using namespace relocalizer_ros;
 namespace enc = sensor_msgs::image_encodings;

@@ -1,6 +1,6 @@
 #pragma once
 // Where the tools get posed frames: one interface for a dataset folder (here)
-// and a rosbag (src/ros/frame_sources.h), so evaluation, benchmarks and
+// and a rosbag (src/ros/bag/frame_sources.h), so evaluation, benchmarks and
 // training treat every recording alike and never name its format.
 
 #include <cstddef>

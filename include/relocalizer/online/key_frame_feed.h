@@ -15,8 +15,8 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/core/frame.h"
+#include "relocalizer/core/key_frame_rule.h"
 #include "relocalizer/core/pose.h"
-#include "relocalizer/online/key_frame_rule.h"
 #include "relocalizer/online/learner.h"
 #include "relocalizer/online/online_learner.h"
 #include "relocalizer/online/slam_pose_check.h"

@@ -29,8 +29,8 @@
 #include <vector>
 
 #include "relocalizer/core/expected.h"
+#include "relocalizer/core/key_frame_rule.h"
 #include "relocalizer/forest/model_io.h"
-#include "relocalizer/online/key_frame_rule.h"
 #include "relocalizer/online/keyframe_store.h"
 #include "relocalizer/online/learner.h"
 #include "relocalizer/online/setting_name.h"

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "relocalizer/core/expected.h"
-#include "relocalizer/online/key_frame_rule.h"
+#include "relocalizer/core/key_frame_rule.h"
 #include "relocalizer/online/keyframe_store.h"
 #include "relocalizer/online/submap_rule.h"
 
