@@ -34,11 +34,6 @@ SubmapLearner::~SubmapLearner() {
   retirer_.reset();
 }
 
-bool SubmapLearner::pending(int index) const {
-  return std::any_of(pending_.begin(), pending_.end(),
-                     [&](const Pending& p) { return p.index == index; });
-}
-
 Status SubmapLearner::freeze(const Pending& p) {
   std::shared_ptr<const Relocalizer> model = p.model;
   Status retrained = okStatus();

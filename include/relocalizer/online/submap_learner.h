@@ -21,6 +21,7 @@
 // thread outside the lock that models() takes. Bounding the resident frozen
 // models follows (docs/proposals/issue-26-submaps.md).
 
+#include <algorithm>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -195,7 +196,10 @@ class SubmapLearner : public Learner {
   // any) under files_mutex_, then the result under mutex_. Takes neither lock
   // on entry. A failed retrain leaves the submap the model it had.
   Status freeze(const Pending& pending);
-  bool pending(int index) const;  // under mutex_
+  bool pending(int index) const {  // under mutex_
+    return std::any_of(pending_.begin(), pending_.end(),
+                       [&](const Pending& p) { return p.index == index; });
+  }
   // resume() of one model file (a place learned before submaps), under mutex_.
   Expected<std::vector<std::string>> resumeModelFile(const std::string& path);
   // The manifest of the frozen submaps written into the working folder
