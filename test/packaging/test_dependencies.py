@@ -116,9 +116,10 @@ def find_package_names():
     return names
 
 
-def owning_packages(path_fragment):
-    """(path, Debian package) for every installed file whose path contains the fragment."""
-    result = subprocess.run(["dpkg-query", "-S", path_fragment], capture_output=True, text=True)
+def owning_packages(*path_fragments):
+    """(path, Debian package) for every installed file whose path contains one of the
+    fragments. One dpkg-query for all of them: each call reads every package's file list."""
+    result = subprocess.run(["dpkg-query", "-S", *path_fragments], capture_output=True, text=True)
     pairs = []
     for line in result.stdout.splitlines():
         packages, _, path = line.partition(": ")
@@ -127,19 +128,35 @@ def owning_packages(path_fragment):
     return pairs
 
 
+_PACKAGE_DEPENDENCIES = {}
+
+
+def package_dependencies():
+    """Every package dpkg knows, by name, with its Depends and Pre-Depends, read once: a
+    dpkg-query a package made this test take minutes on a loaded machine."""
+    if not _PACKAGE_DEPENDENCIES:
+        listed = subprocess.run(["dpkg-query", "-W", "-f=${Package}\t${Depends},${Pre-Depends}\n"],
+                                capture_output=True, text=True, check=True)
+        for line in listed.stdout.splitlines():
+            name, _, dependencies = line.partition("\t")
+            # A package installed for two architectures is listed twice.
+            _PACKAGE_DEPENDENCIES[name] = ",".join(
+                filter(None, (_PACKAGE_DEPENDENCIES.get(name, ""), dependencies)))
+    return _PACKAGE_DEPENDENCIES
+
+
 def installed_with(packages):
     """The packages and every installed package they depend on, transitively: what
     installing them installs. Debian's default-version packages such as
     libboost-program-options-dev own no files; their versioned dependencies do."""
+    depends = package_dependencies()
     seen, pending = set(), list(packages)
     while pending:
         package = pending.pop()
         if package in seen:
             continue
         seen.add(package)
-        result = subprocess.run(["dpkg-query", "-W", "-f=${Depends},${Pre-Depends}", package],
-                                capture_output=True, text=True)
-        for alternatives in result.stdout.split(","):
+        for alternatives in depends.get(package, "").split(","):
             for alternative in alternatives.split("|"):
                 name = alternative.split("(")[0].strip().split(":")[0]
                 if name:
@@ -197,9 +214,9 @@ class DependencyTableTest(unittest.TestCase):
                 continue
             candidates = {f"{row.cmake}Config.cmake", f"{row.cmake}-config.cmake",
                           f"{row.cmake.lower()}Config.cmake", f"{row.cmake.lower()}-config.cmake"}
-            owners = {package for candidate in candidates
-                      for path, package in owning_packages("*/" + candidate)
-                      if os.path.basename(path) == candidate}
+            owners = {package for path, package in owning_packages(
+                *("*/" + candidate for candidate in sorted(candidates)))
+                      if os.path.basename(path) in candidates}
             if not owners:
                 if cmake_module_exists(row.cmake):
                     continue  # found by CMake's own Find module, e.g. ZLIB
