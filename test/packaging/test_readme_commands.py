@@ -52,6 +52,7 @@ import json
 import math
 import os
 import pathlib
+import random
 import re
 import signal
 import socket
@@ -127,10 +128,22 @@ def shell_blocks(path):
     return blocks
 
 
+# Below Linux's ephemeral range (32768-60999): a port the kernel hands out (bind to 0, an
+# outgoing connection) can be taken by another process between this choice and the master's
+# bind, which happened in CI with three new roots sharing one network ("port ... already in use").
+PRIVATE_PORTS = range(20000, 32768)
+
+
 def free_port():
-    with socket.socket() as s:
-        s.bind(("localhost", 0))
-        return s.getsockname()[1]
+    """A port no one listens on now, drawn at random outside the ephemeral range."""
+    for port in random.sample(PRIVATE_PORTS, 50):
+        with socket.socket() as s:
+            try:
+                s.bind(("", port))
+            except OSError:
+                continue
+            return port
+    raise AssertionError(f"no free port among 50 drawn from {PRIVATE_PORTS}")
 
 
 def ground_truth_poses():
