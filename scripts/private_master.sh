@@ -6,6 +6,10 @@
 #       waits until it answers
 #   own_process PID  stops PID at exit; the last owned stops first (the node before the
 #       master), gently: SIGINT, then SIGKILL after 5 s
+#   private_port  prints a port no one listens on, drawn at random below the kernel's
+#       ephemeral range (32768-60999): a port the kernel hands out (bind to 0, an outgoing
+#       connection) can be taken by another process before roscore binds it, as happened
+#       in CI with three new roots sharing one network
 owned_pids=()
 own_process() { owned_pids=("$1" "${owned_pids[@]}"); }
 stop_owned_processes() {
@@ -16,13 +20,27 @@ stop_owned_processes() {
     kill -KILL "$pid" 2>/dev/null || true
   done
 }
+private_port() {
+  /usr/bin/python3 -c '
+import random, socket
+for port in random.sample(range(20000, 32768), 50):
+    with socket.socket() as s:
+        try:
+            s.bind(("", port))
+        except OSError:
+            continue
+        print(port)
+        break
+else:
+    raise SystemExit("private_port: no free port among 50 drawn from 20000-32767")'
+}
 start_private_master() {
   local devel=$1 log_dir=$2 port
   set +u
   # shellcheck disable=SC1091
   source "$devel/setup.bash"
   set -u
-  port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
+  port=$(private_port)
   export ROS_MASTER_URI=http://localhost:$port
   export ROS_LOG_DIR=$log_dir/ros_log
   trap stop_owned_processes EXIT

@@ -52,10 +52,8 @@ import json
 import math
 import os
 import pathlib
-import random
 import re
 import signal
-import socket
 import subprocess
 import tempfile
 import time
@@ -128,22 +126,13 @@ def shell_blocks(path):
     return blocks
 
 
-# Below Linux's ephemeral range (32768-60999): a port the kernel hands out (bind to 0, an
-# outgoing connection) can be taken by another process between this choice and the master's
-# bind, which happened in CI with three new roots sharing one network ("port ... already in use").
-PRIVATE_PORTS = range(20000, 32768)
-
-
 def free_port():
-    """A port no one listens on now, drawn at random outside the ephemeral range."""
-    for port in random.sample(PRIVATE_PORTS, 50):
-        with socket.socket() as s:
-            try:
-                s.bind(("", port))
-            except OSError:
-                continue
-            return port
-    raise AssertionError(f"no free port among 50 drawn from {PRIVATE_PORTS}")
+    """A port for the private master, chosen as every private master of the package's
+    scripts chooses it (private_port in scripts/private_master.sh: outside the kernel's
+    ephemeral range, where another process can take it before roscore binds it)."""
+    chosen = subprocess.run(["bash", "-c", f'source "{SOURCE}/scripts/private_master.sh" '
+                             "&& private_port"], capture_output=True, text=True, check=True)
+    return int(chosen.stdout)
 
 
 def ground_truth_poses():
