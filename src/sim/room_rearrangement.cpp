@@ -49,8 +49,7 @@ float drawFrom(const std::vector<Interval>& intervals, Rng& rng) {
   return intervals.back().hi;
 }
 
-// rearrange's steps and its one motion: boxes [begin, end) from s = from_s on
-// wall `from` to s = to_s on wall `to`, raised by dz.
+// rearrange (room_rearrangement.h), step by step, over one builder's room and generator.
 class Rearrangement {
  public:
   explicit Rearrangement(RoomBuilder& builder)
@@ -72,6 +71,8 @@ class Rearrangement {
                                         const std::vector<float>& depths);
   void rearrangeDecorations(const FurnishingRecord& record,
                             std::array<std::vector<Rect>, 4>& blocked);
+  // The one motion: boxes [begin, end) from s = from_s on wall `from` to
+  // s = to_s on wall `to`, raised by dz.
   void moveBoxes(int begin, int end, int from, float from_s, int to, float to_s, float dz);
   // How far a piece reaches out from its wall, where it stands now.
   float reach(const FurnishingRecord::Piece& piece) const;
