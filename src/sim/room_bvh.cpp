@@ -6,11 +6,10 @@
 #include <numeric>
 #include <vector>
 
-#include "synthetic_internal.h"
+#include "room_bvh.h"
 
 namespace relocalizer {
-
-using namespace synthetic;
+namespace synthetic {
 
 namespace {
 
@@ -190,17 +189,19 @@ struct Collapse {
 
 }  // namespace
 
-void SyntheticRoom::Impl::buildBvh() {
+std::vector<WideNode> buildBvh(std::vector<Box>& boxes) {
   const int n = static_cast<int>(boxes.size());
   std::vector<int> order;
   const std::vector<BvhNode> binary = buildBinaryBvh(boxes, order);
   std::vector<Box> sorted(n);
   for (int i = 0; i < n; ++i) sorted[i] = boxes[order[i]];
   boxes = std::move(sorted);
-  nodes.clear();
-  if (n == 0) return;
+  std::vector<WideNode> nodes;
+  if (n == 0) return nodes;
   Collapse collapse{binary, nodes, &area};
   collapse(0);
+  return nodes;
 }
 
+}  // namespace synthetic
 }  // namespace relocalizer

@@ -3,44 +3,45 @@
 
 #include <cmath>
 
-#include "synthetic_internal.h"
+#include "room_effects.h"
 
 namespace relocalizer {
+namespace synthetic {
 
-using namespace synthetic;
-
-SyntheticRoom::Impl::FrameState SyntheticRoom::Impl::frameState(
-    int frame_index, const RenderEffects& effects) const {
-  FrameState s;
-  s.ambient = ambient;
-  s.light_colour = {lights[0].colour, lights[1].colour};
+SyntheticRoom::Impl::FrameState frameState(const SyntheticRoom::Impl& room, int frame_index,
+                                           const RenderEffects& effects) {
+  SyntheticRoom::Impl::FrameState s;
+  s.ambient = room.ambient;
+  s.light_colour = {room.lights[0].colour, room.lights[1].colour};
   s.gain = Vec3f::Ones();
   const double t = frame_index;
   if (effects.illumination_change) {
     // Slow, incommensurate periods so no two frames light the room alike.
-    const float gain = static_cast<float>(1.0 + 0.25 * std::sin(kTwoPi * t / 157.0 + phases[0]));
-    s.gain =
-        gain * Vec3f(static_cast<float>(1.0 + 0.07 * std::sin(kTwoPi * t / 211.0 + phases[1])),
-                     static_cast<float>(1.0 + 0.07 * std::sin(kTwoPi * t / 193.0 + phases[2])),
-                     static_cast<float>(1.0 + 0.07 * std::sin(kTwoPi * t / 229.0 + phases[3])));
+    const float gain =
+        static_cast<float>(1.0 + 0.25 * std::sin(kTwoPi * t / 157.0 + room.phases[0]));
+    s.gain = gain *
+             Vec3f(static_cast<float>(1.0 + 0.07 * std::sin(kTwoPi * t / 211.0 + room.phases[1])),
+                   static_cast<float>(1.0 + 0.07 * std::sin(kTwoPi * t / 193.0 + room.phases[2])),
+                   static_cast<float>(1.0 + 0.07 * std::sin(kTwoPi * t / 229.0 + room.phases[3])));
     for (int i = 0; i < 2; ++i)
-      s.light_colour[i] *=
-          static_cast<float>(1.0 + 0.6 * std::sin(kTwoPi * t / (97.0 + 40 * i) + phases[4 + i]));
-    s.ambient *= static_cast<float>(1.0 + 0.2 * std::sin(kTwoPi * t / 131.0 + phases[6]));
+      s.light_colour[i] *= static_cast<float>(
+          1.0 + 0.6 * std::sin(kTwoPi * t / (97.0 + 40 * i) + room.phases[4 + i]));
+    s.ambient *= static_cast<float>(1.0 + 0.2 * std::sin(kTwoPi * t / 131.0 + room.phases[6]));
   }
   if (effects.moving_objects) {
     // A person and a crate going round the free floor between the camera
     // paths (1.6 m or more from the walls) and the furniture (up to 0.65 m
     // deep, chairs a little further), in opposite directions so they cross
     // the camera's view now and then.
-    const Vec3f centre = (lo + hi) * 0.5f;
-    const float rx = (hi.x() - lo.x()) / 2 - 0.85f, ry = (hi.y() - lo.y()) / 2 - 0.85f;
+    const Vec3f centre = (room.lo + room.hi) * 0.5f;
+    const float rx = (room.hi.x() - room.lo.x()) / 2 - 0.85f,
+                ry = (room.hi.y() - room.lo.y()) / 2 - 0.85f;
     const struct {
       double phase, speed;
       Vec3f half;
       int material;
-    } movers[2] = {{phases[7], -0.011, {0.2f, 0.12f, 0.85f}, person_material},
-                   {phases[7] + M_PI, 0.007, {0.25f, 0.18f, 0.35f}, cart_material}};
+    } movers[2] = {{room.phases[7], -0.011, {0.2f, 0.12f, 0.85f}, room.person_material},
+                   {room.phases[7] + M_PI, 0.007, {0.25f, 0.18f, 0.35f}, room.cart_material}};
     for (int i = 0; i < 2; ++i) {
       const double a = movers[i].phase + movers[i].speed * t;
       Box& box = s.movers[i];
@@ -59,4 +60,5 @@ SyntheticRoom::Impl::FrameState SyntheticRoom::Impl::frameState(
   return s;
 }
 
+}  // namespace synthetic
 }  // namespace relocalizer

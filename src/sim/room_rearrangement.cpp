@@ -5,7 +5,7 @@
 #include <numeric>
 #include <tuple>
 
-#include "room_builder.h"
+#include "room_rearrangement.h"
 
 namespace relocalizer {
 namespace synthetic {
@@ -49,18 +49,55 @@ float drawFrom(const std::vector<Interval>& intervals, Rng& rng) {
   return intervals.back().hi;
 }
 
+// rearrange (room_rearrangement.h), step by step, over one builder's room and generator.
+class Rearrangement {
+ public:
+  explicit Rearrangement(RoomBuilder& builder)
+      : b_(builder), rng_(builder.rng()), room_(builder.room()) {}
+
+  void rearrange(const FurnishingRecord& record);
+
+ private:
+  using Wall = RoomBuilder::Wall;
+  void rearrangeFurniture(const FurnishingRecord& record,
+                          std::array<std::vector<Rect>, 4>& blocked);
+  // Where each piece of furniture may go, drawn afresh; wall -1 for a piece
+  // that found no room. `depths`: how far each piece reaches into the room.
+  struct Spot {
+    int wall;
+    float s;
+  };
+  std::vector<Spot> tryPlacingFurniture(const FurnishingRecord& record,
+                                        const std::vector<float>& depths);
+  void rearrangeDecorations(const FurnishingRecord& record,
+                            std::array<std::vector<Rect>, 4>& blocked);
+  // The one motion: boxes [begin, end) from s = from_s on wall `from` to
+  // s = to_s on wall `to`, raised by dz.
+  void moveBoxes(int begin, int end, int from, float from_s, int to, float to_s, float dz);
+  // How far a piece reaches out from its wall, where it stands now.
+  float reach(const FurnishingRecord::Piece& piece) const;
+
+  RoomBuilder& b_;
+  Rng& rng_;
+  SyntheticRoom::Impl& room_;
+};
+
 }  // namespace
 
-void RoomBuilder::rearrange(const FurnishingRecord& record) {
+void rearrange(RoomBuilder& builder, const FurnishingRecord& record) {
+  Rearrangement(builder).rearrange(record);
+}
+
+void Rearrangement::rearrange(const FurnishingRecord& record) {
   std::array<std::vector<Rect>, 4> blocked;
   rearrangeFurniture(record, blocked);
   rearrangeDecorations(record, blocked);
   // Paths of their own too, so the look-alike is not filmed from the other room's poses.
-  drawPathPhases();
+  drawPathPhases(room_, rng_);
 }
 
-void RoomBuilder::rearrangeFurniture(const FurnishingRecord& record,
-                                     std::array<std::vector<Rect>, 4>& blocked) {
+void Rearrangement::rearrangeFurniture(const FurnishingRecord& record,
+                                       std::array<std::vector<Rect>, 4>& blocked) {
   std::vector<float> depths;
   for (const FurnishingRecord::Piece& piece : record.furniture) depths.push_back(reach(piece));
   // The walls held every piece once, so a few tries find them all room again.
@@ -86,8 +123,8 @@ void RoomBuilder::rearrangeFurniture(const FurnishingRecord& record,
   }
 }
 
-std::vector<RoomBuilder::Spot> RoomBuilder::tryPlacingFurniture(const FurnishingRecord& record,
-                                                                const std::vector<float>& depths) {
+std::vector<Rearrangement::Spot> Rearrangement::tryPlacingFurniture(
+    const FurnishingRecord& record, const std::vector<float>& depths) {
   struct Placed {
     float s0, s1, depth;
   };
@@ -136,8 +173,8 @@ std::vector<RoomBuilder::Spot> RoomBuilder::tryPlacingFurniture(const Furnishing
   return spots;
 }
 
-float RoomBuilder::reach(const FurnishingRecord::Piece& piece) const {
-  const Wall w = wall(piece.wall);
+float Rearrangement::reach(const FurnishingRecord::Piece& piece) const {
+  const Wall w = b_.wall(piece.wall);
   float depth = 0;
   for (int b = piece.box_begin; b < piece.box_end; ++b) {
     Vec3f lo, hi;
@@ -149,8 +186,8 @@ float RoomBuilder::reach(const FurnishingRecord::Piece& piece) const {
   return depth;
 }
 
-void RoomBuilder::rearrangeDecorations(const FurnishingRecord& record,
-                                       std::array<std::vector<Rect>, 4>& blocked) {
+void Rearrangement::rearrangeDecorations(const FurnishingRecord& record,
+                                         std::array<std::vector<Rect>, 4>& blocked) {
   std::vector<int> order(record.decorations.size());
   std::iota(order.begin(), order.end(), 0);
   for (int i = static_cast<int>(order.size()) - 1; i > 0; --i)
@@ -161,7 +198,8 @@ void RoomBuilder::rearrangeDecorations(const FurnishingRecord& record,
     const float from_z = (piece.z0 + piece.z1) / 2;
     const auto fits = [&](int k, float sc, float zc) {
       const FurnishingRecord::Wall& wall_record = record.walls[k];
-      return decorationFits(sc, zc, w, h, wall_record.start, wall_record.end, blocked[k]);
+      return decorationFits(room_.hi.z(), sc, zc, w, h, wall_record.start, wall_record.end,
+                            blocked[k]);
     };
     // A random spot, or else the first free one in a sweep over every wall, or
     // else (walls full) where it was.
@@ -169,7 +207,7 @@ void RoomBuilder::rearrangeDecorations(const FurnishingRecord& record,
     float to_sc = 0, to_z = 0;
     for (int attempt = 0; attempt < kDecorationAttempts && to_wall < 0; ++attempt) {
       const int k = rng_.integer(0, 3);
-      const auto [sc, zc] = drawDecorationSpot(w, h, record.walls[k].length);
+      const auto [sc, zc] = drawDecorationSpot(rng_, room_.hi.z(), w, h, record.walls[k].length);
       if (fits(k, sc, zc)) std::tie(to_wall, to_sc, to_z) = std::tuple(k, sc, zc);
     }
     for (int k = 0; k < 4 && to_wall < 0; ++k)
@@ -184,9 +222,9 @@ void RoomBuilder::rearrangeDecorations(const FurnishingRecord& record,
   }
 }
 
-void RoomBuilder::moveBoxes(int begin, int end, int from, float from_s, int to, float to_s,
-                            float dz) {
-  const Wall a = wall(from), b = wall(to);
+void Rearrangement::moveBoxes(int begin, int end, int from, float from_s, int to, float to_s,
+                              float dz) {
+  const Wall a = b_.wall(from), b = b_.wall(to);
   // The turn from wall a's (tangent, normal) to wall b's is a multiple of 90
   // degrees: its cosine and sine are exactly 0 or +-1, so a box turned with it
   // keeps its size, faces and texture coordinates to the bit.

@@ -1,7 +1,7 @@
 // The synthetic room's camera paths: training and test loops around the room
 // centre, and the poses a motion-blurred frame averages over.
 
-#include "synthetic_internal.h"
+#include "room_trajectories.h"
 
 namespace relocalizer {
 
@@ -46,8 +46,8 @@ Pose loopPose(const LoopShape& s, const Eigen::Vector2d& centre, double theta) {
 
 }  // namespace
 
-SyntheticTrajectories SyntheticRoom::trajectories(int train_frames, int test_frames) const {
-  const Impl& room = *impl_;
+SyntheticTrajectories synthetic::roomTrajectories(const SyntheticRoom::Impl& room, int train_frames,
+                                                  int test_frames) {
   const Eigen::Vector2d centre((room.lo.x() + room.hi.x()) / 2, (room.lo.y() + room.hi.y()) / 2);
   const double half_w = (room.hi.x() - room.lo.x()) / 2, half_d = (room.hi.y() - room.lo.y()) / 2;
   // Radii keep the camera ~1.6-1.9 m from the walls, so furniture (up to

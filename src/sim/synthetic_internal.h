@@ -2,11 +2,13 @@
 // Internals of the synthetic room shared by its source files: deterministic
 // randomness, materials, boxes and the room data. Not installed, not API.
 //
-// room_layout.cpp builds a room from its seed (with room_builder.h: materials
-// and boxes, furniture, wall features, room_rearrangement.cpp a look-alike's
-// layout; room_bvh.cpp the BVH),
-// synthetic_textures.cpp colours its surfaces, synthetic_room.cpp ray casts,
-// renders and plans camera paths, synthetic_scene.cpp writes datasets.
+// room_layout.cpp builds a room from its seed (room_builder.h: materials and
+// boxes; room_furniture.h, room_wall_features.h: the pieces made of them;
+// room_layout.h, room_rearrangement.h: where they go, and a look-alike's
+// layout; room_bvh.h: the BVH), synthetic_textures.h colours its surfaces,
+// room_effects.h varies its lighting and moving objects frame by frame,
+// room_trajectories.h plans camera paths, synthetic_room.cpp ray casts and
+// renders, synthetic_scene.cpp writes datasets.
 
 #include <algorithm>
 #include <array>
@@ -281,7 +283,7 @@ struct SyntheticRoom::Impl {
   std::array<Light, 2> lights{};
   Vec3f ambient{0.4f, 0.4f, 0.4f};
   float light_falloff = 0.1f;  // 1 / (1 + falloff * d^2)
-  RoomDoor door;               // recorded by RoomBuilder::placeDoor; draws nothing
+  RoomDoor door;               // recorded by the layout's placeDoor; draws nothing
   double path_phase = 0.0;
   std::array<double, 8> phases{};  // of path wobbles and time-varying effects
   int person_material = 0, cart_material = 0;
@@ -295,15 +297,12 @@ struct SyntheticRoom::Impl {
     int mover_count = 0;
   };
 
-  FrameState frameState(int frame_index, const RenderEffects& effects) const;
   Hit trace(const Ray& ray, const FrameState* frame) const;
   const Box& hitBox(const Hit& hit, const FrameState* frame) const {
     return hit.box >= 0 ? boxes[hit.box] : frame->movers[-2 - hit.box];
   }
   // Colour (linear, unclamped) of what a ray hits, given the hit.
   Vec3f shade(const Ray& ray, const Hit& hit, const FrameState& frame, bool& gives_depth) const;
-  Vec3f albedo(const Material& m, float u, float v, float width, float height) const;
-  void buildBvh();
 };
 
 namespace synthetic {

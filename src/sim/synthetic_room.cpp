@@ -10,7 +10,9 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
-#include "synthetic_internal.h"
+#include "room_effects.h"
+#include "room_trajectories.h"
+#include "synthetic_textures.h"
 
 namespace relocalizer {
 
@@ -132,7 +134,7 @@ Vec3f SyntheticRoom::Impl::shade(const Ray& r, const Hit& hit, const FrameState&
     height = 2 * box.half[va];
   }
   const Material& material = materials[m];
-  const Vec3f albedo_rgb = albedo(material, u, v, width, height);
+  const Vec3f albedo_rgb = albedo(material, shapes, u, v, width, height);
   gives_depth = material.gives_depth &&
                 (0.3f * albedo_rgb.x() + 0.59f * albedo_rgb.y() + 0.11f * albedo_rgb.z()) > 0.05f;
   if (material.pattern == Pattern::kSky) return albedo_rgb.cwiseProduct(frame.gain);  // outdoors
@@ -174,6 +176,10 @@ Eigen::AlignedBox3d SyntheticRoom::bounds() const {
 }
 
 RoomDoor SyntheticRoom::door() const { return impl_->door; }
+
+SyntheticTrajectories SyntheticRoom::trajectories(int train_frames, int test_frames) const {
+  return roomTrajectories(*impl_, train_frames, test_frames);
+}
 
 int SyntheticRoom::boxCount() const { return static_cast<int>(impl_->boxes.size()); }
 
@@ -260,7 +266,7 @@ RgbdFrame SyntheticRoom::render(const Pose& camera_to_world, const CameraIntrins
                                 int frame_index, const RenderEffects& effects) const {
   checkCamera(camera);
   const Impl& room = *impl_;
-  const Impl::FrameState state = room.frameState(frame_index, effects);
+  const Impl::FrameState state = frameState(room, frame_index, effects);
   const int width = camera.width, height = camera.height;
   cv::Mat colour(height, width, CV_8UC3);
   cv::Mat exact(height, width, CV_32FC1);

@@ -1,14 +1,13 @@
 // Surface colours: procedural textures defined in each face's own metric
 // (u, v) coordinates, so a surface looks the same from every viewpoint.
 
-#include "synthetic_internal.h"
+#include "synthetic_textures.h"
 
 namespace relocalizer {
+namespace synthetic {
 
-using namespace synthetic;
-
-Vec3f SyntheticRoom::Impl::albedo(const Material& m, float u, float v, float width,
-                                  float height) const {
+Vec3f albedo(const Material& m, const std::vector<Shape>& shapes, float u, float v, float width,
+             float height) {
   switch (m.pattern) {
     case Pattern::kPlain:
       // Faint large blotches, like real paint under real light: too weak for
@@ -245,4 +244,5 @@ Vec3f SyntheticRoom::Impl::albedo(const Material& m, float u, float v, float wid
   return m.a;
 }
 
+}  // namespace synthetic
 }  // namespace relocalizer

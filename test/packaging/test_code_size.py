@@ -1,4 +1,5 @@
-"""No .cpp under src/ over 450 lines, no function over 100 lines outside src/sim/.
+"""No .cpp under src/ over 450 lines, no function over 100 lines outside src/sim/, no
+class whose member functions are defined in more than one .cpp.
 
 Functions are scanned in src/ and in the public headers under include/.
 
@@ -12,6 +13,12 @@ a function body when the text since the previous declaration has a parameter
 list before any `=` (so `const T kTable[] = {...}` is no function), and a
 namespace, class, struct, union or enum body is walked into. The .clang-format
 style keeps those headers regular enough for this.
+
+A class whose members are defined in several .cpp files was cut by size rather
+than by concept (issue 41): each concept then hides behind the one class's
+private state. A member is a function whose qualified name's qualifier (`A::B`
+for `A::B::f`) names a class or struct defined under include/ or src/, so a
+namespace-qualified free function (`cli::f`) does not count.
 """
 import pathlib
 import re
@@ -151,6 +158,30 @@ def functions(text):
     return found
 
 
+CLASS_DEFINITION = re.compile(r"(?<!enum )\b(?:class|struct)\s+(?:[A-Za-z_]\w*\s*::\s*)*([A-Za-z_]\w*)"
+                              r"\s*(?:final\s*)?[:{]")
+NAMESPACE_DEFINITION = re.compile(r"\bnamespace\s+([A-Za-z_]\w*)")
+
+
+def class_names(texts):
+    """Names of the classes and structs defined (not just declared) in the texts, and of the
+    namespaces they open."""
+    classes, namespaces = set(), set()
+    for text in texts:
+        code = blank_preprocessor(blank_comments_and_literals(text))
+        classes.update(CLASS_DEFINITION.findall(code))
+        namespaces.update(NAMESPACE_DEFINITION.findall(code))
+    return classes, namespaces
+
+
+def member_class(function, classes, namespaces):
+    """The class `function` is a member of (`A::B` for `A::B::f`), or None for a free function."""
+    parts = re.sub(r"<[^<>]*>", "", function).split("::")
+    if len(parts) < 2 or parts[-2] not in classes or parts[0] in namespaces - classes:
+        return None
+    return "::".join(parts[:-1])
+
+
 def matching_brace(code, open_index):
     depth = 0
     for index in range(open_index, len(code)):
@@ -206,6 +237,13 @@ class ScannerTest(unittest.TestCase):
             "bool operator==(const A& a, const A& b) { return a.x == b.x; }",
             "}  // namespace a",
         ])
+        self.assertEqual(class_names([text]), ({"Holder"}, {"a"}))
+        classes, namespaces = {"Holder", "Impl"}, {"a", "cli"}
+        self.assertEqual(member_class("Holder::Many<T>::make", {"Many"} | classes, namespaces),
+                         "Holder::Many")
+        self.assertEqual(member_class("Holder::Impl::scan", classes, namespaces), "Holder::Impl")
+        self.assertIsNone(member_class("cli::putLearned", classes, namespaces))
+        self.assertIsNone(member_class("helper", classes, namespaces))
         self.assertEqual(functions(text), [("helper", 6, 9), ("get", 13, 13), ("Holder", 14, 14),
                                            ("Holder::Many<T>::make", 18, 24),
                                            ("operator==", 25, 25)])
@@ -248,6 +286,21 @@ class CodeSizeTest(unittest.TestCase):
         stale = sorted(KNOWN_LONG_FUNCTIONS - known_seen)
         self.assertEqual(stale, [], "these known exceptions are no longer over the limit (or gone); "
                          "remove them from KNOWN_LONG_FUNCTIONS")
+
+    def test_no_class_spread_over_two_cpp_files(self):
+        classes, namespaces = class_names(
+            path.read_text() for path in source_files(CPP_SUFFIXES, ("src", "include")))
+        files_of = {}
+        for path in source_files((".cpp",)):
+            for function, _, _ in functions(path.read_text()):
+                owner = member_class(function, classes, namespaces)
+                if owner is not None:
+                    files_of.setdefault(owner, set()).add(relative(path))
+        self.assertIn("SyntheticRoom", files_of, "the scan found no member of SyntheticRoom")
+        spread = [f"{owner}: {', '.join(sorted(files))}" for owner, files in sorted(files_of.items())
+                  if len(files) > 1]
+        self.assertEqual(spread, [], "these classes have member functions in more than one .cpp; "
+                         "split them by concept into classes or free functions of their own")
 
 
 if __name__ == "__main__":

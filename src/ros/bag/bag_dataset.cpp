@@ -53,8 +53,11 @@ relocalizer::Status BagDataset::Impl::scan() {
   counts.depth_images = static_cast<int>(depth.size());
   counts.camera_infos = static_cast<int>(infos.size());
 
-  if (auto synced_ok = synchronize(); !synced_ok) return synced_ok;
-  std::vector<PoseQuery> queries = poseQueries();
+  if (auto synced_ok =
+          bag_internal::synchronizeFrames(colour, depth, infos, options, where(), counts, synced);
+      !synced_ok)
+    return synced_ok;
+  std::vector<PoseQuery> queries = bag_internal::poseQueries(synced, colour, options);
   const relocalizer::Status posed =
       options.pose_topic.empty()
           ? posesFromTf(inputs.transforms, inputs.is_static, options, where(), queries, poses,
@@ -62,8 +65,15 @@ relocalizer::Status BagDataset::Impl::scan() {
           : posesFromTopic(std::move(inputs.samples), inputs.pose_type, pose_child, options,
                            where(), queries, poses, counts);
   if (!posed) return posed;
-  takePoses(queries);
-  return select();
+  for (size_t i = 0; i < synced.size(); ++i) synced[i].pose = queries[i].pose;
+  if (auto selected =
+          bag_internal::selectFrames(synced, colour, options, poses, where(), counts, kept);
+      !selected)
+    return selected;
+  for (size_t k : kept)
+    for (double coefficient : infos[synced[k].info].D) distorted = distorted || coefficient != 0.0;
+  camera = cameraFromInfo(infos[synced[kept.front()].info]);
+  return relocalizer::okStatus();
 }
 
 relocalizer::Status BagDataset::Impl::checkTopics(std::string& pose_type) {

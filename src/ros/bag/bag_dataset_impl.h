@@ -1,7 +1,7 @@
 #pragma once
-// What a BagDataset holds once scanned: private to bag_dataset.cpp (reading
-// the bag: topics, messages, poses) and bag_frames.cpp (pairing colour, depth
-// and camera_info, and selecting the frames).
+// What a BagDataset holds once scanned: private to bag_dataset.cpp, which reads
+// the bag (topics, messages, poses) and hands its frames to bag_frames.h
+// (pairing colour, depth and camera_info, and selecting the frames).
 
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -13,24 +13,14 @@
 
 #include "../conversion/message_conversion.h"
 #include "bag_dataset.h"
+#include "bag_frames.h"
 #include "bag_poses.h"
 
 namespace relocalizer_ros {
 
-namespace bag_internal {
-
-// One image message as the scan saw it; pixels stay in the bag.
-struct ImageEntry {
-  ros::Time stamp;
-  std::string frame_id;
-  uint32_t width = 0, height = 0;
-  size_t message = 0;  // index into Impl::messages
-};
-
-}  // namespace bag_internal
-
 struct BagDataset::Impl {
   using ImageEntry = bag_internal::ImageEntry;
+  using Frame = bag_internal::SyncedFrame;
 
   std::string path;
   BagOptions options;
@@ -43,11 +33,6 @@ struct BagDataset::Impl {
   std::map<std::string, std::pair<std::string, int>> topics;  // topic -> (type, messages)
   std::set<std::string> colour_encodings, depth_encodings;
 
-  struct Frame {
-    int id = -1;
-    size_t colour = 0, depth = 0, info = 0;  // into colour, depth, infos
-    std::optional<Pose> pose;
-  };
   std::vector<Frame> synced;  // all synchronized frames, by colour stamp; id = index
   std::vector<size_t> kept;   // into synced
   PoseReport poses;
@@ -73,7 +58,8 @@ struct BagDataset::Impl {
     std::string pose_type;                                    // the pose topic's message type
   };
 
-  // Reads the bag: checkTopics, readMessages, synchronize, poses, select.
+  // Reads the bag: checkTopics, readMessages, then the frames (bag_frames.h),
+  // their poses and the selection.
   relocalizer::Status scan();
   // The topics exist with the right types (from the index, no message read).
   relocalizer::Status checkTopics(std::string& pose_type);
@@ -82,17 +68,6 @@ struct BagDataset::Impl {
   relocalizer::Status readPoseMessage(const rosbag::MessageInstance& m, const std::string& topic,
                                       std::vector<PoseSample>& samples,
                                       std::string& pose_frame_error);
-  // Colour, depth and camera_info paired by nearest stamps.
-  relocalizer::Status synchronize();
-  // The synchronized frames as pose queries, and their answers back.
-  std::vector<PoseQuery> poseQueries() const;
-  void takePoses(const std::vector<PoseQuery>& queries);
-  // The frame selection, frames with a pose, key frames.
-  relocalizer::Status select();
-  std::string cameraFrameOf(const Frame& f) const {
-    return options.camera_frame.empty() ? stripLeadingSlashes(colour[f.colour].frame_id)
-                                        : stripLeadingSlashes(options.camera_frame);
-  }
 };
 
 }  // namespace relocalizer_ros

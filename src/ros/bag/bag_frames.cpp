@@ -1,11 +1,13 @@
 // Pairing a scanned bag's colour, depth and camera_info by nearest stamps, the
-// pose queries of the pairs, and the frame selection (BagDataset::Impl).
+// pose queries of the pairs, and the frame selection.
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-#include "bag_dataset_impl.h"
+#include "bag_frames.h"
+
+#include "../conversion/message_conversion.h"
 #include "bag_text.h"
 #include "relocalizer/core/id_ranges.h"
 #include "relocalizer/core/key_frame_rule.h"
@@ -14,28 +16,32 @@
 #include "stamp_search.h"
 
 namespace relocalizer_ros {
+namespace bag_internal {
 
 using relocalizer::FrameSelection;
 using relocalizer::makeError;
 
-std::vector<PoseQuery> BagDataset::Impl::poseQueries() const {
+std::vector<PoseQuery> poseQueries(const std::vector<SyncedFrame>& synced,
+                                   const std::vector<ImageEntry>& colour,
+                                   const BagOptions& options) {
   std::vector<PoseQuery> queries;
   queries.reserve(synced.size());
-  for (const Frame& f : synced) {
+  for (const SyncedFrame& f : synced) {
     PoseQuery q;
     q.id = f.id;
-    q.camera_frame = cameraFrameOf(f);
+    q.camera_frame = options.camera_frame.empty() ? stripLeadingSlashes(colour[f.colour].frame_id)
+                                                  : stripLeadingSlashes(options.camera_frame);
     q.stamp = colour[f.colour].stamp;
     queries.push_back(std::move(q));
   }
   return queries;
 }
 
-void BagDataset::Impl::takePoses(const std::vector<PoseQuery>& queries) {
-  for (size_t i = 0; i < synced.size(); ++i) synced[i].pose = queries[i].pose;
-}
-
-relocalizer::Status BagDataset::Impl::synchronize() {
+relocalizer::Status synchronizeFrames(std::vector<ImageEntry>& colour,
+                                      std::vector<ImageEntry>& depth,
+                                      std::vector<sensor_msgs::CameraInfo>& infos,
+                                      const BagOptions& options, const std::string& where,
+                                      BagCounts& counts, std::vector<SyncedFrame>& synced) {
   const auto by_stamp = [](const ImageEntry& a, const ImageEntry& b) { return a.stamp < b.stamp; };
   std::stable_sort(colour.begin(), colour.end(), by_stamp);
   std::stable_sort(depth.begin(), depth.end(), by_stamp);
@@ -83,20 +89,20 @@ relocalizer::Status BagDataset::Impl::synchronize() {
       return std::to_string(w) + "x" + std::to_string(h);
     };
     if (stripLeadingSlashes(c_entry.frame_id) != stripLeadingSlashes(d_entry.frame_id))
-      return makeError(where() + "depth on '" + normalTopic(options.depth_topic) +
-                       "' is in frame '" + messageExcerpt(d_entry.frame_id) + "' but colour on '" +
+      return makeError(where + "depth on '" + normalTopic(options.depth_topic) + "' is in frame '" +
+                       messageExcerpt(d_entry.frame_id) + "' but colour on '" +
                        normalTopic(options.rgb_topic) + "' is in frame '" +
                        messageExcerpt(c_entry.frame_id) + "' (at " + seconds(c_entry.stamp) +
                        "): depth must be registered to colour (e.g. a depth_registered topic)");
     if (c_entry.width != d_entry.width || c_entry.height != d_entry.height ||
         info.width != c_entry.width || info.height != c_entry.height)
-      return makeError(where() + "sizes differ at " + seconds(c_entry.stamp) + ": colour on '" +
+      return makeError(where + "sizes differ at " + seconds(c_entry.stamp) + ": colour on '" +
                        normalTopic(options.rgb_topic) + "' " + size(c_entry.width, c_entry.height) +
                        ", depth on '" + normalTopic(options.depth_topic) + "' " +
                        size(d_entry.width, d_entry.height) + ", camera_info on '" +
                        normalTopic(options.camera_info_topic) + "' " +
                        size(info.width, info.height) + "; depth must be registered to colour");
-    Frame f;
+    SyncedFrame f;
     f.id = static_cast<int>(synced.size());
     f.colour = c;
     f.depth = static_cast<size_t>(depth_of[c]);
@@ -110,7 +116,7 @@ relocalizer::Status BagDataset::Impl::synchronize() {
                            : seconds(get(items.front())) + " - " + seconds(get(items.back()));
     };
     const auto image_stamp = [](const ImageEntry& e) { return e.stamp; };
-    return makeError(where() + "no colour image on '" + normalTopic(options.rgb_topic) +
+    return makeError(where + "no colour image on '" + normalTopic(options.rgb_topic) +
                      "' has a depth image on '" + normalTopic(options.depth_topic) +
                      "' and a camera_info on '" + normalTopic(options.camera_info_topic) +
                      "' within " + number(options.sync_tolerance) +
@@ -121,12 +127,15 @@ relocalizer::Status BagDataset::Impl::synchronize() {
   return relocalizer::okStatus();
 }
 
-relocalizer::Status BagDataset::Impl::select() {
+relocalizer::Status selectFrames(const std::vector<SyncedFrame>& synced,
+                                 const std::vector<ImageEntry>& colour, const BagOptions& options,
+                                 const PoseReport& poses, const std::string& where,
+                                 BagCounts& counts, std::vector<size_t>& kept) {
   auto selection = FrameSelection::parse(options.frames);
   if (!selection) return makeError(selection.error());
   relocalizer::KeyFrameSelector key_frames(options.min_translation, options.min_rotation_degrees);
   for (size_t i = 0; i < synced.size(); ++i) {
-    const Frame& f = synced[i];
+    const SyncedFrame& f = synced[i];
     if (!selection->contains(f.id)) continue;
     ++counts.selected;
     if (!f.pose) {
@@ -138,12 +147,12 @@ relocalizer::Status BagDataset::Impl::select() {
   }
   counts.key_frames = static_cast<int>(kept.size());
   if (counts.selected == 0)
-    return makeError(where() + "frame selection '" + options.frames + "' matches none of the " +
+    return makeError(where + "frame selection '" + options.frames + "' matches none of the " +
                      std::to_string(synced.size()) + " synchronized frames (ids 0-" +
                      std::to_string(synced.size() - 1) + ")");
   if (kept.empty())
     return makeError(
-        where() + "none of the " + std::to_string(counts.selected) +
+        where + "none of the " + std::to_string(counts.selected) +
         " selected frames (colour stamps " + seconds(colour[synced.front().colour].stamp) + " - " +
         seconds(colour[synced.back().colour].stamp) + ") has a pose from " + poses.source +
         " within " + number(options.pose_tolerance) + " s (--pose-tolerance); pose samples span " +
@@ -151,10 +160,8 @@ relocalizer::Status BagDataset::Impl::select() {
              ? std::string("nothing (static only)")
              : seconds(poses.begin) + " - " + seconds(poses.end)) +
         (poses.no_pose_hint.empty() ? std::string() : "; " + poses.no_pose_hint));
-  for (size_t k : kept)
-    for (double coefficient : infos[synced[k].info].D) distorted = distorted || coefficient != 0.0;
-  camera = cameraFromInfo(infos[synced[kept.front()].info]);
   return relocalizer::okStatus();
 }
 
+}  // namespace bag_internal
 }  // namespace relocalizer_ros
