@@ -72,8 +72,8 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   watched.no_place = [this] { return noPlaceReason(); };
   watched.counters = [this](ResultMsg& result) { fillCounters(result); };
   watched.inputs = [this] { return inputs_ ? inputs_->activity() : NodeInputs::Activity{}; };
-  diagnostics_ =
-      std::make_unique<NodeDiagnostics>(nh_, private_nh_, params_, std::move(watched), output_);
+  diagnostics_ = std::make_unique<NodeDiagnostics>(nh_, private_nh_, params_, params_,
+                                                   std::move(watched), output_);
 
   visuals_ = std::make_unique<NodeVisuals>(private_nh_, params_.map_frame,
                                            [this] { return places_->places(); });
