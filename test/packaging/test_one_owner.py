@@ -8,6 +8,9 @@
 - A model file is framed in one place (modelFileReplacement, model_io.cpp):
   every other writer goes through it rather than pairing kModelMagic with
   serialized bytes by hand.
+- The node's parameters: each part takes its own settings (*_settings.h in
+  src/ros/node); only the composition (relocalizer_node.h) and the reader of
+  them all (node_params.cpp) see NodeParams, so no part depends on another's.
 """
 import pathlib
 import re
@@ -69,6 +72,47 @@ class OneModelFileFraming(unittest.TestCase):
         # names it inside a FileReplacement's braces.
         framed = files_matching(r"\{[^{}]*kModelMagic[^{}]*serializeModel|\{[^{}]*kModelMagic,\s*\"", "src", "include")
         self.assertEqual(framed, {"src/forest/model_io.cpp"})
+
+
+# A direct include of node_params.h, by any path to it.
+NODE_PARAMS_INCLUDED = r'#\s*include\s*"([^"]*/)?node_params\.h"'
+NODE_PARAMS_READERS = NODE_FILES | {"src/ros/node/node_params.cpp"}
+
+
+def quoted_includes(path):
+    """The files `path` includes by a path relative to its own folder."""
+    for name in re.findall(r'#\s*include\s*"([^"]+)"', code_of(path)):
+        included = (path.parent / name).resolve()
+        if included.is_file():
+            yield included
+
+
+def headers_seeing(target, *folders):
+    """The headers that include `target`, directly or through other headers."""
+    headers = [p.resolve() for p in code_files(*folders) if p.suffix in (".h", ".hpp")]
+    includes = {h: set(quoted_includes(h)) for h in headers}
+    seeing, grew = {target.resolve()}, True
+    while grew:
+        grew = False
+        for header, included in includes.items():
+            if header not in seeing and included & seeing:
+                seeing.add(header)
+                grew = True
+    return {str(h.relative_to(SOURCE)) for h in seeing} - {str(target.relative_to(SOURCE))}
+
+
+class OneOwnerOfTheNodeParams(unittest.TestCase):
+    def test_only_the_composition_includes_node_params(self):
+        including = files_matching(NODE_PARAMS_INCLUDED, "src", "include")
+        self.assertTrue(including, "no include of node_params.h found at all: the pattern is out of date")
+        self.assertEqual(including - NODE_PARAMS_READERS, set(),
+                         "a part includes node_params.h: give it its own settings (*_settings.h)")
+
+    def test_no_part_sees_node_params_through_another(self):
+        seeing = headers_seeing(SOURCE / "src/ros/node/node_params.h", "src", "include")
+        self.assertIn("src/ros/node/relocalizer_node.h", seeing, "the include walk is out of date")
+        self.assertEqual(seeing - NODE_FILES, set(),
+                         "a part's header brings node_params.h with it: give the part its own settings")
 
 
 if __name__ == "__main__":

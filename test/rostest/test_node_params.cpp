@@ -92,7 +92,7 @@ TEST(NodeParams, PlacesAndTheModelAreTheStartUpPlaces) {
            placeEntry({{"name", "hall"}, {"model", "hall.model"}})}));
   auto p = loadNodeParams(nh);
   ASSERT_TRUE(p.ok()) << p.error();
-  auto places = relocalizer_ros::startupPlaces(*p);
+  auto places = relocalizer_ros::startupPlaces(*p, p->learn, p->map_frame);
   ASSERT_EQ(places.size(), 3u);
   EXPECT_EQ(places[0].name, "lab");
   EXPECT_EQ(places[0].map_frame, "lab_map");  // leading slash dropped
@@ -106,12 +106,12 @@ TEST(NodeParams, PlacesAndTheModelAreTheStartUpPlaces) {
   nh.setParam("place_name", "galley");
   p = loadNodeParams(nh);
   ASSERT_TRUE(p.ok()) << p.error();
-  EXPECT_EQ(relocalizer_ros::startupPlaces(*p).back().name, "galley");
+  EXPECT_EQ(relocalizer_ros::startupPlaces(*p, p->learn, p->map_frame).back().name, "galley");
   // Places alone need no model.
   nh.deleteParam("model");
   p = loadNodeParams(nh);
   ASSERT_TRUE(p.ok()) << p.error();
-  EXPECT_EQ(relocalizer_ros::startupPlaces(*p).size(), 2u);
+  EXPECT_EQ(relocalizer_ros::startupPlaces(*p, p->learn, p->map_frame).size(), 2u);
 }
 
 TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {

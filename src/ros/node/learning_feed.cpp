@@ -22,33 +22,33 @@ std::filesystem::path rosHome() {
 }
 
 // The one folder the node saves into (~save_model and save_on_exit).
-std::string saveRoot(const NodeParams& params) {
-  return params.save_model_folder.empty() ? (rosHome() / "relocalizer").string()
-                                          : params.save_model_folder;
+std::string saveRoot(const LearnSettings& settings) {
+  return settings.save_model_folder.empty() ? (rosHome() / "relocalizer").string()
+                                            : settings.save_model_folder;
 }
 
 }  // namespace
 
 relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> LearningFeed::makeLearner(
-    NodeParams& params) {
+    LearnSettings& settings, const std::string& model, relocalizer::SubmapNames names,
+    const relocalizer::RelocalizerParams& relocalizer) {
   // The exit's save writes where a ~save_model could (issue 38, S1): refused
   // now, loudly, rather than after a run's learning. From here on the
   // parameter is the folder resolved.
-  if (!params.save_on_exit.empty()) {
-    auto confined = relocalizer::confinedSaveFolder(saveRoot(params), params.save_on_exit);
+  if (!settings.save_on_exit.empty()) {
+    auto confined = relocalizer::confinedSaveFolder(saveRoot(settings), settings.save_on_exit);
     if (!confined) return relocalizer::makeError("save_on_exit: " + confined.error());
-    params.save_on_exit = *confined;
+    settings.save_on_exit = *confined;
   }
   auto learner = std::make_unique<relocalizer::SubmapLearner>(
-      params.learning, params.submaps, params.relocalizer,
-      relocalizer::SubmapNames{placeName(params), params.map_frame},
+      settings.learning, settings.submaps, relocalizer, std::move(names),
       relocalizer::OnlineLearner::Mode::Background);
-  if (!params.model.empty()) {
+  if (!model.empty()) {
     relocalizer::Expected<std::vector<std::string>> resumed = relocalizer::makeError("not loaded");
     try {
-      resumed = learner->resume(params.model);
+      resumed = learner->resume(model);
     } catch (const std::exception& e) {
-      resumed = relocalizer::makeError(params.model +
+      resumed = relocalizer::makeError(model +
                                        ": cannot be loaded: " + relocalizer::loadFailureReason(e));
     }
     if (!resumed) return relocalizer::makeError(resumed.error());
@@ -58,19 +58,21 @@ relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> LearningFeed:
   }
   // Frozen submaps go to disk as they freeze, so memory stays bounded
   // (submap_learner.h): into save_on_exit, which the exit writes anyway.
-  if (!params.save_on_exit.empty()) {
-    if (const relocalizer::Status working = learner->useFolder(params.save_on_exit); !working)
+  if (!settings.save_on_exit.empty()) {
+    if (const relocalizer::Status working = learner->useFolder(settings.save_on_exit); !working)
       return relocalizer::makeError("save_on_exit: " + working.error());
   }
   return learner;
 }
 
-LearningFeed::LearningFeed(ros::NodeHandle private_nh, const NodeParams& params,
-                           tf2_ros::Buffer& tf, std::unique_ptr<relocalizer::SubmapLearner> learner,
+LearningFeed::LearningFeed(ros::NodeHandle private_nh, const LearnSettings& settings,
+                           const TfSettings& tf_settings, tf2_ros::Buffer& tf,
+                           std::unique_ptr<relocalizer::SubmapLearner> learner,
                            ServiceCallQueue& calls)
-    : params_(params),
+    : settings_(settings),
+      tf_settings_(tf_settings),
       learner_(std::move(learner)),
-      feed_(*learner_, params.learning),
+      feed_(*learner_, settings.learning),
       tf_buffer_(tf) {
   auto save_options = ros::AdvertiseServiceOptions::create<relocalizer::SaveModel>(
       "save_model",
@@ -89,13 +91,13 @@ void LearningFeed::close() {
 LearningFeed::~LearningFeed() {
   close();
   if (worker_.joinable()) worker_.join();
-  if (params_.save_on_exit.empty()) return;
+  if (settings_.save_on_exit.empty()) return;
   // The active submap's current model, not a final retrain: shutdown must
   // stay quick, and the key frames saved with it let the next run retrain on
   // all of them.
-  const relocalizer::Status saved = learner_->save(params_.save_on_exit);
+  const relocalizer::Status saved = learner_->save(settings_.save_on_exit);
   if (saved)
-    ROS_INFO("relocalizer: saved the learned submaps to %s", params_.save_on_exit.c_str());
+    ROS_INFO("relocalizer: saved the learned submaps to %s", settings_.save_on_exit.c_str());
   else
     ROS_ERROR("relocalizer: save_on_exit: %s", saved.error().c_str());
 }
@@ -125,9 +127,9 @@ void LearningFeed::fill(relocalizer::RelocalizationResult& result) const {
 std::string LearningFeed::noModelYet() const {
   const relocalizer::SubmapStatus status = learner_->status();
   return "no model yet: learning has " + std::to_string(status.active.keyframes_stored) +
-         " key frames, the first model needs " + std::to_string(params_.learning.first_retrain) +
+         " key frames, the first model needs " + std::to_string(settings_.learning.first_retrain) +
          (status.active.retraining ? " (being trained now)" : "") + "; is SLAM publishing " +
-         params_.map_frame + " -> camera on TF?";
+         tf_settings_.map_frame + " -> camera on TF?";
 }
 
 void LearningFeed::learnLoop() {
@@ -147,14 +149,14 @@ void LearningFeed::learnLoop() {
       // (interpolated), never a later one: a frame whose stamp TF cannot
       // cover was not tracked.
       pose = fromTransformMsg(tf_buffer_
-                                  .lookupTransform(params_.map_frame, camera_frame, stamp,
-                                                   ros::Duration(params_.tf_timeout))
+                                  .lookupTransform(tf_settings_.map_frame, camera_frame, stamp,
+                                                   ros::Duration(tf_settings_.tf_timeout))
                                   .transform);
     } catch (const tf2::TransformException& e) {
       if (log_.allow("learn: no TF"))
         ROS_INFO(
             "relocalizer: not learning from the frame at %.3f: no pose %s -> %s from SLAM (%s)",
-            stamp.toSec(), params_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(),
+            stamp.toSec(), tf_settings_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(),
             messageExcerpt(e.what(), 256).c_str());
     }
     const relocalizer::KeyFrameFeed::Result fed = feed_.offer(pose, [&] {
@@ -171,7 +173,8 @@ void LearningFeed::learnLoop() {
       ++frames_untracked_;  // no pose, or one SLAM got wrong (fed.why)
       if (!fed.why.empty() && log_.allow("learn: bad SLAM pose"))
         ROS_WARN("relocalizer: not learning from the frame at %.3f: %s -> %s: %s", stamp.toSec(),
-                 params_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(), fed.why.c_str());
+                 tf_settings_.map_frame.c_str(), messageExcerpt(camera_frame).c_str(),
+                 fed.why.c_str());
     } else if (fed.outcome == Outcome::Failed && log_.allow(fed.why)) {
       ROS_WARN("relocalizer: not learning from a key frame: %s", fed.why.c_str());
     } else if (fed.outcome == Outcome::Refused) {
@@ -210,7 +213,7 @@ bool LearningFeed::onSaveModel(relocalizer::SaveModel::Request& request,
                                relocalizer::SaveModel::Response& response) {
   // A peer's path: inside save_model_folder only (submap_folder.h), relative
   // ones too; the answer names the folder written absolutely.
-  const std::string root = saveRoot(params_);
+  const std::string root = saveRoot(settings_);
   relocalizer::Status saved = relocalizer::okStatus();
   std::string path;
   try {

@@ -31,26 +31,32 @@
 
 #include "frame_buffer.h"
 #include "frame_input.h"
-#include "node_params.h"
+#include "learn_settings.h"
 #include "relocalizer/core/expected.h"
 #include "relocalizer/online/key_frame_feed.h"
 #include "relocalizer/online/submap_learner.h"
 #include "service_call_queue.h"
+#include "tf_settings.h"
 #include "throttled_log.h"
 
 namespace relocalizer_ros {
 
 class LearningFeed {
  public:
-  // The learner the parameters describe, resumed from `model` when set; the
-  // error names the file at fault. save_on_exit must lie in the save folder
-  // (confinedSaveFolder, as ~save_model's path): it becomes the folder resolved.
+  // The learner the settings describe, its submaps named by `names` (the
+  // learned place, placeName(), in map_frame), resumed from `model` when set;
+  // the error names the file at fault. save_on_exit must lie in the save
+  // folder (confinedSaveFolder, as ~save_model's path): it becomes the folder
+  // resolved.
   static relocalizer::Expected<std::unique_ptr<relocalizer::SubmapLearner>> makeLearner(
-      NodeParams& params);
+      LearnSettings& settings, const std::string& model, relocalizer::SubmapNames names,
+      const relocalizer::RelocalizerParams& relocalizer);
 
+  // SLAM's pose is TF map_frame -> camera, waited for up to tf_timeout;
   // `tf`: the node's buffer (relocalizer_node.h), read on the learning
   // thread; it outlives this.
-  LearningFeed(ros::NodeHandle private_nh, const NodeParams& params, tf2_ros::Buffer& tf,
+  LearningFeed(ros::NodeHandle private_nh, const LearnSettings& settings,
+               const TfSettings& tf_settings, tf2_ros::Buffer& tf,
                std::unique_ptr<relocalizer::SubmapLearner> learner, ServiceCallQueue& calls);
   // Stops the learning thread, then writes save_on_exit if set.
   ~LearningFeed();
@@ -75,7 +81,8 @@ class LearningFeed {
   bool onSaveModel(relocalizer::SaveModel::Request& request,
                    relocalizer::SaveModel::Response& response);
 
-  const NodeParams& params_;
+  const LearnSettings& settings_;
+  const TfSettings& tf_settings_;
   const std::unique_ptr<relocalizer::SubmapLearner> learner_;
   relocalizer::KeyFrameFeed feed_;  // into learner_; offered to on the learning thread
   // The newest frame only: key frames are chosen by motion, so a skipped

@@ -74,10 +74,12 @@ void addCounters(DiagnosticStatusWrapper& status, const NodeOutput::ResultMsg& c
 }  // namespace
 
 NodeDiagnostics::NodeDiagnostics(ros::NodeHandle nh, ros::NodeHandle private_nh,
-                                 const NodeParams& params, Sources sources, NodeOutput& output)
-    : params_(params),
+                                 const InputSettings& inputs, const DiagnosticSettings& settings,
+                                 Sources sources, NodeOutput& output)
+    : settings_(settings),
+      mode_(inputs.mode),
       sources_(std::move(sources)),
-      limits_{params.input_timeout, params.diagnostics_max_failures},
+      limits_{inputs.input_timeout, settings.diagnostics_max_failures},
       nh_(std::move(nh)) {
   // Named after the node itself, not the process: a nodelet's process is its manager.
   const std::string node = private_nh.getNamespace();
@@ -90,7 +92,7 @@ NodeDiagnostics::NodeDiagnostics(ros::NodeHandle nh, ros::NodeHandle private_nh,
 void NodeDiagnostics::start() {
   rate_samples_.push_back({steadyNanoseconds(), {}});
   update();
-  timer_ = nh_.createWallTimer(ros::WallDuration(params_.diagnostic_period),
+  timer_ = nh_.createWallTimer(ros::WallDuration(settings_.diagnostic_period),
                                [this](const ros::WallTimerEvent&) { update(); });
 }
 
@@ -179,7 +181,7 @@ void NodeDiagnostics::nodeStatus(DiagnosticStatusWrapper& status) {
   std::string places;
   for (const relocalizer::PlaceFigures& place : places_)
     places += (places.empty() ? "" : ", ") + place.name + " (" + place.map_frame + ")";
-  status.add("mode", modeName(params_.mode));
+  status.add("mode", modeName(mode_));
   status.add("places", places.empty() ? "none" : places);
   if (counters.learning) addLearning(status, counters);
   addInputs(status, inputs, now);

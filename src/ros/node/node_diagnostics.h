@@ -22,10 +22,11 @@
 #include <string>
 #include <vector>
 
+#include "diagnostic_settings.h"
+#include "input_settings.h"
 #include "node_health.h"
 #include "node_inputs.h"
 #include "node_output.h"
-#include "node_params.h"
 #include "node_places.h"
 
 namespace relocalizer_ros {
@@ -40,9 +41,10 @@ class NodeDiagnostics {
   };
 
   // Listens to `output` at once (before any frame can arrive); makes no status
-  // before start().
-  NodeDiagnostics(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-                  Sources sources, NodeOutput& output);
+  // before start(). `inputs`: the mode it reports and input_timeout, after
+  // which the inputs count as stopped.
+  NodeDiagnostics(ros::NodeHandle nh, ros::NodeHandle private_nh, const InputSettings& inputs,
+                  const DiagnosticSettings& settings, Sources sources, NodeOutput& output);
   ~NodeDiagnostics() { stop(); }
   NodeDiagnostics(const NodeDiagnostics&) = delete;
   NodeDiagnostics& operator=(const NodeDiagnostics&) = delete;
@@ -71,7 +73,8 @@ class NodeDiagnostics {
                  const NodeInputs::Activity& inputs, int64_t now_ns);
   void placeStatus(const std::string& name, diagnostic_updater::DiagnosticStatusWrapper& status);
 
-  const NodeParams& params_;
+  const DiagnosticSettings& settings_;
+  const Mode mode_;
   const Sources sources_;
   const HealthLimits limits_;
   ros::NodeHandle nh_;

@@ -4,6 +4,7 @@
 
 #include "../conversion/message_conversion.h"
 #include "node_text.h"
+#include "place_settings.h"
 
 namespace relocalizer_ros {
 
@@ -13,17 +14,20 @@ ros::Time answerStamp(const FrameInput& input, const relocalizer::Relocalization
   return solved.success ? geometryStamp(input) : input.colour->header.stamp;
 }
 
-NodeOutput::NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-                       std::function<void(ResultMsg&)> counters, tf2_ros::Buffer& tf)
-    : params_(params), counters_(std::move(counters)) {
+NodeOutput::NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const TfSettings& settings,
+                       std::string learned_place, std::function<void(ResultMsg&)> counters,
+                       tf2_ros::Buffer& tf)
+    : settings_(settings),
+      learned_place_(std::move(learned_place)),
+      counters_(std::move(counters)) {
   pose_pub_ = private_nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 1, true);
   result_pub_ = private_nh.advertise<ResultMsg>("result", 10);
-  if (params_.publish_tf) {
+  if (settings_.publish_tf) {
     TransformPublisher::Options options;
-    options.odom_frame = params_.odom_frame;
-    options.transform_tolerance = params_.transform_tolerance;
-    options.tf_rate = params_.tf_rate;
-    options.tf_timeout = params_.tf_timeout;
+    options.odom_frame = settings_.odom_frame;
+    options.transform_tolerance = settings_.transform_tolerance;
+    options.tf_rate = settings_.tf_rate;
+    options.tf_timeout = settings_.tf_timeout;
     transforms_ = std::make_unique<TransformPublisher>(nh, options, tf);
   }
 }
@@ -32,7 +36,7 @@ NodeOutput::ResultMsg NodeOutput::failure(const ros::Time& stamp,
                                           const std::string& message) const {
   ResultMsg result;
   result.header.stamp = stamp;
-  result.header.frame_id = params_.map_frame;
+  result.header.frame_id = settings_.map_frame;
   result.success = false;
   result.message = message;
   result.surface_agreement = -1.0f;  // not checked
@@ -102,7 +106,7 @@ void NodeOutput::logPlace(const ros::Time& stamp, const relocalizer::PlaceAnswer
   // The learned submaps are one map: answers that move between them as the
   // camera walks are not news.
   const std::string place =
-      isLearnedPlaceName(params_, found.place) ? placeName(params_) : found.place;
+      isLearnedPlaceName(learned_place_, found.place) ? learned_place_ : found.place;
   {
     std::lock_guard<std::mutex> lock(place_mutex_);
     if (place == last_place_) return;

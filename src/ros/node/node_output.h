@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "frame_input.h"
-#include "node_params.h"
 #include "relocalizer/relocalize/place_set.h"
+#include "tf_settings.h"
 #include "throttled_log.h"
 #include "transform_publisher.h"
 
@@ -42,10 +42,13 @@ class NodeOutput {
   };
   using Listener = std::function<void(const Published&)>;
 
-  // `counters` fills the node's counters into every ~result; `tf`, the
-  // node's buffer, is lent to the TransformPublisher and outlives this.
-  NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const NodeParams& params,
-             std::function<void(ResultMsg&)> counters, tf2_ros::Buffer& tf);
+  // `learned_place`: the learned place's name (placeName(), place_settings.h),
+  // "" outside learn mode. `counters` fills the node's counters into every
+  // ~result; `tf`, the node's buffer, is lent to the TransformPublisher and
+  // outlives this.
+  NodeOutput(ros::NodeHandle nh, ros::NodeHandle private_nh, const TfSettings& settings,
+             std::string learned_place, std::function<void(ResultMsg&)> counters,
+             tf2_ros::Buffer& tf);
 
   ResultMsg failure(const ros::Time& stamp, const std::string& message) const;
 
@@ -74,7 +77,8 @@ class NodeOutput {
                uint64_t epoch, const FrameInput* input = nullptr,
                const relocalizer::PlaceAnswer* found = nullptr);
 
-  const NodeParams& params_;
+  const TfSettings& settings_;
+  const std::string learned_place_;
   const std::function<void(ResultMsg&)> counters_;
   ros::Publisher pose_pub_;
   ros::Publisher result_pub_;

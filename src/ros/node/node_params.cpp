@@ -5,7 +5,6 @@
 #include <nlohmann/json.hpp>
 
 #include "relocalizer/core/config.h"
-#include "relocalizer/core/file_io.h"
 #include "relocalizer/core/outside_text.h"
 
 namespace relocalizer_ros {
@@ -63,7 +62,8 @@ Expected<relocalizer::RelocalizerParams> readRelocalizerParams(const ros::NodeHa
 // unique names, no place in odom_frame.
 std::string checkPlaces(const ParamReader& reader, const NodeParams& p) {
   const bool model_place = p.learn || !p.model.empty();
-  const std::string own = placeName(p);
+  const std::string own = placeName(p, p.learn);
+  const std::string learned = p.learn ? own : "";
   const auto ns = [&reader](const std::string& key) { return reader.quoted(key); };
   for (auto [key, frame] : {std::pair{"map_frame", &p.map_frame},
                             {"odom_frame", &p.odom_frame},
@@ -78,7 +78,7 @@ std::string checkPlaces(const ParamReader& reader, const NodeParams& p) {
   for (size_t i = 0; i < p.places.size(); ++i) {
     const std::string entry =
         "'" + reader.handle().resolveName("places") + "[" + std::to_string(i) + "]'";
-    if ((model_place && p.places[i].name == own) || isLearnedPlaceName(p, p.places[i].name))
+    if ((model_place && p.places[i].name == own) || isLearnedPlaceName(learned, p.places[i].name))
       return entry + " is named '" + p.places[i].name + "' like the place of " +
              (p.learn ? "learning (or its submaps, " + own + "/i)" : "model " + p.model) +
              "; set place_name to another name, or rename the entry";
@@ -89,26 +89,6 @@ std::string checkPlaces(const ParamReader& reader, const NodeParams& p) {
 }
 
 }  // namespace
-
-std::string placeName(const NodeParams& params) {
-  if (!params.place_name.empty()) return params.place_name;
-  if (params.learn) return "learned";
-  return relocalizer::pathStem(params.model);
-}
-
-bool isLearnedPlaceName(const NodeParams& params, const std::string& name) {
-  if (!params.learn) return false;
-  const std::string own = placeName(params);
-  return name == own || name.rfind(own + "/", 0) == 0;
-}
-
-std::vector<PlaceSpec> startupPlaces(const NodeParams& params) {
-  std::vector<PlaceSpec> places = params.places;
-  if (!params.learn && !params.model.empty())
-    places.push_back(
-        {placeName(params), params.model, params.map_frame, params.model_place_refused});
-  return places;
-}
 
 Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
   NodeParams p;
@@ -136,7 +116,8 @@ Expected<NodeParams> loadNodeParams(const ros::NodeHandle& nh) {
                      p.map_frame + " -> camera while learning)");
   if (std::string why = checkPlaces(reader, p); !why.empty()) return makeError(why);
   if (!p.learn && !p.model.empty())
-    if (std::string why = relocalizer::nameError(placeName(p), ns("place_name")); !why.empty())
+    if (std::string why = relocalizer::nameError(placeName(p, p.learn), ns("place_name"));
+        !why.empty())
       p.model_place_refused =
           "place of " + p.model + ": " + why +
           (p.place_name.empty() ? " (the model file's stem; set place_name)" : "");

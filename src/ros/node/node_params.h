@@ -40,15 +40,6 @@ struct NodeParams : PlaceSettings,
 // names it, its value and the allowed range (param_reading.h).
 relocalizer::Expected<NodeParams> loadNodeParams(const ros::NodeHandle& private_nh);
 
-// The places to load at start: `places`, then `model`'s place (not in learn
-// mode, where `model` is the learned place's start).
-std::vector<PlaceSpec> startupPlaces(const NodeParams& params);
-// The name of `model`'s place, or of the learned place in learn mode.
-std::string placeName(const NodeParams& params);
-// Learn mode: `name` is placeName() or one of its submaps' (placeName()/i),
-// names the learner owns.
-bool isLearnedPlaceName(const NodeParams& params, const std::string& name);
-
 // The parameters as JSON, keyed as in config/default.yaml, for the start-up
 // log and for the test that compares the compiled defaults with that file.
 std::string nodeParamsToJson(const NodeParams& params);

@@ -86,16 +86,19 @@ std::string placeText(const relocalizer::PlaceFigures& f) {
          " line trees)";
 }
 
-relocalizer::Expected<std::unique_ptr<NodePlaces>> NodePlaces::create(const NodeParams& params,
-                                                                      LearnedModels learned) {
-  std::unique_ptr<NodePlaces> places(new NodePlaces(params, std::move(learned)));
+relocalizer::Expected<std::unique_ptr<NodePlaces>> NodePlaces::create(
+    const PlaceSettings& settings, const TfSettings& tf,
+    const relocalizer::RelocalizerParams& relocalizer, LearnedModels learned) {
+  const bool learn = static_cast<bool>(learned);
+  std::unique_ptr<NodePlaces> places(
+      new NodePlaces(tf, relocalizer, learn ? placeName(settings, learn) : "", std::move(learned)));
   std::vector<std::string> failures;
-  for (const PlaceSpec& spec : startupPlaces(params)) {
+  for (const PlaceSpec& spec : startupPlaces(settings, learn, tf.map_frame)) {
     if (!spec.refused.empty()) {
       failures.push_back(spec.refused);
       continue;
     }
-    auto loaded = loadPlaces(spec, params.relocalizer);
+    auto loaded = loadPlaces(spec, relocalizer);
     if (!loaded) {
       failures.push_back(loaded.error());
       continue;
@@ -118,8 +121,12 @@ relocalizer::Expected<std::unique_ptr<NodePlaces>> NodePlaces::create(const Node
   return places;
 }
 
-NodePlaces::NodePlaces(const NodeParams& params, LearnedModels learned)
-    : params_(params), learned_(std::move(learned)), learned_name_(placeName(params)) {}
+NodePlaces::NodePlaces(const TfSettings& tf, const relocalizer::RelocalizerParams& relocalizer,
+                       std::string learned_name, LearnedModels learned)
+    : tf_(tf),
+      relocalizer_(relocalizer),
+      learned_name_(std::move(learned_name)),
+      learned_(std::move(learned)) {}
 
 void NodePlaces::advertise(ros::NodeHandle private_nh, ServiceCallQueue& calls) {
   using boost::placeholders::_1;
@@ -139,7 +146,7 @@ void NodePlaces::shutdown() {
 }
 
 bool NodePlaces::learnedName(const std::string& name) const {
-  return learning() && isLearnedPlaceName(params_, name);
+  return isLearnedPlaceName(learned_name_, name);
 }
 
 void NodePlaces::followLearner() {
@@ -155,9 +162,8 @@ void NodePlaces::followLearner() {
       learned_models_ = current;
       return;
     }
-    if (const relocalizer::Status put =
-            relocalizer::putLearnedPlaces(places_, models, {learned_name_, params_.map_frame},
-                                          relocalizer::LoneSubmap::AsThePlace);
+    if (const relocalizer::Status put = relocalizer::putLearnedPlaces(
+            places_, models, {learned_name_, tf_.map_frame}, relocalizer::LoneSubmap::AsThePlace);
         !put) {
       // Not remembered as followed: the next frame tries again, so the learned
       // places answer as soon as what refused them (another place holding the
@@ -194,7 +200,7 @@ void NodePlaces::loadAndPut(const PlaceSpec& spec, relocalizer::LoadPlace::Respo
   const std::string unreadable = relocalizer::unreadablePlaceError(spec.name, spec.model);
   auto loaded =
       unreadable.empty()
-          ? loadPlaces(spec, params_.relocalizer)
+          ? loadPlaces(spec, relocalizer_)
           : relocalizer::Expected<relocalizer::PlaceFiles>(relocalizer::makeError(unreadable));
   const bool folder = loaded && loaded->folder;
   const std::vector<relocalizer::Place> places =
@@ -222,7 +228,7 @@ bool NodePlaces::onLoad(relocalizer::LoadPlace::Request& request,
   PlaceSpec spec;
   spec.name = request.name;
   spec.map_frame = stripLeadingSlashes(request.map_frame);
-  if (spec.map_frame.empty()) spec.map_frame = params_.map_frame;
+  if (spec.map_frame.empty()) spec.map_frame = tf_.map_frame;
   // Relative to the node's working folder (ROS_HOME), which the caller does
   // not know: the answer names the file absolutely.
   std::error_code ignored;
@@ -238,7 +244,7 @@ bool NodePlaces::onLoad(relocalizer::LoadPlace::Request& request,
     response.message = "model is empty: name the model file of place '" + spec.name + "'";
   } else if (learnedName(spec.name)) {
     response.message = "'" + spec.name + "' is a name of the learned places; choose another name";
-  } else if (!params_.odom_frame.empty() && spec.map_frame == params_.odom_frame) {
+  } else if (!tf_.odom_frame.empty() && spec.map_frame == tf_.odom_frame) {
     response.message = "map_frame " + spec.map_frame + " is the odom_frame";
   } else {
     const auto gone = [&] {

@@ -5,12 +5,12 @@
 // per call, so a model that takes seconds to load never holds up a
 // relocalization: those work on the places as they were when they started.
 //
-// In learn mode the learner's submaps are places of one group, placeName(),
-// in map_frame (place_set.h: their answers that agree are one answer), put
-// again all at once whenever the learner swaps in a new model or starts a
-// submap. While only the first submap has a model it is the place
-// placeName() itself, as before submaps; from the second on they are
-// placeName()/0, placeName()/1, ...
+// In learn mode the learner's submaps are places of one group, placeName()
+// (place_settings.h), in map_frame (place_set.h: their answers that agree are
+// one answer), put again all at once whenever the learner swaps in a new
+// model or starts a submap. While only the first submap has a model it is
+// the place placeName() itself, as before submaps; from the second on they
+// are placeName()/0, placeName()/1, ...
 
 #include <relocalizer/ListPlaces.h>
 #include <relocalizer/LoadPlace.h>
@@ -22,11 +22,12 @@
 #include <mutex>
 #include <string>
 
-#include "node_params.h"
+#include "place_settings.h"
 #include "relocalizer/core/expected.h"
 #include "relocalizer/online/submap_learner.h"
 #include "relocalizer/relocalize/place_set.h"
 #include "service_call_queue.h"
+#include "tf_settings.h"
 #include "throttled_log.h"
 
 namespace relocalizer_ros {
@@ -36,12 +37,14 @@ class NodePlaces {
   // The learner's submap models now (SubmapLearner::models()).
   using LearnedModels = std::function<std::vector<relocalizer::SubmapModel>()>;
 
-  // Loads the start-up places (startupPlaces()). One that does not load is
-  // logged as an error naming the place, the file and why, and the others
-  // keep working; when none loads and `learned` is empty (not learn mode),
-  // the error says why each failed.
-  static relocalizer::Expected<std::unique_ptr<NodePlaces>> create(const NodeParams& params,
-                                                                   LearnedModels learned);
+  // Loads the start-up places (startupPlaces()), in tf.map_frame when they
+  // name no frame of their own. One that does not load is logged as an error
+  // naming the place, the file and why, and the others keep working; when
+  // none loads and `learned` is empty (not learn mode), the error says why
+  // each failed.
+  static relocalizer::Expected<std::unique_ptr<NodePlaces>> create(
+      const PlaceSettings& settings, const TfSettings& tf,
+      const relocalizer::RelocalizerParams& relocalizer, LearnedModels learned);
 
   // Advertises the three services on `calls`.
   void advertise(ros::NodeHandle private_nh, ServiceCallQueue& calls);
@@ -61,7 +64,8 @@ class NodePlaces {
   void onChange(std::function<void()> changed) { changed_ = std::move(changed); }
 
  private:
-  NodePlaces(const NodeParams& params, LearnedModels learned);
+  NodePlaces(const TfSettings& tf, const relocalizer::RelocalizerParams& relocalizer,
+             std::string learned_name, LearnedModels learned);
   // Puts the learner's models into the set when they changed since the last look.
   void followLearner();
   // A name of the learned group's (placeName(), or placeName()/i).
@@ -74,9 +78,11 @@ class NodePlaces {
   bool onList(relocalizer::ListPlaces::Request& request,
               relocalizer::ListPlaces::Response& response);
 
-  const NodeParams params_;      // a copy: the node's own is moved in after create()
-  const LearnedModels learned_;  // empty unless learn mode
-  const std::string learned_name_;
+  // Copies: the node's own are moved in after create().
+  const TfSettings tf_;
+  const relocalizer::RelocalizerParams relocalizer_;
+  const std::string learned_name_;  // "" unless learn mode
+  const LearnedModels learned_;     // empty unless learn mode
   relocalizer::PlaceSet places_;
   std::mutex learned_mutex_;
   std::vector<std::shared_ptr<const relocalizer::Relocalizer>> learned_models_;  // as last put

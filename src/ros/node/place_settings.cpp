@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "../conversion/message_conversion.h"
+#include "relocalizer/core/file_io.h"
 #include "relocalizer/core/outside_text.h"
 
 namespace relocalizer_ros {
@@ -72,6 +73,26 @@ void readPlaceSettings(ParamReader& reader, const std::string& map_frame, PlaceS
   reader.read("model", places.model);
   reader.read("place_name", places.place_name);
   if (reader.ok()) reader.fail(readPlaces(reader.handle(), map_frame, places.places));
+}
+
+std::string placeName(const PlaceSettings& places, bool learn) {
+  if (!places.place_name.empty()) return places.place_name;
+  if (learn) return "learned";
+  return relocalizer::pathStem(places.model);
+}
+
+bool isLearnedPlaceName(const std::string& learned, const std::string& name) {
+  if (learned.empty()) return false;
+  return name == learned || name.rfind(learned + "/", 0) == 0;
+}
+
+std::vector<PlaceSpec> startupPlaces(const PlaceSettings& places, bool learn,
+                                     const std::string& map_frame) {
+  std::vector<PlaceSpec> startup = places.places;
+  if (!learn && !places.model.empty())
+    startup.push_back(
+        {placeName(places, learn), places.model, map_frame, places.model_place_refused});
+  return startup;
 }
 
 }  // namespace relocalizer_ros

@@ -23,7 +23,7 @@ struct PlaceSpec {
 struct PlaceSettings {
   std::string model;
   // The name of `model`'s place (learn: of the learned place); empty: the
-  // model file's stem, or "learned" (placeName(), node_params.h).
+  // model file's stem, or "learned" (placeName()).
   std::string place_name;
   std::vector<PlaceSpec> places;    // further places, as given
   std::string model_place_refused;  // as PlaceSpec::refused, for `model`'s place
@@ -33,5 +33,15 @@ struct PlaceSettings {
 // entries without a map_frame are in `map_frame`. A typo in a key or a name
 // used twice is refused, never a place silently missing or shadowed.
 void readPlaceSettings(ParamReader& reader, const std::string& map_frame, PlaceSettings& places);
+
+// The name of `model`'s place, or of the learned place when `learn`.
+std::string placeName(const PlaceSettings& places, bool learn);
+// `name` is the learned place `learned` or one of its submaps' (`learned`/i),
+// names the learner owns; `learned` is "" outside learn mode.
+bool isLearnedPlaceName(const std::string& learned, const std::string& name);
+// The places to load at start: `places`, then `model`'s place in `map_frame`
+// (not in learn mode, where `model` is the learned place's start).
+std::vector<PlaceSpec> startupPlaces(const PlaceSettings& places, bool learn,
+                                     const std::string& map_frame);
 
 }  // namespace relocalizer_ros

@@ -19,6 +19,12 @@ constexpr size_t kServiceThreads = 64;
 constexpr size_t kBacklogWarning = 30;
 constexpr const char* kNoPlace = "no place loaded (load one with ~load_place)";
 
+// The learned place's name, "" outside learn mode: the parts that tell its
+// submaps from other places (isLearnedPlaceName, place_settings.h).
+std::string learnedPlace(const NodeParams& params) {
+  return params.learn ? placeName(params, true) : "";
+}
+
 }  // namespace
 
 relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
@@ -28,13 +34,14 @@ relocalizer::Expected<std::unique_ptr<RelocalizerNode>> RelocalizerNode::create(
   std::unique_ptr<relocalizer::SubmapLearner> learner;
   NodePlaces::LearnedModels learned;
   if (params->learn) {
-    auto made = LearningFeed::makeLearner(*params);
+    auto made = LearningFeed::makeLearner(
+        *params, params->model, {learnedPlace(*params), params->map_frame}, params->relocalizer);
     if (!made) return relocalizer::makeError(made.error());
     learner = std::move(*made);
     // The learner lives as long as the node, and the places only ask while it runs.
     learned = [submaps = learner.get()] { return submaps->models(); };
   }
-  auto places = NodePlaces::create(*params, std::move(learned));
+  auto places = NodePlaces::create(*params, *params, params->relocalizer, std::move(learned));
   if (!places) return relocalizer::makeError(places.error());
   return std::unique_ptr<RelocalizerNode>(
       new RelocalizerNode(std::move(nh), std::move(private_nh), std::move(*params),
@@ -57,15 +64,16 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
                   ? FrameBuffer<FrameInputPtr>::Policy::Fifo
                   : FrameBuffer<FrameInputPtr>::Policy::Latest),
       output_(
-          nh_, private_nh_, params_, [this](ResultMsg& result) { fillCounters(result); }, tf_),
+          nh_, private_nh_, params_, learnedPlace(params_),
+          [this](ResultMsg& result) { fillCounters(result); }, tf_),
       service_calls_(kServiceThreads) {
   NodeDiagnostics::Sources watched;
   watched.places = places_.get();
   watched.no_place = [this] { return noPlaceReason(); };
   watched.counters = [this](ResultMsg& result) { fillCounters(result); };
   watched.inputs = [this] { return inputs_ ? inputs_->activity() : NodeInputs::Activity{}; };
-  diagnostics_ =
-      std::make_unique<NodeDiagnostics>(nh_, private_nh_, params_, std::move(watched), output_);
+  diagnostics_ = std::make_unique<NodeDiagnostics>(nh_, private_nh_, params_, params_,
+                                                   std::move(watched), output_);
 
   visuals_ = std::make_unique<NodeVisuals>(private_nh_, params_.map_frame,
                                            [this] { return places_->places(); });
@@ -97,8 +105,8 @@ RelocalizerNode::RelocalizerNode(ros::NodeHandle nh, ros::NodeHandle private_nh,
   service_ =
       std::make_unique<RelocalizeService>(private_nh_, params_, std::move(sources), service_calls_);
   if (learner)
-    learning_ = std::make_unique<LearningFeed>(private_nh_, params_, tf_, std::move(learner),
-                                               service_calls_);
+    learning_ = std::make_unique<LearningFeed>(private_nh_, params_, params_, tf_,
+                                               std::move(learner), service_calls_);
   places_->advertise(private_nh_, service_calls_);
   if (params_.mode == Mode::Continuous) worker_ = std::thread(&RelocalizerNode::workerLoop, this);
 
@@ -125,8 +133,8 @@ void RelocalizerNode::logStartup() const {
   if (learning_) {
     const relocalizer::SubmapStatus status = learning_->status();
     model_text +=
-        std::string(", learning place '") + placeName(params_) + "' from TF " + params_.map_frame +
-        " -> camera (" + std::to_string(status.keyframes_added) +
+        std::string(", learning place '") + learnedPlace(params_) + "' from TF " +
+        params_.map_frame + " -> camera (" + std::to_string(status.keyframes_added) +
         " key frames so far, key frames at " +
         relocalizer::formatMinMotion(params_.learning.min_motion) + " m,deg" +
         (params_.save_on_exit.empty() ? "" : ", saved to " + params_.save_on_exit + " on exit") +

@@ -20,6 +20,9 @@
 //  - NodeVisuals (node_visuals.h): ~surface and ~inliers, for RViz.
 //  - PoseHandoff (pose_handoff.h, optional): accepted poses to initialpose
 //    and robot_localization's SetPose, each frame once.
+// Parameters: loadNodeParams (node_params.h) reads them all, each part's by
+// its own reader; the node hands each part only the settings it reads
+// (*_settings.h), so a part depends on no other's parameters.
 // TF: the node owns the one tf2_ros::Buffer and the one listener that fills
 // it from /tf and /tf_static (on the listener's own thread, so a lookup that
 // waits never waits on the queue that would deliver its transform). It lends
