@@ -6,12 +6,14 @@
 # BAG (camera/rgb/image_raw, camera/depth/image_raw, camera/rgb/camera_info, as
 # `rosrun relocalizer make_bag` writes) until an answer's inliers are on
 # ~inliers, then saves the screen (xwd) as PNG once RViz draws the surface and
-# the inliers (up to --timeout seconds, default 120, for each step). Prints the
+# the inliers (up to --timeout seconds, default 240, for each step). Prints the
 # picture's colour shares; exits non-zero when RViz drew no surface or no
 # inliers. Stops everything it started. Needs a sourced devel space.
 set -euo pipefail
 usage() { sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; }
-model="" bag="" output="" timeout=120
+# RViz starts with software OpenGL in Xvfb: on a loaded 2-core machine its first
+# frame has taken more than 120 s.
+model="" bag="" output="" timeout=240
 while [ $# -gt 0 ]; do
   case $1 in
     -h | --help) usage; exit 0 ;;
@@ -66,6 +68,8 @@ sys.exit(0 if s["surface"] > 0.05 and s["points"] + s["lines"] > 0.001 else 1)' 
 }
 if ! wait_for "surface and inliers on the screen" drawn; then
   cat "$log_dir/stats.json" >&2 || true
+  echo "render_rviz: the last lines of roslaunch view.launch (RViz among them):" >&2
+  tail -n 20 "$log_dir/view.log" >&2 || true
   exit 1
 fi
 echo "render_rviz: $output in $((SECONDS - started)) s: $(cat "$log_dir/stats.json")"
