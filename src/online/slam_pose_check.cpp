@@ -244,8 +244,8 @@ bool SlamPoseCheck::refused(Seen seen, const Verdict& verdict, const StartNewPla
       position(seen.pose) + ", " + describe(poseDifference(reference_->pose, seen.pose)) +
       " from the last learned key frame at " + position(reference_->pose) +
       (apart ? " (a map reset, or a room that looks like a learned one?). What follows is "
-               "learned as a new place beside the old one, in the same map frame; where the "
-               "two disagree a frame has no pose"
+               "learned as a new place beside the old one, in the same map frame; where both fit "
+               "a frame alike but disagree, it has no pose"
              : " (a map reset?). Learning into this place is stopped until SLAM's poses agree "
                "with it again; learn the new map as a new place (restart learning)");
   std::lock_guard<std::mutex> lock(status_mutex_);
