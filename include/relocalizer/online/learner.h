@@ -55,8 +55,8 @@ class Learner {
   // SLAM's map moved under what is learned (slam_pose_check.h: a reset, or a
   // look-alike room the place mistakes for one it knows): what follows is
   // learned as a new place in the same map frame, sharing no key frame or
-  // model with what was learned before, whose answers stay (where the two
-  // disagree a frame has no pose). False when the learner holds one model
+  // model with what was learned before, whose answers stay (where both fit a
+  // frame alike but disagree, it has no pose). False when the learner holds one model
   // (one store): learning into it then stops.
   virtual bool startNewPlace() { return false; }
   // The places learned since the last startNewPlace() (all, before one): the

@@ -22,7 +22,7 @@
 // room the place takes for one it knows: from one run of frames these look
 // the same). The place is never taught the new map: the learner starts a new
 // place for it when it can (submaps; the old and the new answer side by
-// side, and where they disagree a frame has no pose), and otherwise learning
+// side, and where both fit a frame alike but disagree it has no pose), and otherwise learning
 // stays stopped, said loudly in the status, until SLAM's poses agree with the
 // place again.
 
