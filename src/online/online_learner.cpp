@@ -147,7 +147,7 @@ Status OnlineLearner::resume(const std::string& model_path) {
                      " without its key frames: " + saved.error() +
                      " (a model saved by ~save_model or evaluate --save-model has them)");
   // Version-1 key frames carry no identity and resume as they always did.
-  if (saved->model && *saved->model != modelFileId(*model_file)) {
+  if (!saved->savedWith(modelFileId(*model_file))) {
     // Retrain rather than refuse: the key frames are the place and the model
     // is derived from them, so they lose nothing; the model beside them is
     // from an older save and would answer as if it knew frames it never saw.

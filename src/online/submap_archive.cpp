@@ -15,19 +15,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A frozen submap's model as the manifest names it; errors say why not.
+// A submap's model served with `params`, unless `refusal` says why its file
+// (identified by its contents) is not the one it must be. Errors say why not.
+using ModelFileRefusal = std::function<std::string(const ModelFileId& found)>;
 Expected<std::shared_ptr<const Relocalizer>> loadSubmapModel(const std::string& path,
-                                                             const ModelFileId& expected,
+                                                             const ModelFileRefusal& refusal,
                                                              const RelocalizerParams& params) {
   try {
     auto bytes = readRegularFile(path, modelFileFormat("submap model file"));
     if (!bytes) return makeError(bytes.error());
-    const ModelFileId found = modelFileId(*bytes);
-    if (found != expected)
-      return makeError(path + " is not the model the manifest names (" +
-                       std::to_string(found.size) + " bytes, CRC " + std::to_string(found.crc) +
-                       "; the manifest names " + std::to_string(expected.size) + " bytes, CRC " +
-                       std::to_string(expected.crc) + ")");
+    if (const std::string why = refusal(modelFileId(*bytes)); !why.empty())
+      return makeError(path + " is not the model " + why);
     auto model = deserializeModel(bytes->data(), bytes->size(), path);
     if (!model) return makeError(model.error());
     auto relocalizer = std::make_shared<const Relocalizer>(std::move(*model), params);
@@ -66,13 +64,39 @@ std::vector<std::string> unnamedFiles(const std::string& folder, const SubmapMan
         orphans.push_back(name);
     }
   } catch (const fs::filesystem_error& e) {
-    warnings.push_back(folder + ": cannot list the folder's other files: " + e.code().message());
+    warnings.push_back(
+        folder + ": cannot list the folder's other files: " + systemErrorText(e.code().value()));
   }
   std::sort(orphans.begin(), orphans.end());
   for (const std::string& name : orphans)
     warnings.push_back(inSubmapFolder(folder, name) + " is not named by " + kSubmapManifestName +
                        ": ignored");
   return warnings;
+}
+
+// The active submap's model as a learner continuing it would serve it: the
+// model and its key frames are one unit (OnlineLearner::resume), so the model
+// answers only beside the key frames it was saved with. Null when it has no
+// model yet (saved before its first retrain: nothing to answer with).
+Expected<std::shared_ptr<const Relocalizer>> readActiveSubmapModel(
+    const std::string& folder, const SubmapEntry& e, const RelocalizerParams& served) {
+  if (e.model.empty()) return std::shared_ptr<const Relocalizer>();
+  const std::string model_path = inSubmapFolder(folder, e.model);
+  const std::string key_frames_path = keyFramesPath(model_path);
+  auto key_frames = loadKeyFrames(key_frames_path);
+  if (!key_frames)
+    return makeError("cannot answer from " + model_path +
+                     " without its key frames: " + key_frames.error());
+  if (key_frames->key_frames.empty())
+    return makeError(key_frames_path + ": the saved submap has no key frames");
+  return loadSubmapModel(
+      model_path,
+      [&](const ModelFileId& found) {
+        return key_frames->savedWith(found)
+                   ? std::string()
+                   : key_frames_path + " was saved with (a save was cut between the two files)";
+      },
+      served);
 }
 
 // The saved set's own learning settings, so that its active submap reads as
@@ -98,12 +122,11 @@ Expected<SavedSubmaps> readSavedSubmaps(const std::string& folder, const SubmapM
   int active_index = -1;
   ReadSubmaps read = readSubmaps(folder, manifest, learning->max_keyframes, served,
                                  [&](const SubmapEntry& e) -> Expected<std::string> {
-                                   auto learner = continueActiveSubmap(folder, e, *learning, params,
-                                                                       OnlineLearner::Mode::Inline);
-                                   if (!learner) return makeError(learner.error());
-                                   active = (*learner)->current();
+                                   auto model = readActiveSubmapModel(folder, e, served);
+                                   if (!model) return makeError(model.error());
+                                   active = std::move(*model);
                                    active_index = e.index;
-                                   return (*learner)->status().last_error;
+                                   return std::string();
                                  });
   SavedSubmaps saved;
   saved.saved_place_name = manifest.place_name;
@@ -199,7 +222,13 @@ ReadSubmaps readSubmaps(const std::string& folder, const SubmapManifest& manifes
         warnings.push_back(name + *note);
       continue;
     }
-    auto loaded = loadSubmapModel(inSubmapFolder(folder, e.model), e.model_id, served);
+    const auto refusal = [&e](const ModelFileId& found) {
+      if (found == e.model_id) return std::string();
+      return "the manifest names (" + std::to_string(found.size) + " bytes, CRC " +
+             std::to_string(found.crc) + "; the manifest names " + std::to_string(e.model_id.size) +
+             " bytes, CRC " + std::to_string(e.model_id.crc) + ")";
+    };
+    auto loaded = loadSubmapModel(inSubmapFolder(folder, e.model), refusal, served);
     if (!loaded) {
       warnings.push_back(name + loaded.error() + skipped);
       continue;

@@ -184,7 +184,8 @@ Expected<std::string> confinedSaveFolder(const std::string& root, const std::str
   std::error_code ec;
   fs::create_directories(root, ec);
   const fs::path base = fs::canonical(root, ec);
-  if (ec) return makeError(root + ": cannot use it as the save folder: " + ec.message());
+  if (ec)
+    return makeError(root + ": cannot use it as the save folder: " + systemErrorText(ec.value()));
   const auto inside = [&](const fs::path& p) {
     const fs::path relative = p.lexically_relative(base);
     return !relative.empty() && *relative.begin() != ".." && relative != ".";

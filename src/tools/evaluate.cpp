@@ -10,13 +10,14 @@
 #include "cli_support.h"
 #include "evaluate_options.h"
 #include "learning_curve.h"
-#include "place_arguments.h"
+#include "named_places.h"
 #include "relocalizer/core/version.h"
 #include "relocalizer/eval/frame_evaluation.h"
 #include "relocalizer/eval/latency_benchmark.h"
 #include "relocalizer/eval/plot.h"
 #include "relocalizer/forest/training_config.h"
 #include "relocalizer/online/key_frame_feed.h"
+#include "relocalizer/online/place_files.h"
 #include "relocalizer/online/submap_learner.h"
 #include "relocalizer/relocalize/place_set.h"
 #include "relocalizer/relocalize/relocalizer.h"
@@ -251,29 +252,6 @@ cli::Exit learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
   return std::nullopt;
 }
 
-// Many places: loads each --model into one set and relocalizes every frame
-// against the whole set.
-Expected<FrameEvaluation> evaluatePlaces(const Options& o, const RelocalizerParams& params,
-                                         const FrameSource& data) {
-  auto arguments = cli::parseNamedPaths(o.models, "--model");
-  if (!arguments) return makeError(arguments.error());
-  PlaceSet places;
-  bool expected_found = o.expect_place.empty();
-  for (const auto& [name, path] : *arguments) {
-    auto place = PlaceSet::load(name, path, name, params);
-    if (!place) return makeError(place.error());
-    const PlaceFigures figures = placeFigures(*place);
-    std::printf("place %s: %s, %d point trees, %d line trees, %.1f MB in memory\n", name.c_str(),
-                path.c_str(), figures.point_trees, figures.line_trees, figures.model_bytes / 1e6);
-    if (Status added = places.put(std::move(*place)); !added) return makeError(added.error());
-    expected_found = expected_found || name == o.expect_place;
-  }
-  if (!expected_found)
-    return makeError("--expect-place " + o.expect_place + ": no --model names that place");
-  return evaluateFrames(places, data, "evaluating " + std::to_string(places.size()) + " places",
-                        o.hints(o.expect_place).get());
-}
-
 // Options that do not go together, or empty.
 std::string combinationError(const Options& o, const LearnOptions& learn, bool many_places) {
   if (many_places && !learn.learn_frames.empty())
@@ -395,13 +373,13 @@ int main(int argc, char** argv) {
     if (const cli::Exit done = learnSubmaps(app, o, learn, params, data, learned)) return *done;
     evaluation = std::move(learned.evaluation);
   } else if (many_places) {
-    auto evaluated = evaluatePlaces(o, params, data);
+    auto evaluated = cli::evaluateNamedPlaces(o, params, data);
     if (!evaluated) return cli::fail(app, evaluated.error());
     evaluation = std::move(*evaluated);
   } else if (learn.learn_frames.empty()) {
-    auto loaded = Relocalizer::fromFile(o.model_path, params);
-    if (!loaded) return cli::fail(app, loaded.error());
-    learned.relocalizer = std::move(*loaded);
+    auto opened = openPlace("", o.model_path, "", params);
+    if (!opened) return cli::fail(app, opened.error());
+    learned.relocalizer = std::move(opened->places.front().relocalizer);
   } else if (const cli::Exit done =
                  learnOnline(app, o, learn, params, data, thread_count, learned)) {
     return *done;

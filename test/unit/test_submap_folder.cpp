@@ -586,6 +586,34 @@ TEST_F(SubmapFolder, AFolderOpensUnderItsSavedNameWithTheLearnersModels) {
       << nothing.error();
 }
 
+// The active submap's model answers only beside the key frames it was saved
+// with (a save cut between its two files leaves the key frames of a newer
+// model): the reader refuses that model, naming both files, as a learner
+// continuing the set would, and the frozen submaps still answer.
+TEST_F(SubmapFolder, AnActiveSubmapsModelAnswersOnlyBesideItsOwnKeyFrames) {
+  const RelocalizerParams params = relocalizer::testing::onlineRoomRelocalizer();
+  const std::vector<SubmapModel> learned = learner_->models();
+  ASSERT_FALSE(learned.back().frozen);
+  const int active = learned.back().index;
+  const std::string folder = copyOfSaved("active_cut");
+  fs::copy_file(fs::path(folder) / submapFileName(active - 1),
+                fs::path(folder) / submapFileName(active), fs::copy_options::overwrite_existing);
+  auto opened = openPlace("", folder, "", params);
+  ASSERT_TRUE(opened.ok()) << opened.error();
+  ASSERT_EQ(opened->places.size(), learned.size() - 1);
+  EXPECT_EQ(opened->places.back().name, "learned/" + std::to_string(active - 1));
+  ASSERT_EQ(opened->warnings.size(), 1u);
+  EXPECT_TRUE(mentions(opened->warnings, submapFileName(active) + " is not the model " + folder +
+                                             "/" + keyFramesPath(submapFileName(active))))
+      << opened->warnings[0];
+  // Without its key frames the active model is not answered from either.
+  fs::remove(fs::path(folder) / keyFramesPath(submapFileName(active)));
+  auto alone = openPlace("", folder, "", params);
+  ASSERT_TRUE(alone.ok()) << alone.error();
+  EXPECT_EQ(alone->places.size(), learned.size() - 1);
+  EXPECT_TRUE(mentions(alone->warnings, "without its key frames")) << alone->warnings[0];
+}
+
 // Issue 41: one naming of a learner's models as places. The node keeps a
 // lone submap 0 under the place's own name; the tools index it.
 TEST_F(SubmapFolder, ALearnersModelsArePlacesOfItsGroupNamedOneWay) {

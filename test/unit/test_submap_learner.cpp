@@ -486,6 +486,24 @@ TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
             relocalizer::testing::readBytes(dir.path() / "out/poses.txt"));
   EXPECT_EQ(relocalizer::testing::readBytes(dir.path() / "again/places.csv"),
             relocalizer::testing::readBytes(dir.path() / "out/places.csv"));
+
+  // Named (--model NAME=FOLDER), the folder opens as the node opens it: the
+  // same answers from places NAME/<index>; the group itself is no place to expect.
+  const std::string named = "--dataset '" + dir.str() + "/scene/train' --frames " +
+                            kToolTestFrames + " --model 'walk=" + dir.str() + "/learned'";
+  ASSERT_EQ(relocalizer::testing::runTool("evaluate", named + " --output '" + dir.str() + "/named'",
+                                          log, log),
+            0)
+      << relocalizer::testing::readBytes(log);
+  EXPECT_EQ(relocalizer::testing::readBytes(dir.path() / "named/poses.txt"),
+            relocalizer::testing::readBytes(dir.path() / "out/poses.txt"));
+  EXPECT_NE(relocalizer::testing::readBytes(dir.path() / "named/places.csv").find(" walk/"),
+            std::string::npos);
+  EXPECT_NE(relocalizer::testing::runTool("evaluate", named + " --expect-place walk", log, log), 0);
+  EXPECT_NE(relocalizer::testing::readBytes(log).find(
+                "is a folder of submaps, whose places are walk/<index>: expect one of those"),
+            std::string::npos)
+      << relocalizer::testing::readBytes(log);
 }
 
 TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {

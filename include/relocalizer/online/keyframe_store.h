@@ -83,6 +83,9 @@ ModelFileId modelFileId(const std::vector<uint8_t>& model_file);
 struct KeyFrameFile {
   std::vector<StoredKeyFrame> key_frames;
   std::optional<ModelFileId> model;  // absent in version-1 files
+  // Whether they were saved with the model file `id`, so that the two are one
+  // saved place; version-1 files name no model and go with any.
+  bool savedWith(const ModelFileId& id) const { return !model || *model == id; }
 };
 
 std::string keyFramesPath(const std::string& model_path);

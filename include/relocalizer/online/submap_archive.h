@@ -2,8 +2,9 @@
 // A set of learned submaps on disk (the folder and manifest of
 // submap_folder.h), read and written file by file: what a learner continuing
 // the set (submap_learner.h) and a reader answering from it share. The reader,
-// loadSavedSubmaps, builds no SubmapLearner: it loads the frozen submaps'
-// models and reads the active one as a learner would continue it.
+// loadSavedSubmaps, builds no learner: it loads every submap's model, the
+// active one's only beside the key frames it was saved with, as a learner
+// continuing it would.
 
 #include <functional>
 #include <memory>
