@@ -173,8 +173,14 @@ SlamPoseCheck::Verdict SlamPoseCheck::judge(const Seen& seen, const RgbdFrame& f
   return {Verdict::Unconfirmed, depth.why + ", and the learned place does not know the frame"};
 }
 
+void SlamPoseCheck::follow(Seen seen) {
+  reference_ = std::move(seen);
+  candidate_.reset();
+  refused_in_a_row_ = 0;
+}
+
 std::string SlamPoseCheck::check(const RgbdFrame& frame, const Pose& camera_to_world,
-                                 const AskPlace& answer) {
+                                 const AskPlace& answer, const StartNewPlace& new_place) {
   Seen seen{camera_to_world, frame.stamp, frame.depth, frame.camera};
   if (!params_.enabled) return {};
   const auto start = std::chrono::steady_clock::now();
@@ -183,26 +189,22 @@ std::string SlamPoseCheck::check(const RgbdFrame& frame, const Pose& camera_to_w
   std::string why;
   bool run_learned = false;
   if (verdict.outcome == Verdict::Confirmed) {
-    reference_ = std::move(seen);
-    candidate_.reset();
-    refused_in_a_row_ = 0;
+    follow(std::move(seen));
   } else {
     why = verdict.why;
-    run_learned = refused(std::move(seen), verdict, why);
+    run_learned = refused(std::move(seen), verdict, new_place, why);
   }
   std::lock_guard<std::mutex> lock(status_mutex_);
   status_.check_seconds +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   status_.checked += had_reference;
   status_.runs_learned += run_learned;
-  if (why.empty()) {
-    status_.map_moved = false;
-    status_.map_moved_why.clear();
-  }
+  if (why.empty()) status_.map_moved = false;
   return why;
 }
 
-bool SlamPoseCheck::refused(Seen seen, const Verdict& verdict, std::string& why) {
+bool SlamPoseCheck::refused(Seen seen, const Verdict& verdict, const StartNewPlace& new_place,
+                            std::string& why) {
   const bool agrees = candidate_ && depthVerdict(*candidate_, seen).outcome == Verdict::Confirmed;
   if (!agrees) {
     refused_in_a_row_ = 0;
@@ -220,32 +222,45 @@ bool SlamPoseCheck::refused(Seen seen, const Verdict& verdict, std::string& why)
   // SLAM went on where neither the last key frame nor the place can check
   // (after tracking was lost, or into new rooms). Learning stays with it.
   if (persisted && !run_refuted_) {
-    reference_ = std::move(seen);
-    candidate_.reset();
-    refused_in_a_row_ = 0;
+    follow(std::move(seen));
     why.clear();
     return true;
   }
-  std::string moved_why;
-  if (persisted && !run_told_ && reference_) {
-    run_told_ = true;
-    moved_why = std::string("SLAM's map moved: ") + run +
-                " agree with one another but not with the learned place; "
-                "SLAM now puts the camera at " +
-                position(seen.pose) + ", " + describe(poseDifference(reference_->pose, seen.pose)) +
-                " from the last learned key frame at " + position(reference_->pose) +
-                " (a map reset?). Learning into this place is stopped until SLAM's poses agree "
-                "with it again; learn the new map as a new place (restart learning)";
+  if (!persisted || run_told_ || !reference_) {
+    candidate_ = std::move(seen);
+    std::lock_guard<std::mutex> lock(status_mutex_);
+    ++status_.refused;
+    status_.last_refusal = why;
+    return false;
+  }
+  // SLAM's map moved under the place: what it says now holds together, the
+  // place contradicts it. Never taught to the place; a new place, if the
+  // learner can start one, learns it from this key frame on.
+  run_told_ = true;
+  const bool apart = new_place && new_place();
+  std::string moved_why =
+      std::string("SLAM's map moved: ") + run +
+      " agree with one another but not with the learned place; SLAM now puts the camera at " +
+      position(seen.pose) + ", " + describe(poseDifference(reference_->pose, seen.pose)) +
+      " from the last learned key frame at " + position(reference_->pose) +
+      (apart ? " (a map reset, or a room that looks like a learned one?). What follows is "
+               "learned as a new place beside the old one, in the same map frame; where both fit "
+               "a frame alike but disagree, it has no pose"
+             : " (a map reset?). Learning into this place is stopped until SLAM's poses agree "
+               "with it again; learn the new map as a new place (restart learning)");
+  std::lock_guard<std::mutex> lock(status_mutex_);
+  ++status_.map_moves;
+  status_.map_moved_why = std::move(moved_why);
+  if (apart) {
+    ++status_.new_places;
+    follow(std::move(seen));
+    why.clear();
+    return false;
   }
   candidate_ = std::move(seen);
-  std::lock_guard<std::mutex> lock(status_mutex_);
   ++status_.refused;
   status_.last_refusal = why;
-  if (!moved_why.empty()) {
-    ++status_.map_moves;
-    status_.map_moved = true;
-    status_.map_moved_why = std::move(moved_why);
-  }
+  status_.map_moved = true;
   return false;
 }
 

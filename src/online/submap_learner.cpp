@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
-#include <optional>
 #include <stdexcept>
 
 #include "relocalizer/forest/model_io.h"
@@ -389,10 +388,10 @@ Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& fold
   return warnings;
 }
 
-std::vector<SubmapModel> SubmapLearner::models() const {
+std::vector<SubmapModel> SubmapLearner::models(bool current_place) const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::vector<SubmapModel> out;
-  for (int s = 0; s < index_.submapCount(); ++s) {
+  for (int s = current_place ? index_.firstOfPlace() : 0; s < index_.submapCount(); ++s) {
     SubmapModel model;
     model.index = s;
     model.frozen = index_.frozen(s);
@@ -408,6 +407,9 @@ std::vector<SubmapModel> SubmapLearner::models() const {
 }
 
 std::vector<Place> SubmapLearner::places() const { return learnedPlaces(models(), names_); }
+std::vector<Place> SubmapLearner::currentPlaces() const {
+  return learnedPlaces(models(true), names_);
+}
 
 LearnerSummary SubmapLearner::summary() const {
   const SubmapStatus s = status();

@@ -52,7 +52,7 @@ bool SubmapIndex::inActiveArea(const Pose& pose) const {
 
 bool SubmapIndex::coveredByFrozen(const Pose& pose) const {
   if (params_.cover_steps <= 0.0) return false;
-  for (int s = 0; s < submapCount(); ++s) {
+  for (int s = first_of_place_; s < submapCount(); ++s) {
     if (!frozen(s)) continue;  // so that a run that fits one submap learns as one store does
     for (const SubmapKeyFrame& k : submaps_[static_cast<std::size_t>(s)])
       if (keyFrameDistance(k.pose, pose) < params_.cover_steps) return true;
@@ -63,6 +63,7 @@ bool SubmapIndex::coveredByFrozen(const Pose& pose) const {
 SubmapDecision SubmapIndex::decide(const Pose& pose) const {
   if (coveredByFrozen(pose)) return SubmapDecision::Covered;
   if (active_ < 0) return SubmapDecision::Start;
+  if (active_ < first_of_place_) return SubmapDecision::NewLeft;  // of the map SLAM left
   const int held = static_cast<int>(keyFrames(active_).size());
   // Before the cap: a camera that left starts afresh rather than with seeds
   // from an area it is no longer in.
@@ -106,6 +107,8 @@ SubmapPlacement SubmapIndex::place(std::int64_t id, const Pose& pose) {
 }
 
 void SubmapIndex::freezeActive() { active_ = -1; }
+
+void SubmapIndex::startApart() { first_of_place_ = submapCount(); }
 
 void SubmapIndex::restore(std::vector<std::vector<SubmapKeyFrame>> submaps, int active) {
   if (!submaps_.empty())

@@ -53,11 +53,10 @@ Expected<std::unique_ptr<Dataset>> openLearning(const Options& o, LearnOptions& 
   return std::move(*learn);
 }
 
-// The learning loop of --learn-frames, whichever learner the feed holds: every
-// learn frame offered in order, its ground truth as SLAM's pose (a frame
-// without one is SLAM having lost track: never learned from), and `point`
-// drawn every `curve_every` frames and after the last. A refused key frame is
-// printed; any other failure is returned.
+// The learning loop of --learn-frames, whichever learner the feed holds: every learn frame
+// offered in order, its ground truth as SLAM's pose (a frame without one is SLAM having lost
+// track: never learned from), and `point` drawn every `curve_every` frames and after the last.
+// A refused key frame is printed, and SLAM's map moving; any other failure is returned.
 Status learnFrames(KeyFrameFeed& feed, const Dataset& learn, int curve_every, FeedCounts& counts,
                    const std::function<Status()>& point) {
   using Outcome = KeyFrameFeed::Result::Outcome;
@@ -68,6 +67,7 @@ Status learnFrames(KeyFrameFeed& feed, const Dataset& learn, int curve_every, Fe
       std::printf("not learned: %s\n", fed.why.c_str());
     else if (!fed.why.empty())
       return makeError(fed.why);
+    if (!fed.map_moved.empty()) std::printf("%s\n", fed.map_moved.c_str());
     counts.untracked += fed.outcome == Outcome::Untracked;
     counts.stored += fed.outcome == Outcome::Learned;
     counts.covered += fed.outcome == Outcome::Covered;

@@ -123,6 +123,29 @@ TEST(SubmapRule, TheSameWalkAgainAddsNothingButATurnedCameraDoes) {
   EXPECT_EQ(placed.submap, 3);
 }
 
+// After SLAM's map moved (a reset puts the camera back where the old map had
+// key frames), the same poses mean other places: the new map is learned from
+// its first key frame into a new submap with no seeds, and the old submaps
+// cover nothing of it; the new place covers itself as any place does.
+TEST(SubmapRule, ANewPlaceSharesNothingWithTheSubmapsBeforeIt) {
+  SubmapIndex index(smallSubmaps(), 4);
+  for (int i = 0; i < 6; ++i) index.place(i, walkPose(i));  // submap 0 full, 1 active
+  ASSERT_EQ(index.submapCount(), 2);
+  index.startApart();
+  EXPECT_EQ(index.firstOfPlace(), 2);
+  // Within one step of submap 0's key frames, and within the active's area.
+  EXPECT_EQ(index.decide(walkPose(1)), D::NewLeft);
+  const SubmapPlacement first = index.place(100, walkPose(1));
+  EXPECT_EQ(first.decision, D::NewLeft);
+  EXPECT_EQ(first.submap, 2);
+  EXPECT_TRUE(first.seeds.empty());
+  EXPECT_EQ(ids(index.keyFrames(2)), std::vector<std::int64_t>({100}));
+  for (int i = 2; i < 5; ++i) EXPECT_EQ(index.place(100 + i, walkPose(i)).submap, 2);
+  EXPECT_EQ(index.place(105, walkPose(5)).decision, D::NewFull);  // the new place goes on
+  EXPECT_EQ(index.firstOfPlace(), 2);
+  EXPECT_EQ(index.decide(walkPose(2)), D::Covered);  // by submap 2, of the new place
+}
+
 TEST(SubmapRule, TheActiveSubmapNeverCoversSoOneSubmapLearnsAsOneStore) {
   SubmapIndex index(smallSubmaps(), 64);
   for (int i = 0; i < 5; ++i) index.place(i, walkPose(0));

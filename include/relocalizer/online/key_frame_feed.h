@@ -41,12 +41,16 @@ class KeyFrameFeed {
     Outcome outcome = Outcome::NotKeyFrame;
     std::string why;
     double store_seconds = 0.0;  // Learned: compressing and storing, on the caller's thread
+    // Set on the key frame that showed SLAM's map moved (Refused: learning
+    // stopped; Learned: the first of a new place): what moved, to be told loudly.
+    std::string map_moved;
   };
 
   // The next frame with SLAM's camera-to-world pose (nullopt: SLAM lost
   // track). `load` is called only for a key frame (loading or converting a
   // frame costs more than the rule). When the check asks the place, the
-  // learner's places answer, searched as one group.
+  // learner's current places answer, searched as one group; when SLAM's map
+  // moved under them, the learner starts a new place if it can.
   Result offer(const std::optional<Pose>& camera_to_world,
                const std::function<Expected<RgbdFrame>()>& load);
 
@@ -59,6 +63,7 @@ class KeyFrameFeed {
   // Both references are the last key frame learned from; the learning thread's.
   KeyFrameSelector selector_;
   SlamPoseCheck check_;
+  int map_moves_ = 0;  // the check's, told in a Result
 };
 
 }  // namespace relocalizer

@@ -52,6 +52,16 @@ class Learner {
   // The learned models now, as the places of one group in one map frame
   // (Place::group set; for PlaceSet::putGroup); empty before the first model.
   virtual std::vector<Place> places() const = 0;
+  // SLAM's map moved under what is learned (slam_pose_check.h: a reset, or a
+  // look-alike room the place mistakes for one it knows): what follows is
+  // learned as a new place in the same map frame, sharing no key frame or
+  // model with what was learned before, whose answers stay (where both fit a
+  // frame alike but disagree, it has no pose). False when the learner holds one model
+  // (one store): learning into it then stops.
+  virtual bool startNewPlace() { return false; }
+  // The places learned since the last startNewPlace() (all, before one): the
+  // ones the SLAM check asks.
+  virtual std::vector<Place> currentPlaces() const { return places(); }
   // Writes what is learned to `path` (a model file, or a folder of submaps).
   virtual Status save(const std::string& path) = 0;
   virtual LearnerSummary summary() const = 0;

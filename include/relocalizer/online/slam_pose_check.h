@@ -18,9 +18,13 @@
 // going on where nothing can check it (tracking regained elsewhere, new
 // rooms: nothing contradicted it, and learning follows it again) or, when
 // the speed bound, the depth or the place contradicted them, SLAM's map
-// itself having moved (a reset, or a jump that stays): the place is not
-// taught the new map; learning into it stays stopped, said loudly in the
-// status, until SLAM's poses agree with it again.
+// having moved under the place (a reset, a jump that stays, or a look-alike
+// room the place takes for one it knows: from one run of frames these look
+// the same). The place is never taught the new map: the learner starts a new
+// place for it when it can (submaps; the old and the new answer side by
+// side, and where both fit a frame alike but disagree it has no pose), and otherwise learning
+// stays stopped, said loudly in the status, until SLAM's poses agree with the
+// place again.
 
 #include <functional>
 #include <mutex>
@@ -86,9 +90,10 @@ struct SlamCheckStatus {
                            // check it, consistently for kMapMovedKeyFrames and a second, and
                            // nothing contradicted it (tracking regained, new rooms)
   int map_moves = 0;       // times refused key frames persisted (kMapMovedKeyFrames) into a new map
+  int new_places = 0;      // of them, learned on as a new place
   bool map_moved = false;  // now: learning stopped until SLAM's poses agree with the place again
   std::string last_refusal;    // why the last refused key frame was refused
-  std::string map_moved_why;   // while map_moved: what moved, loudly
+  std::string map_moved_why;   // the last map move, loudly: what moved and what learning does
   double check_seconds = 0.0;  // wall time of all checks (depth alignments, place answers)
 };
 
@@ -99,14 +104,19 @@ class SlamPoseCheck {
   // The learned place's answer for a frame, in the map frame (nullopt: no
   // pose, or no place yet).
   using AskPlace = std::function<std::optional<Pose>(const RgbdFrame& frame)>;
+  // Starts a new place for what follows SLAM's map move (Learner::startNewPlace);
+  // false: it cannot, and learning stops.
+  using StartNewPlace = std::function<bool()>;
 
   // Empty when `frame` (a key frame by the rule, SLAM's `camera_to_world`,
   // which slamPoseError passed, frame.stamp in seconds) may be learned from; it then becomes the
   // reference the next key frame is checked against. Otherwise why not (also
   // in status().last_refusal). Without a reference (the first key frame)
-  // only the place's answer, if any, is checked.
+  // only the place's answer, if any, is checked. The key frame that shows
+  // SLAM's map moved is learned, as the first of a new place, when
+  // `new_place` starts one.
   std::string check(const RgbdFrame& frame, const Pose& camera_to_world,
-                    const AskPlace& answer = {});
+                    const AskPlace& answer = {}, const StartNewPlace& new_place = {});
 
   // Thread-safe: the node's status is read on other threads.
   SlamCheckStatus status() const;
@@ -127,8 +137,11 @@ class SlamPoseCheck {
   Verdict depthVerdict(const Seen& from, const Seen& to) const;
   Verdict judge(const Seen& seen, const RgbdFrame& frame, const AskPlace& answer) const;
   // A key frame not confirmed: refused (false, `why` kept), or learned after
-  // all (true, `why` cleared) when it ends a run nothing contradicted.
-  bool refused(Seen seen, const Verdict& verdict, std::string& why);
+  // all (true, `why` cleared) when it ends a run nothing contradicted, or
+  // one that `new_place` learns apart.
+  bool refused(Seen seen, const Verdict& verdict, const StartNewPlace& new_place, std::string& why);
+  // `seen` is the reference from now on; no refused run is pending.
+  void follow(Seen seen);
 
   const SlamCheckParams params_;
   std::optional<Seen> reference_;  // the last learned key frame

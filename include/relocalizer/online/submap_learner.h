@@ -158,10 +158,20 @@ class SubmapLearner : public Learner {
   // pending freezes, then for the active's retrain (Inline: retrains now).
   Status drain() override;
 
-  // Every submap with a model, frozen ones first in order, then the active.
-  std::vector<SubmapModel> models() const;
+  // Every submap with a model, frozen ones first in order, then the active;
+  // `current_place`: only those since the last startNewPlace().
+  std::vector<SubmapModel> models(bool current_place = false) const;
   // models() as places `<place>/<index>` of group `place` (submapPlaces).
   std::vector<Place> places() const override;
+  // The next key frame starts a new submap, seeded with nothing, and the
+  // submaps before it no longer cover key frames nor answer the SLAM check
+  // (SubmapIndex::startApart); they still answer in places(). Always true.
+  bool startNewPlace() override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    index_.startApart();
+    return true;
+  }
+  std::vector<Place> currentPlaces() const override;
   SubmapStatus status() const;
   // Key frames learned: frozen submaps whole, the active as far as its model goes.
   LearnerSummary summary() const override;

@@ -79,6 +79,12 @@ class SubmapIndex {
   // The active submap is frozen (a new key frame then starts a new one): what
   // a save at the end of a run does.
   void freezeActive();
+  // SLAM's map moved under the submaps so far (Learner::startNewPlace): the
+  // next key frame starts a new submap without seeds, and only submaps from
+  // it on cover key frames (the old ones' poses are in the map SLAM left).
+  void startApart();
+  // The first submap of the place learned now: startApart's, else 0.
+  int firstOfPlace() const { return first_of_place_; }
   // Takes the submaps of a saved run (by index; an empty one stays empty: a
   // submap that could not be loaded covers nothing) and its active submap (-1:
   // none), so that the run continues as if never stopped. Throws
@@ -101,6 +107,7 @@ class SubmapIndex {
   int max_keyframes_;
   std::vector<std::vector<SubmapKeyFrame>> submaps_;
   int active_ = -1;
+  int first_of_place_ = 0;
 };
 
 }  // namespace relocalizer

@@ -134,7 +134,6 @@ std::string LearningFeed::noModelYet() const {
 
 void LearningFeed::learnLoop() {
   using Outcome = relocalizer::KeyFrameFeed::Result::Outcome;
-  int map_moves_told = 0;
   int submaps = learner_->index().submapCount();
   while (true) {
     auto entry = frames_.take();
@@ -177,15 +176,11 @@ void LearningFeed::learnLoop() {
                  fed.why.c_str());
     } else if (fed.outcome == Outcome::Failed && log_.allow(fed.why)) {
       ROS_WARN("relocalizer: not learning from a key frame: %s", fed.why.c_str());
-    } else if (fed.outcome == Outcome::Refused) {
-      const relocalizer::SlamCheckStatus check = feed_.check().status();
-      if (check.map_moves > map_moves_told) {
-        map_moves_told = check.map_moves;
-        ROS_ERROR("relocalizer: %s", check.map_moved_why.c_str());
-      } else if (log_.allow("learn: SLAM pose refused")) {
-        ROS_WARN("relocalizer: not learning from the frame at %.3f (%d refused so far): %s",
-                 stamp.toSec(), check.refused, fed.why.c_str());
-      }
+    } else if (!fed.map_moved.empty()) {
+      ROS_ERROR("relocalizer: %s", fed.map_moved.c_str());  // a new place, or learning stopped
+    } else if (fed.outcome == Outcome::Refused && log_.allow("learn: SLAM pose refused")) {
+      ROS_WARN("relocalizer: not learning from the frame at %.3f (%d refused so far): %s",
+               stamp.toSec(), feed_.check().status().refused, fed.why.c_str());
     }
   }
 }
