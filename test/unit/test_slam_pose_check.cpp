@@ -324,8 +324,8 @@ TEST_F(LyingSlam, AMapResetStopsOneStoreLearningLoudly) {
   OnlineLearner learner(learning(true), relocalizer::testing::onlineRoomRelocalizer(),
                         OnlineLearner::Mode::Inline);
   KeyFrameFeed feed(learner, learning(true));
-  const Fed fed = feedOne(
-      feed, walk_, [&](size_t i) { return resetAt(i, at); }, at);
+  const auto slam = [&](size_t i) { return resetAt(i, at); };
+  const Fed fed = feedOne(feed, walk_, slam, at);
   const SlamCheckStatus status = feed.check().status();
   EXPECT_EQ(fed.learned_from, 0);
   EXPECT_EQ(fed.refused, static_cast<int>(walk_.size() - at));
