@@ -350,7 +350,7 @@ Scaled improveRectangle(const Gradients& g, Rect& r, int& level, double tests) {
 
 }  // namespace
 
-std::vector<LineSegment> detectLineSegments(const cv::Mat& grey) {
+std::vector<LineSegment> detectLineSegments(const cv::Mat& grey, bool validate) {
   if (grey.type() != CV_8UC1)
     throw std::invalid_argument("detectLineSegments: expected an 8-bit one-channel image");
   std::vector<LineSegment> segments;
@@ -364,19 +364,24 @@ std::vector<LineSegment> detectLineSegments(const cv::Mat& grey) {
   // are aligned: tests * p^size >= 1.
   int min_region = 0;
   for (double bound = tests; bound >= 1.0; bound *= kAlignedProbability) ++min_region;
+  // The paper's bound is one less (a region that size can still pass with
+  // aligned pixels of the rectangle outside it); the NFA decides those.
+  if (!validate) --min_region;
   Region region;
   for (int seed : seedOrder(g)) {
     if (g.used[seed]) continue;
     growRegion(g, seed, region);
     if (static_cast<int>(region.pixels.size()) < min_region) continue;
     Rect r = rectangleOf(g, region);
-    if (!shrinkUntilDense(g, region, r) || static_cast<int>(region.pixels.size()) < min_region)
-      continue;
-    // The improved rectangle only validates: moving a side in moves the line
-    // off the centroid of the gradients, a quarter pixel a step.
-    Rect validated = r;
-    int level = 0;
-    if (!improveRectangle(g, validated, level, tests).belowOne()) continue;
+    if (validate) {
+      if (!shrinkUntilDense(g, region, r) || static_cast<int>(region.pixels.size()) < min_region)
+        continue;
+      // The improved rectangle only validates: moving a side in moves the
+      // line off the centroid of the gradients, a quarter pixel a step.
+      Rect validated = r;
+      int level = 0;
+      if (!improveRectangle(g, validated, level, tests).belowOne()) continue;
+    }
     // The gradient belongs to the centre of its 2x2 block: half a pixel on.
     LineSegment s;
     s.x1 = r.cx - r.half_length * r.dx + 0.5;

@@ -42,9 +42,9 @@ std::vector<cv::Vec4f> openCvLsdSegments(const cv::Mat& colour, float scale) {
   return segments;
 }
 
-std::vector<cv::Vec4f> ownSegments(const cv::Mat& colour, float scale) {
+std::vector<cv::Vec4f> ownSegments(const cv::Mat& colour, float scale, bool validate) {
   std::vector<cv::Vec4f> segments;
-  for (const LineSegment& s : detectLineSegments(lineDetectorInput(colour, scale)))
+  for (const LineSegment& s : detectLineSegments(lineDetectorInput(colour, scale), validate))
     segments.emplace_back(static_cast<float>(s.x1), static_cast<float>(s.y1),
                           static_cast<float>(s.x2), static_cast<float>(s.y2));
   return segments;
@@ -62,8 +62,9 @@ std::optional<LineDetector> lineDetectorNamed(const std::string& name) {
   return std::nullopt;
 }
 
-std::vector<cv::Vec4f> detectSegments(const cv::Mat& colour, LineDetector detector, float scale) {
-  return detector == LineDetector::kOwn ? ownSegments(colour, scale)
+std::vector<cv::Vec4f> detectSegments(const cv::Mat& colour, LineDetector detector, float scale,
+                                      bool lsd_validation) {
+  return detector == LineDetector::kOwn ? ownSegments(colour, scale, lsd_validation)
                                         : openCvLsdSegments(colour, scale);
 }
 
@@ -150,7 +151,8 @@ LineSamples sampleLines(const RgbdFrame& frame, const LineSamplingParams& params
                         std::mt19937& rng) {
   LineSamples result;
   const float scale = lsdScaleFor(params, frame.colour.cols);
-  const std::vector<cv::Vec4f> segments = detectSegments(frame.colour, params.line_detector, scale);
+  const std::vector<cv::Vec4f> segments =
+      detectSegments(frame.colour, params.line_detector, scale, params.lsd_validation);
   result.segments_detected = static_cast<int>(segments.size());
 
   const int width = frame.depth.cols, height = frame.depth.rows;

@@ -56,6 +56,7 @@ json trainingParamsJson(const TrainingParams& p) {
             {"spacing_px", l.spacing_px},
             {"lsd_scale", l.lsd_scale},
             {"lsd_min_width_px", l.lsd_min_width_px},
+            {"lsd_validation", l.lsd_validation},
             {"edge_offset_px", l.edge_offset_px},
             {"ransac_inlier_m", l.ransac_inlier_m},
             {"ransac_iterations", l.ransac_iterations},
@@ -139,6 +140,8 @@ void readTrainingParams(const json& j, TrainingParams& p) {
   // keep doing so, whatever today's default.
   s.lsd_min_width_px = 0;
   if (l.contains("lsd_min_width_px")) readField(l, prefix, "lsd_min_width_px", s.lsd_min_width_px);
+  s.lsd_validation = true;  // what every model before the key did
+  if (l.contains("lsd_validation")) readField(l, prefix, "lsd_validation", s.lsd_validation);
   readField(l, prefix, "edge_offset_px", s.edge_offset_px);
   readField(l, prefix, "ransac_inlier_m", s.ransac_inlier_m);
   readField(l, prefix, "ransac_iterations", s.ransac_iterations);

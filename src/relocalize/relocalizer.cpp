@@ -333,9 +333,10 @@ bool SamplingRecipe::sameAs(const SamplingRecipe& other) const {
          min_valid_depth == other.min_valid_depth && seed == other.seed &&
          a.line_detector == b.line_detector && a.min_segment_length_px == b.min_segment_length_px &&
          a.spacing_px == b.spacing_px && a.lsd_scale == b.lsd_scale &&
-         a.lsd_min_width_px == b.lsd_min_width_px && a.edge_offset_px == b.edge_offset_px &&
-         a.ransac_inlier_m == b.ransac_inlier_m && a.ransac_iterations == b.ransac_iterations &&
-         a.min_inliers == b.min_inliers && a.min_inlier_ratio == b.min_inlier_ratio;
+         a.lsd_min_width_px == b.lsd_min_width_px && a.lsd_validation == b.lsd_validation &&
+         a.edge_offset_px == b.edge_offset_px && a.ransac_inlier_m == b.ransac_inlier_m &&
+         a.ransac_iterations == b.ransac_iterations && a.min_inliers == b.min_inliers &&
+         a.min_inlier_ratio == b.min_inlier_ratio;
 }
 
 std::string Relocalizer::limitations() const {

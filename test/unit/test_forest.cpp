@@ -811,6 +811,20 @@ TEST(Config, ModelsWithoutTheLsdFloorKeepTheirOwnLsdScale) {
   EXPECT_EQ(read_back->line_sampling.lsd_min_width_px, 0);
 }
 
+TEST(Config, ModelsWithoutLsdValidationKeepValidating) {
+  // Headers written before the key validated our detector's segments.
+  TrainingParams unvalidated;
+  unvalidated.line_sampling.lsd_validation = false;
+  nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(unvalidated));
+  auto read_back = trainingParamsFromJson(header.dump());
+  ASSERT_TRUE(read_back.ok()) << read_back.error();
+  EXPECT_FALSE(read_back->line_sampling.lsd_validation);
+  ASSERT_EQ(header["line_sampling"].erase("lsd_validation"), 1u);
+  auto read = trainingParamsFromJson(header.dump());
+  ASSERT_TRUE(read.ok()) << read.error();
+  EXPECT_TRUE(read->line_sampling.lsd_validation);
+}
+
 TEST(Config, ModelsWithoutALineDetectorKeepOpenCvsLsd) {
   // Headers written before our own detector existed were trained on OpenCV's
   // LSD: they keep it, so their line forests see what they were trained on.

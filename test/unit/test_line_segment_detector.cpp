@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <random>
 
+#include <opencv2/imgproc.hpp>
+
 #include "relocalizer/forest/line_detector_input.h"
 #include "relocalizer/forest/line_segment_detector.h"
 #include "relocalizer/forest/sampling.h"
@@ -238,4 +240,55 @@ TEST(LineSegmentDetector, SamplesOfFixedFramesMatchTheirDigest) {
   char digest[20];
   std::snprintf(digest, sizeof digest, "%016llx", static_cast<unsigned long long>(hash));
   EXPECT_STREQ(digest, "a24951beee50406a") << segments << " segments, " << samples << " samples";
+}
+
+namespace {
+
+// Share of `segments` with a segment in `others` whose endpoints are both
+// within `tolerance` px.
+double shareFoundIn(const std::vector<cv::Vec4f>& segments, const std::vector<cv::Vec4f>& others,
+                    double tolerance) {
+  int found = 0;
+  for (const cv::Vec4f& s : segments)
+    for (const cv::Vec4f& o : others)
+      if (std::hypot(s[0] - o[0], s[1] - o[1]) <= tolerance &&
+          std::hypot(s[2] - o[2], s[3] - o[3]) <= tolerance) {
+        ++found;
+        break;
+      }
+  return segments.empty() ? 0.0 : static_cast<double>(found) / segments.size();
+}
+
+}  // namespace
+
+TEST(LineSegmentDetector, UnvalidatedItFindsWhatOpenCvsLsdWithoutRefinementFinds) {
+  // lsd_validation: false is meant to give the segments of OpenCV's
+  // LSD_REFINE_NONE (the same 2x2 gradient, region growing and rectangle; no
+  // density check, no NFA, the paper's minimum region). On smoothed noise
+  // (short curved level lines, most of which the NFA rejects) whose 160x120
+  // detector input is the same for both: grey, each pixel 4x4 in the frame.
+  if (!lineDetectorMissing(LineDetector::kOpenCvLsd).empty())
+    GTEST_SKIP() << lineDetectorMissing(LineDetector::kOpenCvLsd);
+  for (uint32_t seed : {11u, 12u, 13u}) {
+    std::mt19937 rng(seed);
+    cv::Mat noise(120, 160, CV_8UC1), smooth, grey;
+    for (int y = 0; y < noise.rows; ++y)
+      for (int x = 0; x < noise.cols; ++x)
+        noise.at<unsigned char>(y, x) = static_cast<unsigned char>(rng() % 256);
+    cv::blur(noise, smooth, cv::Size(5, 5));
+    cv::resize(smooth, grey, cv::Size(640, 480), 0, 0, cv::INTER_NEAREST);
+    cv::Mat colour;
+    cv::cvtColor(grey, colour, cv::COLOR_GRAY2BGR);
+    const float scale = lsdScaleFor(LineSamplingParams{}, 640);
+    const auto opencv = detectSegments(colour, LineDetector::kOpenCvLsd, scale);
+    const auto ours = detectSegments(colour, LineDetector::kOwn, scale, false);
+    const auto validated = detectSegments(colour, LineDetector::kOwn, scale, true);
+    ASSERT_GT(opencv.size(), 20u);
+    // Not all to the bit: OpenCV grows regions with a float atan2 and breaks
+    // ties between equal gradients in its own order.
+    EXPECT_GE(shareFoundIn(ours, opencv, 0.1), 0.8) << ours.size() << " of ours, seed " << seed;
+    EXPECT_GE(shareFoundIn(opencv, ours, 0.1), 0.8)
+        << opencv.size() << " of OpenCV's, seed " << seed;
+    EXPECT_LT(shareFoundIn(opencv, validated, 0.1), 0.2) << "validated, seed " << seed;
+  }
 }

@@ -31,7 +31,10 @@ struct LineSegment {
 
 // Segments of an 8-bit single-channel image, in the order their seeds were
 // taken (strongest gradient first). Throws std::invalid_argument for another
-// image type.
-std::vector<LineSegment> detectLineSegments(const cv::Mat& grey);
+// image type. validate = false keeps every region of at least the paper's
+// minimum size (tests * p^size >= 1: 13 px at 160x120) as fitted, with
+// neither the density check nor the NFA: what OpenCV's LSD_REFINE_NONE
+// does, short low-contrast segments and noise included.
+std::vector<LineSegment> detectLineSegments(const cv::Mat& grey, bool validate = true);
 
 }  // namespace relocalizer
