@@ -364,8 +364,8 @@ std::vector<LineSegment> detectLineSegments(const cv::Mat& grey, bool validate) 
   // are aligned: tests * p^size >= 1.
   int min_region = 0;
   for (double bound = tests; bound >= 1.0; bound *= kAlignedProbability) ++min_region;
-  // The paper's bound is one less (a region that size can still pass with
-  // aligned pixels of the rectangle outside it); the NFA decides those.
+  // Unvalidated, the paper's and OpenCV's bound, int(log8(tests)): one less,
+  // and the regions OpenCV's LSD_REFINE_NONE keeps.
   if (!validate) --min_region;
   Region region;
   for (int seed : seedOrder(g)) {

@@ -59,10 +59,10 @@ struct LineSamplingParams {
   // before it existed.
   int lsd_min_width_px = 160;
   // Our detector's a-contrario validation (density check and NFA). Off, it
-  // keeps what OpenCV's LSD_REFINE_NONE keeps (its segments to 0.01 px on
-  // redkitchen): 2 points more of the line forest alone within 2 cm / 2 deg
-  // there, and segments on noise too (docs/benchmarks.md). Models without the
-  // key validated (OpenCV's LSD ignores it).
+  // keeps what OpenCV's LSD_REFINE_NONE keeps (96 % of its segments to
+  // 0.005 px on redkitchen): 2 points more of the line forest alone within
+  // 2 cm / 2 deg there, and weak, short segments (docs/benchmarks.md). Models
+  // without the key validated (OpenCV's LSD ignores it).
   bool lsd_validation = true;
   // Samples are taken this many pixels off the detected edge, on both sides:
   // an intensity edge is often a depth edge, where depth is mixed or missing.
