@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # make bench-changes: the relocalizer in a world that changed after training.
 #   scripts/bench_changes.sh [BUILD_DIR]
-# Trains one model of each scene and relocalizes its test frames unchanged and
+# Trains two models of each scene, with the default configuration and with
+# config/colour_normalised.yaml (the forests see colour through each frame's
+# own statistics), and relocalizes its test frames unchanged and
 # seen under other light (evaluate --light-stops/--light-kelvin/--light-gamma:
 # a global gain, colour temperature and tone curve applied in linear light, so
 # they are physically honest on real frames too), each at a few severities:
@@ -14,8 +16,7 @@
 # by more than 10 cm or 10 deg, and the change of the 5 cm share against the
 # unchanged frames. Everything goes to BUILD_DIR/bench_changes (models and the
 # room are reused by the next run; changes.json holds the table).
-# Environment: CHANGES_THREADS (2: threads of train and evaluate),
-# CHANGES_KITCHEN_MODEL (a kitchen model to use instead of training one).
+# Environment: CHANGES_THREADS (2: threads of train and evaluate).
 . "$(dirname "$0")/bench_setup.sh"
 out="$root/$build_dir/bench_changes"
 mkdir -p "$out"
@@ -43,10 +44,12 @@ manifest="$out/runs.tsv"
 measure() {  # SCENE MODEL TEST_ARGS...
   local scene=$1 model=$2
   shift 2
-  mkdir -p "$out/$scene"
+  local scene_folder
+  scene_folder="$out/$(echo "$scene" | tr -c 'a-zA-Z0-9\n' '_')"
+  mkdir -p "$scene_folder"
   for entry in "${changes[@]}"; do
     local name=${entry%%|*} options=${entry#*|} folder
-    folder="$out/$scene/$(echo "$name" | tr -c 'a-zA-Z0-9\n' '_')"
+    folder="$scene_folder/$(echo "$name" | tr -c 'a-zA-Z0-9\n' '_')"
     echo "bench_changes: $scene, $name"
     # shellcheck disable=SC2086
     "$tools/evaluate" --model "$model" "$@" --threads "$threads" --output "$folder" $options \
@@ -55,15 +58,28 @@ measure() {  # SCENE MODEL TEST_ARGS...
   done
 }
 
+# MODEL, then train's arguments: trained with the default configuration, and as
+# MODEL_normalised with config/colour_normalised.yaml; kept for the next run.
+train_both() {
+  local model=$1 name
+  shift
+  for name in "" _normalised; do
+    local file="${model%.model}$name.model" config=()
+    [ -n "$name" ] && config=(--config "$root/config/colour_normalised.yaml")
+    [ -f "$file" ] && continue
+    echo "bench_changes: training $file (log: ${file%.model}_train.log)"
+    "$tools/train" "$@" --seed 42 --threads "$threads" "${config[@]}" --output "$file" \
+      > "${file%.model}_train.log" 2>&1
+  done
+}
+
 data=$kitchen
 if [ -f "$data/frame-000000.pose.txt" ]; then
-  kitchen_model=${CHANGES_KITCHEN_MODEL:-$out/kitchen.model}
-  if [ ! -f "$kitchen_model" ]; then
-    echo "bench_changes: training the redkitchen-dev model (log: $out/kitchen_train.log)"
-    "$tools/train" --dataset "$data" --frames 0-99,200-299,400-499 --seed 42 \
-      --threads "$threads" --output "$kitchen_model" > "$out/kitchen_train.log" 2>&1
-  fi
-  measure redkitchen-dev "$kitchen_model" --dataset "$data" --frames 100-199,300-399
+  train_both "$out/kitchen.model" --dataset "$data" --frames 0-99,200-299,400-499
+  for name in "" _normalised; do
+    measure "redkitchen-dev${name/_/, colour }" "$out/kitchen$name.model" --dataset "$data" \
+      --frames 100-199,300-399
+  done
 else
   echo "bench_changes: $data is absent: the synthetic room only (see ../shared/data/README.md)"
 fi
@@ -74,11 +90,9 @@ if [ ! -f "$room/scene.json" ]; then
   "$tools/synthesize" --seed 1 --train-frames 300 --test-frames 100 --output "$room" \
     > "$out/room_synthesize.log"
 fi
-if [ ! -f "$out/room.model" ]; then
-  echo "bench_changes: training the room's model (log: $out/room_train.log)"
-  "$tools/train" --dataset "$room/train" --seed 42 --threads "$threads" \
-    --output "$out/room.model" > "$out/room_train.log" 2>&1
-fi
-measure synthetic-room "$out/room.model" --dataset "$room/test"
+train_both "$out/room.model" --dataset "$room/train"
+for name in "" _normalised; do
+  measure "synthetic room${name/_/, colour }" "$out/room$name.model" --dataset "$room/test"
+done
 
 python3 "$root/scripts/bench_changes_table.py" "$manifest" "$out/changes.json"

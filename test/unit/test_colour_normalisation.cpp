@@ -73,17 +73,21 @@ TEST(ColourNormalisation, NoneIsTheRecordedColourAndNamesRoundTrip) {
 }
 
 TEST(ColourNormalisation, ModelsWithoutItKeepTheRecordedColour) {
-  const TrainingParams today;
-  ASSERT_EQ(today.colour_normalisation, ColourNormalisation::kChannelStatistics);
-  nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(today));
+  TrainingParams normalised;
+  normalised.colour_normalisation = ColourNormalisation::kChannelStatistics;
+  nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(normalised));
   EXPECT_EQ(header["colour_normalisation"], "channel_statistics");
+  auto same = trainingParamsFromJson(header.dump());
+  ASSERT_TRUE(same.ok()) << same.error();
+  EXPECT_EQ(same->colour_normalisation, ColourNormalisation::kChannelStatistics);
   ASSERT_EQ(header.erase("colour_normalisation"), 1u);
   auto read = trainingParamsFromJson(header.dump());
   ASSERT_TRUE(read.ok()) << read.error();
   EXPECT_EQ(read->colour_normalisation, ColourNormalisation::kNone);
-  const auto none = parseTrainingParams("colour_normalisation: none\n", "c.yaml");
-  ASSERT_TRUE(none.ok()) << none.error();
-  EXPECT_EQ(none->colour_normalisation, ColourNormalisation::kNone);
+  auto preset =
+      loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/colour_normalised.yaml");
+  ASSERT_TRUE(preset.ok()) << preset.error();
+  EXPECT_EQ(preset->colour_normalisation, ColourNormalisation::kChannelStatistics);
   const auto wrong = parseTrainingParams("colour_normalisation: grey_world\n", "c.yaml");
   ASSERT_FALSE(wrong.ok());
   EXPECT_NE(wrong.error().find("'colour_normalisation' must be"), std::string::npos)

@@ -25,6 +25,7 @@ class SyntheticRoomRelocalization : public ::testing::Test {
     const CameraIntrinsics camera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
     const SyntheticTrajectories paths = room.trajectories(80, 30);
     TrainingParams params;
+    params.colour_normalisation = ColourNormalisation::kChannelStatistics;
     for (ForestParams* f : {&params.points, &params.lines}) {
       f->trees = 3;
       f->max_depth = 16;
@@ -116,10 +117,10 @@ TEST_F(SyntheticRoomRelocalization, NinetyPercentOfTestFramesWithinFiveCentimetr
 }
 
 // Evening: half the light, from a tungsten lamp (2700 K) instead of the light
-// the room was trained in. The colour statistics the forests see through
-// (colour_normalisation.h) cancel the gain and the cast, so the frames are found
-// as in the training light: 100 % here, against 50 % (the rest "no pose") with
-// the fixture's model trained with colour_normalisation none.
+// the room was trained in. The colour statistics the fixture's model sees
+// through (colour_normalisation.h) cancel the gain and the cast, so the frames
+// are found as in the training light: 100 % here, against 50 % (the rest "no
+// pose") with the fixture's model trained with colour_normalisation none.
 TEST_F(SyntheticRoomRelocalization, EveningLightIsFoundAsInTheLightOfTraining) {
   PhotometricChange evening;
   evening.stops = -1;

@@ -50,8 +50,9 @@ struct TrainingParams {
   ForestParams lines;
   LineSamplingParams line_sampling;
   // What the forests see of the colour (colour_normalisation.h); models
-  // written before it existed read kNone.
-  ColourNormalisation colour_normalisation = ColourNormalisation::kChannelStatistics;
+  // written before it existed read kNone. Not the default: it costs online
+  // learning from sparse key frames a third of its accuracy (docs/benchmarks.md).
+  ColourNormalisation colour_normalisation = ColourNormalisation::kNone;
   bool train_points = true;
   bool train_lines = true;
   bool build_surface = true;  // fuse the images' depth into the scene surface (surface_model.h)
