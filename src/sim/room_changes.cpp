@@ -16,6 +16,8 @@ namespace {
 // Tries at hanging each new decoration somewhere on the walls before giving up
 // on it (the walls are full).
 constexpr int kDecorationAttempts = 400;
+// A wall whose furniture stays further than this from a corner has a corner piece there.
+constexpr float kCornerPieceClearance = 0.5f;
 
 Rng changeRng(const SyntheticRoom::Impl& room, uint64_t change) {
   return Rng(mix64(room.seed ^ mix64(0xc4a93ed0000ULL + change)));
@@ -60,7 +62,15 @@ void removeDecorations(SyntheticRoom::Impl& room, FurnishingRecord& record, int 
 // the furniture and the other decorations.
 void addDecorations(RoomBuilder& b, FurnishingRecord& record, int count) {
   std::array<std::vector<Rect>, 4> blocked;
-  for (int k = 0; k < 4; ++k) blocked[k] = record.walls[k].fixed;
+  for (int k = 0; k < 4; ++k) {
+    const FurnishingRecord::Wall& w = record.walls[k];
+    blocked[k] = w.fixed;
+    // A plant or floor lamp in a corner keeps furniture 0.75 m off (room_layout.cpp)
+    // and stands up to 1.8 m high.
+    if (w.start > kCornerPieceClearance) blocked[k].push_back({-1.0f, w.start, 0, 1.9f});
+    if (w.length - w.end > kCornerPieceClearance)
+      blocked[k].push_back({w.end, w.length + 1.0f, 0, 1.9f});
+  }
   for (const FurnishingRecord::Piece& p : record.furniture)
     blocked[p.wall].push_back(furnitureClearance(p.s0, p.s1, p.z1));
   for (const FurnishingRecord::Piece& p : record.decorations)
