@@ -8,6 +8,7 @@
 #include "room_bvh.h"
 #include "room_layout.h"
 #include "room_rearrangement.h"
+#include "room_trajectories.h"
 
 namespace relocalizer {
 namespace synthetic {
@@ -16,6 +17,8 @@ namespace {
 // Tries at hanging each new decoration somewhere on the walls before giving up
 // on it (the walls are full).
 constexpr int kDecorationAttempts = 400;
+// How far the lamp switched on stands out from what it lights (metres).
+constexpr float kLampFromWall = 0.4f;
 // A wall whose furniture stays further than this from a corner has a corner piece there.
 constexpr float kCornerPieceClearance = 0.5f;
 
@@ -85,19 +88,26 @@ void addDecorations(RoomBuilder& b, FurnishingRecord& record, int count) {
   }
 }
 
-// One ceiling light off, or a lamp on: a warm light 0.4 m out from a wall at
-// 1.2 m, falling off fast, so it lights a few square metres of wall and what
-// stands there.
+// One ceiling light off, or a lamp on: a warm light at 1.2 m, 0.4 m out from
+// what the test camera faces half-way along its path (of synthesize's default
+// 300 training and 100 test frames), falling off fast, so it lights a few
+// square metres of wall and what stands there. Needs the room's BVH.
 void switchLamp(RoomBuilder& b, LampChange lamp) {
   SyntheticRoom::Impl& room = b.room();
   if (lamp == LampChange::kOff) {
     room.lights[b.rng().integer(0, 1)].colour = Vec3f::Zero();
   } else if (lamp == LampChange::kOn && room.light_count < SyntheticRoom::Impl::kMaxLights) {
-    const int k = b.rng().integer(0, 3);
-    const float length = b.wall(k).length;
+    const Pose view = roomTrajectories(room, 300, 100).test[50];
+    Vec3f ahead = view.linear().col(2).cast<float>();
+    ahead.z() = 0;
+    const Vec3f from(view.translation().x(), view.translation().y(), 1.2f);
+    // Before the first surface ahead (wall or furniture): lit from inside a
+    // wardrobe, nothing would show.
+    const float t = room.trace(Ray(from, ahead.normalized()), nullptr).t;
+    const Vec3f at = from + std::max(t - kLampFromWall, t / 2) * ahead.normalized();
     SyntheticRoom::Impl::Light& light = room.lights[room.light_count++];
-    light.position = b.wallPoint(k, b.rng().uniform(0.3, 0.7) * length, 0.4f, 1.2f);
-    light.colour = Vec3f(1.0f, 0.78f, 0.5f);
+    light.position = at;
+    light.colour = Vec3f(1.5f, 1.17f, 0.75f);
     light.falloff = 3.0f;
   }
 }
@@ -135,12 +145,12 @@ void applyChanges(SyntheticRoom::Impl& room, const SceneChanges& changes) {
   removeDecorations(room, *record, changes.removed_objects, removals);
   RoomBuilder adder(room, additions);
   addDecorations(adder, *record, changes.added_objects);
-  RoomBuilder switcher(room, lamp);
-  switchLamp(switcher, changes.lamp);
   RoomBuilder walkers(room, people);
   addPeople(walkers, changes.people);
   room.furnishing = std::move(record);
   room.nodes = buildBvh(room.boxes);
+  RoomBuilder switcher(room, lamp);
+  switchLamp(switcher, changes.lamp);
 }
 
 }  // namespace synthetic

@@ -42,7 +42,8 @@ void addTestChangeOptions(relocalizer::cli::App& app, relocalizer::SceneChanges&
   app.addOption("--test-lamp", lamp,
                 "Local light change" + after +
                     ": off switches one of the two ceiling lights off, on switches on a lamp "
-                    "near a wall (that part of the room much brighter, the rest hardly); depth "
+                    "before what the test camera faces (that part of the room much brighter, the "
+                    "rest hardly); depth "
                     "unchanged")
       ->oneOf({"none", "off", "on"})
       ->showDefault();

@@ -68,7 +68,7 @@ struct RenderEffects {
 enum class LampChange {
   kNone,
   kOff,  // one of the two ceiling lights switched off
-  kOn,   // a lamp near a wall switched on: bright there, much less far off
+  kOn,   // a lamp switched on before what the test camera faces: bright there, not far off
 };
 struct SceneChanges {
   static constexpr int kMaxPeople = 3;
