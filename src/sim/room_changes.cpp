@@ -26,13 +26,61 @@ Rng changeRng(const SyntheticRoom::Impl& room, uint64_t change) {
   return Rng(mix64(room.seed ^ mix64(0xc4a93ed0000ULL + change)));
 }
 
-// Drops `count` decorations drawn from `rng` with their boxes, and renumbers
-// the boxes left (ids and the record's box ranges) in their order.
-void removeDecorations(SyntheticRoom::Impl& room, FurnishingRecord& record, int count, Rng& rng) {
-  std::vector<int> order(record.decorations.size());
+// What the test frames of synthesize's default split (SyntheticSceneOptions)
+// see, so that the changes go where they show: a coarse grid of rays from
+// every 5th frame, and what each meets first.
+struct TestSight {
+  std::vector<Pose> path;             // the default test path
+  int first_time = 0;                 // its first frame's time
+  std::vector<int> box_hits;          // by box id
+  std::array<int, 4> wall_hits = {};  // hits nearest wall k (RoomBuilder's numbering)
+};
+
+TestSight testSight(const SyntheticRoom::Impl& room) {
+  const SyntheticSceneOptions defaults;
+  TestSight sight;
+  sight.path = roomTrajectories(room, defaults.train_frames, defaults.test_frames).test;
+  sight.first_time = defaults.train_frames;
+  sight.box_hits.assign(room.boxes.size(), 0);
+  const CameraIntrinsics grid = CameraIntrinsics::kinectDefault().scaledTo(32, 24);
+  for (size_t j = 0; j < sight.path.size(); j += 5) {
+    const Eigen::Matrix3f rotation = sight.path[j].linear().cast<float>();
+    const Vec3f origin = sight.path[j].translation().cast<float>();
+    for (int v = 0; v < grid.height; ++v)
+      for (int u = 0; u < grid.width; ++u) {
+        const Ray ray(origin, rotation * Vec3f(static_cast<float>((u - grid.cx) / grid.fx),
+                                               static_cast<float>((v - grid.cy) / grid.fy), 1.0f));
+        const Hit hit = room.trace(ray, nullptr);
+        if (!std::isfinite(hit.t)) continue;
+        if (hit.box >= 0) ++sight.box_hits[hit.id];
+        const Vec3f p = ray.o + hit.t * ray.d;
+        // Walls 0-3 run along y = 0, x = max, y = max and x = 0.
+        const std::array<float, 4> away = {p.y() - room.lo.y(), room.hi.x() - p.x(),
+                                           room.hi.y() - p.y(), p.x() - room.lo.x()};
+        ++sight.wall_hits[std::min_element(away.begin(), away.end()) - away.begin()];
+      }
+  }
+  return sight;
+}
+
+// `pieces` in a random order drawn from `rng`, those the test frames see most first.
+std::vector<int> mostSeenFirst(const std::vector<FurnishingRecord::Piece>& pieces,
+                               const TestSight& sight, Rng& rng) {
+  std::vector<int> order(pieces.size()), hits(pieces.size(), 0);
   std::iota(order.begin(), order.end(), 0);
   for (int i = static_cast<int>(order.size()) - 1; i > 0; --i)
     std::swap(order[i], order[rng.integer(0, i)]);
+  for (size_t i = 0; i < pieces.size(); ++i)
+    for (int b = pieces[i].box_begin; b < pieces[i].box_end; ++b) hits[i] += sight.box_hits[b];
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return hits[a] > hits[b]; });
+  return order;
+}
+
+// Drops the first `count` decorations of `order` with their boxes, and
+// renumbers the boxes left (ids and the record's box ranges) in their order;
+// returns how many it dropped.
+int removeDecorations(SyntheticRoom::Impl& room, FurnishingRecord& record, std::vector<int> order,
+                      int count) {
   order.resize(std::min<size_t>(order.size(), count));
   std::vector<bool> gone(room.boxes.size(), false), dropped(record.decorations.size(), false);
   for (const int i : order) {
@@ -59,11 +107,12 @@ void removeDecorations(SyntheticRoom::Impl& room, FurnishingRecord& record, int 
       piece.box_begin = new_index[piece.box_begin];
       piece.box_end = new_index[piece.box_end];
     }
+  return static_cast<int>(order.size());
 }
 
-// `count` new decorations where the walls are free of the door, the window,
-// the furniture and the other decorations.
-void addDecorations(RoomBuilder& b, FurnishingRecord& record, int count) {
+// Up to `count` new decorations where the walls are free of the door, the
+// window, the furniture and the other decorations; returns how many.
+int addDecorations(RoomBuilder& b, FurnishingRecord& record, const TestSight& sight, int count) {
   std::array<std::vector<Rect>, 4> blocked;
   for (int k = 0; k < 4; ++k) {
     const FurnishingRecord::Wall& w = record.walls[k];
@@ -79,25 +128,38 @@ void addDecorations(RoomBuilder& b, FurnishingRecord& record, int count) {
   for (const FurnishingRecord::Piece& p : record.decorations)
     blocked[p.wall].push_back({p.s0, p.s1, p.z0, p.z1});
   WallFeatures features(b);
-  for (int added = 0, attempt = 0; added < count && attempt < kDecorationAttempts; ++attempt) {
-    const int k = b.rng().integer(0, 3);
+  const int total = std::accumulate(sight.wall_hits.begin(), sight.wall_hits.end(), 4);
+  int added = 0;
+  for (int attempt = 0; added < count && attempt < kDecorationAttempts; ++attempt) {
+    // Walls the test frames see more, more often, until half the tries
+    // failed (those walls are full); then any wall.
+    int k = 0;
+    if (attempt < kDecorationAttempts / 2) {
+      for (int pick = b.rng().integer(0, total - 1); pick >= sight.wall_hits[k] + 1; ++k)
+        pick -= sight.wall_hits[k] + 1;
+    } else {
+      k = b.rng().integer(0, 3);
+    }
     const auto piece = tryDecoration(b, features, k, record.walls[k], blocked[k]);
     if (!piece) continue;
     record.decorations.push_back(*piece);
     ++added;
   }
+  return added;
 }
 
 // One ceiling light off, or a lamp on: a warm light at 1.2 m, 0.4 m out from
-// what the test camera faces half-way along its path (of synthesize's default
-// 300 training and 100 test frames), falling off fast, so it lights a few
-// square metres of wall and what stands there. Needs the room's BVH.
-void switchLamp(RoomBuilder& b, LampChange lamp) {
+// what the test camera faces half-way along its path, falling off fast, so it lights a few
+// square metres of wall and what stands there. Needs the room's BVH. Returns
+// whether it switched one (a room can hold one lamp more).
+bool switchLamp(RoomBuilder& b, const TestSight& sight, LampChange lamp) {
   SyntheticRoom::Impl& room = b.room();
   if (lamp == LampChange::kOff) {
     room.lights[b.rng().integer(0, 1)].colour = Vec3f::Zero();
-  } else if (lamp == LampChange::kOn && room.light_count < SyntheticRoom::Impl::kMaxLights) {
-    const Pose view = roomTrajectories(room, 300, 100).test[50];
+    return true;
+  }
+  if (lamp == LampChange::kOn && room.light_count < SyntheticRoom::Impl::kMaxLights) {
+    const Pose& view = sight.path[sight.path.size() / 2];
     Vec3f ahead = view.linear().col(2).cast<float>();
     ahead.z() = 0;
     const Vec3f from(view.translation().x(), view.translation().y(), 1.2f);
@@ -109,13 +171,31 @@ void switchLamp(RoomBuilder& b, LampChange lamp) {
     light.position = at;
     light.colour = Vec3f(1.5f, 1.17f, 0.75f);
     light.falloff = 3.0f;
+    return true;
   }
+  return false;
+}
+
+// Where on a walker's ellipse (its angle) the ray from `view` straight ahead
+// meets it, for a view inside the ellipse.
+double angleAhead(const SyntheticRoom::Impl& room, float inset, const Pose& view) {
+  const Eigen::Vector2d centre = ((room.lo + room.hi) / 2).head<2>().cast<double>();
+  const Eigen::Vector2d radii = ((room.hi - room.lo) / 2).head<2>().cast<double>().array() - inset;
+  const Eigen::Vector2d o = (view.translation().head<2>() - centre).cwiseQuotient(radii);
+  const Eigen::Vector2d d = view.linear().col(2).head<2>().cwiseQuotient(radii);
+  // |o + s d| = 1, s > 0.
+  const double a = d.squaredNorm(), half_b = o.dot(d), c = o.squaredNorm() - 1;
+  const double s = (-half_b + std::sqrt(std::max(half_b * half_b - a * c, 0.0))) / a;
+  const Eigen::Vector2d p = o + s * d;
+  return std::atan2(p.y(), p.x());
 }
 
 // People in clothes of their own going round the free floor as the moving
 // person does (room_effects.cpp), some each way, a little nearer to or further
-// from the walls, at walking pace (1-1.5 rad/s round the room at 30 Hz).
-void addPeople(RoomBuilder& b, int count) {
+// from the walls, at walking pace (1-1.5 rad/s round the room at 30 Hz). Each
+// walks through the middle of the test camera's view once, the first early in
+// the test path, the last late.
+void addPeople(RoomBuilder& b, const TestSight& sight, int count) {
   SyntheticRoom::Impl& room = b.room();
   Rng& rng = b.rng();
   for (int i = 0; i < count; ++i) {
@@ -123,10 +203,12 @@ void addPeople(RoomBuilder& b, int count) {
     clothes.a = b.saturated();
     SyntheticRoom::Impl::Walker person;
     person.material = b.material(clothes);
-    person.phase = rng.uniform(0, kTwoPi);
     person.speed = (i % 2 == 0 ? 1 : -1) * rng.uniform(0.010, 0.016);
     person.inset = rng.uniform(0.8, 1.1);
     person.half = Vec3f(rng.uniform(0.17, 0.23), rng.uniform(0.1, 0.14), rng.uniform(0.78, 0.92));
+    const int seen_at = static_cast<int>((i + rng.uniform(0.2, 0.8)) * sight.path.size() / count);
+    person.phase = angleAhead(room, person.inset, sight.path[seen_at]) -
+                   person.speed * (sight.first_time + seen_at);
     room.people.push_back(person);
   }
 }
@@ -134,23 +216,28 @@ void addPeople(RoomBuilder& b, int count) {
 }  // namespace
 
 void applyChanges(SyntheticRoom::Impl& room, const SceneChanges& changes) {
+  const TestSight sight = testSight(room);  // with the room's BVH, before it changes
   // The record's box ranges are creation order; the BVH has reordered the boxes.
   std::sort(room.boxes.begin(), room.boxes.end(),
             [](const Box& a, const Box& b) { return a.id < b.id; });
   auto record = std::make_shared<FurnishingRecord>(*room.furnishing);
   Rng moves = changeRng(room, 1), removals = changeRng(room, 2), additions = changeRng(room, 3),
       lamp = changeRng(room, 4), people = changeRng(room, 5);
+  SceneChanges& made = room.changes;
   RoomBuilder mover(room, moves);
-  moveFurniture(mover, *record, changes.moved_furniture);
-  removeDecorations(room, *record, changes.removed_objects, removals);
+  made.moved_furniture += moveFurniture(
+      mover, *record, mostSeenFirst(record->furniture, sight, moves), changes.moved_furniture);
+  made.removed_objects += removeDecorations(
+      room, *record, mostSeenFirst(record->decorations, sight, removals), changes.removed_objects);
   RoomBuilder adder(room, additions);
-  addDecorations(adder, *record, changes.added_objects);
+  made.added_objects += addDecorations(adder, *record, sight, changes.added_objects);
   RoomBuilder walkers(room, people);
-  addPeople(walkers, changes.people);
+  addPeople(walkers, sight, changes.people);
+  made.people = static_cast<int>(room.people.size());
   room.furnishing = std::move(record);
   room.nodes = buildBvh(room.boxes);
   RoomBuilder switcher(room, lamp);
-  switchLamp(switcher, changes.lamp);
+  if (switchLamp(switcher, sight, changes.lamp)) made.lamp = changes.lamp;
 }
 
 }  // namespace synthetic

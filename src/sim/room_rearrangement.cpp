@@ -61,7 +61,7 @@ class Rearrangement {
       : b_(builder), rng_(builder.rng()), room_(builder.room()) {}
 
   void rearrange(FurnishingRecord& record);
-  int moveFurniture(FurnishingRecord& record, int count);
+  int moveFurniture(FurnishingRecord& record, const std::vector<int>& order, int count);
 
  private:
   using Wall = RoomBuilder::Wall;
@@ -102,8 +102,9 @@ void rearrange(RoomBuilder& builder, FurnishingRecord& record) {
   Rearrangement(builder).rearrange(record);
 }
 
-int moveFurniture(RoomBuilder& builder, FurnishingRecord& record, int count) {
-  return Rearrangement(builder).moveFurniture(record, count);
+int moveFurniture(RoomBuilder& builder, FurnishingRecord& record, const std::vector<int>& order,
+                  int count) {
+  return Rearrangement(builder).moveFurniture(record, order, count);
 }
 
 void Rearrangement::rearrange(FurnishingRecord& record) {
@@ -188,11 +189,8 @@ std::vector<Interval> Rearrangement::taken(const FurnishingRecord& record,
   return result;
 }
 
-int Rearrangement::moveFurniture(FurnishingRecord& record, int count) {
-  std::vector<int> order(record.furniture.size());
-  std::iota(order.begin(), order.end(), 0);
-  for (int i = static_cast<int>(order.size()) - 1; i > 0; --i)
-    std::swap(order[i], order[rng_.integer(0, i)]);
+int Rearrangement::moveFurniture(FurnishingRecord& record, const std::vector<int>& order,
+                                 int count) {
   int moved = 0;
   for (size_t n = 0; n < order.size() && moved < count; ++n) {
     FurnishingRecord::Piece& piece = record.furniture[order[n]];

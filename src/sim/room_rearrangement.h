@@ -14,10 +14,12 @@ namespace synthetic {
 // where the pieces are.
 void rearrange(RoomBuilder& builder, FurnishingRecord& record);
 
-// Up to `count` pieces of furniture of `record`, drawn from `builder`'s
-// generator, moved at least 0.5 m along their wall or to another where the
-// walls are free (a piece with no such place stays); returns how many moved.
-int moveFurniture(RoomBuilder& builder, FurnishingRecord& record, int count);
+// Up to `count` pieces of furniture of `record`, tried in `order` (indices
+// into record.furniture), moved at least 0.5 m along their wall or to another
+// where the walls are free, drawn from `builder`'s generator (a piece with no
+// such place stays); returns how many moved.
+int moveFurniture(RoomBuilder& builder, FurnishingRecord& record, const std::vector<int>& order,
+                  int count);
 
 }  // namespace synthetic
 }  // namespace relocalizer

@@ -302,6 +302,7 @@ struct SyntheticRoom::Impl {
   std::array<double, 8> phases{};  // of path wobbles and time-varying effects
   int person_material = 0, cart_material = 0;
   std::vector<Walker> people;  // a changed room's (SceneChanges::people)
+  SceneChanges changes;        // what changed() made of this room
   // What stands where along the walls (room_layout.h), so a changed room can
   // move, take away and add pieces.
   std::shared_ptr<const synthetic::FurnishingRecord> furnishing;

@@ -194,6 +194,8 @@ SyntheticRoom SyntheticRoom::changed(const SceneChanges& changes) const {
   return room;
 }
 
+SceneChanges SyntheticRoom::changes() const { return impl_->changes; }
+
 int SyntheticRoom::boxCount() const { return static_cast<int>(impl_->boxes.size()); }
 
 namespace {

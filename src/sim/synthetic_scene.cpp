@@ -85,6 +85,14 @@ std::vector<int> sheetFrames(int frames, int wanted) {
   return picked;
 }
 
+nlohmann::ordered_json changesJson(const SceneChanges& changes) {
+  return {{"people", changes.people},
+          {"moved_furniture", changes.moved_furniture},
+          {"removed_objects", changes.removed_objects},
+          {"added_objects", changes.added_objects},
+          {"lamp", lampChangeName(changes.lamp)}};
+}
+
 }  // namespace
 
 bool SceneChanges::any() const {
@@ -244,13 +252,10 @@ Status writeSyntheticScene(const std::string& output_dir, const SyntheticSceneOp
   json["effects"] = {{"motion_blur", options.motion_blur},
                      {"illumination_change", options.illumination_change},
                      {"moving_objects", options.moving_objects}};
-  const SceneChanges& changes = options.test_changes;
-  json["test_changes"] = {{"people", changes.people},
-                          {"moved_furniture", changes.moved_furniture},
-                          {"removed_objects", changes.removed_objects},
-                          {"added_objects", changes.added_objects},
-                          {"lamp", lampChangeName(changes.lamp)},
-                          {"test_room_boxes", test_room.boxCount()}};
+  // As asked, and as made (fewer where the room had no place for more).
+  json["test_changes"] = changesJson(options.test_changes);
+  json["test_changes"]["made"] = changesJson(test_room.changes());
+  json["test_changes"]["test_room_boxes"] = test_room.boxCount();
   json["depth"] = {{"units_per_metre", 1000},
                    {"invalid_value", 0},
                    {"model",

@@ -64,7 +64,9 @@ struct RenderEffects {
 // Changes of the world after training (issue 40): what a changed room
 // (SyntheticRoom::changed) differs in from its room. Each follows from the
 // room's seed and the change's own count, so two runs with the same changes
-// change the same things, and a change left at zero changes nothing.
+// change the same things, and a change left at zero changes nothing. They go
+// where the test path of the default split (SyntheticSceneOptions' frame
+// counts) looks, so that its frames show them.
 enum class LampChange {
   kNone,
   kOff,  // one of the two ceiling lights switched off
@@ -217,6 +219,10 @@ class SyntheticRoom {
   // its boxes in the original's order, those taken away left out and those
   // added at the end. Unusable changes throw std::invalid_argument.
   SyntheticRoom changed(const SceneChanges& changes) const;
+  // What changed() made of this room: as asked, but fewer pieces where the
+  // room has fewer or finds no free place for more (people at most kMaxPeople);
+  // nothing for a room as built.
+  SceneChanges changes() const;
 
   struct Impl;  // public only so the builder in the .cpp can fill it in
 
