@@ -63,30 +63,43 @@ TestSight testSight(const SyntheticRoom::Impl& room) {
   return sight;
 }
 
-// `pieces` in a random order drawn from `rng`, those the test frames see most first.
-std::vector<int> mostSeenFirst(const std::vector<FurnishingRecord::Piece>& pieces,
-                               const TestSight& sight, Rng& rng) {
-  std::vector<int> order(pieces.size()), hits(pieces.size(), 0);
+using BoxRange = std::pair<int, int>;  // boxes [first, second)
+
+std::vector<BoxRange> boxRanges(const std::vector<FurnishingRecord::Piece>& pieces) {
+  std::vector<BoxRange> ranges;
+  for (const FurnishingRecord::Piece& piece : pieces)
+    ranges.emplace_back(piece.box_begin, piece.box_end);
+  return ranges;
+}
+
+// Indices of `things` in a random order drawn from `rng`, those the test
+// frames see most first.
+std::vector<int> mostSeenFirst(const std::vector<BoxRange>& things, const TestSight& sight,
+                               Rng& rng) {
+  std::vector<int> order(things.size()), hits(things.size(), 0);
   std::iota(order.begin(), order.end(), 0);
   for (int i = static_cast<int>(order.size()) - 1; i > 0; --i)
     std::swap(order[i], order[rng.integer(0, i)]);
-  for (size_t i = 0; i < pieces.size(); ++i)
-    for (int b = pieces[i].box_begin; b < pieces[i].box_end; ++b) hits[i] += sight.box_hits[b];
+  for (size_t i = 0; i < things.size(); ++i)
+    for (int b = things[i].first; b < things[i].second; ++b) hits[i] += sight.box_hits[b];
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return hits[a] > hits[b]; });
   return order;
 }
 
-// Drops the first `count` decorations of `order` with their boxes, and
-// renumbers the boxes left (ids and the record's box ranges) in their order;
-// returns how many it dropped.
-int removeDecorations(SyntheticRoom::Impl& room, FurnishingRecord& record, std::vector<int> order,
-                      int count) {
+// Takes `count` wall decorations and small things on the furniture away with
+// their boxes, those the test frames see most first, and renumbers the boxes
+// left (ids and the record's box ranges) in their order; returns how many it took.
+int removeObjects(SyntheticRoom::Impl& room, FurnishingRecord& record, const TestSight& sight,
+                  int count, Rng& rng) {
+  std::vector<BoxRange> things = boxRanges(record.decorations);  // then the small objects
+  const size_t decorations = things.size();
+  things.insert(things.end(), record.objects.begin(), record.objects.end());
+  std::vector<int> order = mostSeenFirst(things, sight, rng);
   order.resize(std::min<size_t>(order.size(), count));
-  std::vector<bool> gone(room.boxes.size(), false), dropped(record.decorations.size(), false);
+  std::vector<bool> gone(room.boxes.size(), false), taken(things.size(), false);
   for (const int i : order) {
-    dropped[i] = true;
-    for (int b = record.decorations[i].box_begin; b < record.decorations[i].box_end; ++b)
-      gone[b] = true;
+    taken[i] = true;
+    for (int b = things[i].first; b < things[i].second; ++b) gone[b] = true;
   }
   std::vector<int> new_index(room.boxes.size() + 1, 0);  // of box b; [size]: the count kept
   std::vector<Box> kept;
@@ -98,15 +111,24 @@ int removeDecorations(SyntheticRoom::Impl& room, FurnishingRecord& record, std::
   }
   new_index.back() = static_cast<int>(kept.size());
   room.boxes = std::move(kept);
-  std::vector<FurnishingRecord::Piece> decorations;
-  for (size_t i = 0; i < record.decorations.size(); ++i)
-    if (!dropped[i]) decorations.push_back(record.decorations[i]);
-  record.decorations = std::move(decorations);
+  std::vector<FurnishingRecord::Piece> kept_decorations;
+  std::vector<BoxRange> kept_objects;
+  for (size_t i = 0; i < things.size(); ++i) {
+    if (taken[i]) continue;
+    if (i < decorations)
+      kept_decorations.push_back(record.decorations[i]);
+    else
+      kept_objects.push_back(things[i]);
+  }
+  record.decorations = std::move(kept_decorations);
+  record.objects = std::move(kept_objects);
   for (auto* pieces : {&record.furniture, &record.decorations})
     for (FurnishingRecord::Piece& piece : *pieces) {
       piece.box_begin = new_index[piece.box_begin];
       piece.box_end = new_index[piece.box_end];
     }
+  for (BoxRange& object : record.objects)
+    object = {new_index[object.first], new_index[object.second]};
   return static_cast<int>(order.size());
 }
 
@@ -225,10 +247,10 @@ void applyChanges(SyntheticRoom::Impl& room, const SceneChanges& changes) {
       lamp = changeRng(room, 4), people = changeRng(room, 5);
   SceneChanges& made = room.changes;
   RoomBuilder mover(room, moves);
-  made.moved_furniture += moveFurniture(
-      mover, *record, mostSeenFirst(record->furniture, sight, moves), changes.moved_furniture);
-  made.removed_objects += removeDecorations(
-      room, *record, mostSeenFirst(record->decorations, sight, removals), changes.removed_objects);
+  made.moved_furniture +=
+      moveFurniture(mover, *record, mostSeenFirst(boxRanges(record->furniture), sight, moves),
+                    changes.moved_furniture);
+  made.removed_objects += removeObjects(room, *record, sight, changes.removed_objects, removals);
   RoomBuilder adder(room, additions);
   made.added_objects += addDecorations(adder, *record, sight, changes.added_objects);
   RoomBuilder walkers(room, people);

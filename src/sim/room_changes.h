@@ -1,7 +1,7 @@
 #pragma once
 // A room changed after training (SceneChanges): furniture moved, decorations
-// taken away or added, a light switched, people walking through. Private to
-// the sim module.
+// and small objects taken away, decorations added, a light switched, people
+// walking through. Private to the sim module.
 
 #include "synthetic_internal.h"
 

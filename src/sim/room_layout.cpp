@@ -36,7 +36,12 @@ class RoomLayout {
   void hangLights();
   // Materials of the moving distractors and the phases of time-varying effects.
   void prepareEffects();
-  const FurnishingRecord& record() const { return record_; }
+  // What furnishWalls put where, small things on the furniture included.
+  FurnishingRecord record() const {
+    FurnishingRecord record = record_;
+    record.objects = furniture_.smallObjects();
+    return record;
+  }
 
  private:
   using Wall = RoomBuilder::Wall;

@@ -46,6 +46,9 @@ struct FurnishingRecord {
   };
   std::array<Wall, 4> walls;
   std::vector<Piece> furniture, decorations;
+  // Small things on the furniture (Furniture::smallObjects): only their boxes
+  // are known, and they move with their piece.
+  std::vector<std::pair<int, int>> objects;
 };
 
 // A centre (s, z) drawn for a decoration w x h on a wall `length` long in a room

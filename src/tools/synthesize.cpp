@@ -36,7 +36,8 @@ void addTestChangeOptions(relocalizer::cli::App& app, relocalizer::SceneChanges&
             "or to another wall, the poses staying exact ground truth,");
   addChange("--test-removed-objects", changes.removed_objects, Changes::kMaxObjects,
             "Wall decorations (posters, pictures, cork boards, shelves with their objects) "
-            "taken away");
+            "and small things on desks and cabinets (book stacks, mugs, vases, plants, "
+            "photos) taken away");
   addChange("--test-added-objects", changes.added_objects, Changes::kMaxObjects,
             "New wall decorations (new colours and textures) hung where the walls are free");
   app.addOption("--test-lamp", lamp,

@@ -85,9 +85,10 @@ struct SceneChanges {
   // walls are free; they are the changed room's static world.
   int moved_furniture = 0;
   // Wall decorations (posters, pictures, cork boards, shelves with their
-  // objects) taken away, and new ones (new colours and textures) hung where
-  // the walls are free.
+  // objects) and small things on desks and cabinets (book stacks, mugs,
+  // vases, plants, photos) taken away.
   int removed_objects = 0;
+  // New wall decorations (new colours and textures) hung where the walls are free.
   int added_objects = 0;
   LampChange lamp = LampChange::kNone;
 
@@ -214,7 +215,7 @@ class SyntheticRoom {
   SyntheticTrajectories trajectories(int train_frames, int test_frames) const;
 
   // This room after `changes`: the same seeds, shell, camera paths and depth
-  // noise, with furniture moved, decorations taken away or added, a light
+  // noise, with furniture moved, objects taken away, decorations added, a light
   // switched and people walking through. boxes() of the changed room lists
   // its boxes in the original's order, those taken away left out and those
   // added at the end. Unusable changes throw std::invalid_argument.
