@@ -220,6 +220,9 @@ double angleAhead(const SyntheticRoom::Impl& room, float inset, const Pose& view
 void addPeople(RoomBuilder& b, const TestSight& sight, int count) {
   SyntheticRoom::Impl& room = b.room();
   Rng& rng = b.rng();
+  // A frame holds at most kMaxPeople besides the moving objects, however
+  // often a room is changed.
+  count = std::min(count, SceneChanges::kMaxPeople - static_cast<int>(room.people.size()));
   for (int i = 0; i < count; ++i) {
     Material clothes = room.materials[room.person_material];
     clothes.a = b.saturated();

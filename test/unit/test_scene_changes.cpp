@@ -101,7 +101,9 @@ TEST(SceneChanges, TrainingFramesStayByteIdenticalAndTestFramesChange) {
   ASSERT_EQ(before.size(), after.size());
   int test_colour_changed = 0;
   for (const auto& [name, bytes] : before) {
-    if (name.rfind("train/", 0) == 0) EXPECT_EQ(bytes, after.at(name)) << name;
+    if (name.rfind("train/", 0) == 0) {
+      EXPECT_EQ(bytes, after.at(name)) << name;
+    }
     if (name.rfind("test/", 0) == 0 && name.find("color") != std::string::npos)
       test_colour_changed += bytes != after.at(name);
   }
@@ -160,7 +162,9 @@ TEST(SceneChanges, MovedFurnitureIsTheTestFramesStaticWorld) {
   // A test frame's depth is the changed room's (within the Kinect noise).
   const RgbdFrame frame = changed.render(pose, kSmall, 300);
   const float z = frame.depth.at<float>(kSmall.height / 2, kSmall.width / 2);
-  if (std::isfinite(z)) EXPECT_NEAR(z, centre_depth, 0.05);
+  if (std::isfinite(z)) {
+    EXPECT_NEAR(z, centre_depth, 0.05);
+  }
 }
 
 TEST(SceneChanges, PeopleOccludeTestFramesAndMoveButStayOutOfTheGroundTruth) {
@@ -285,6 +289,13 @@ TEST(SceneChanges, ChangesFollowFromTheSeedAndUnusableOnesAreRejected) {
                          room.render(pose, kTiny, 301).colour));
   EXPECT_TRUE(sameImage(room.changed({}).render(pose, kTiny, 301).colour,
                         room.render(pose, kTiny, 301).colour));
+  // Changed twice: still at most three people, and they come to no harm.
+  const SyntheticRoom twice = room.changed(all).changed(all);
+  EXPECT_EQ(twice.changes().people, 3);
+  EXPECT_EQ(twice.changes().moved_furniture, 2 * room.changed(all).changes().moved_furniture);
+  RenderEffects moving;
+  moving.moving_objects = true;
+  EXPECT_EQ(twice.render(pose, kTiny, 301, moving).colour.cols, kTiny.width);
   const std::vector<std::pair<SceneChanges, std::string>> bad = {
       {{4, 0, 0, 0, LampChange::kNone}, "--test-people must be from 0 to 3, got 4"},
       {{0, -1, 0, 0, LampChange::kNone}, "--test-moved-furniture must be from 0 to 4, got -1"},
