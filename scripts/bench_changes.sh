@@ -10,7 +10,11 @@
 #  - redkitchen-dev (../shared/data/7scenes-redkitchen-dev, the README protocol:
 #    trained on frames 0-99,200-299,400-499 with --seed 42, tested on 100-199,300-399),
 #    when the data is there (said when it is not);
-#  - a synthetic room (synthesize --seed 1, 300 training and 100 test frames).
+#  - a synthetic room (synthesize --seed 1, 300 training and 100 test frames),
+#    also with the world changed after training (synthesize --test-*: people
+#    walking through, furniture moved, objects removed or added, a lamp off or
+#    on; the training frames stay the same, so the same models answer), each in
+#    the light of training; the change's name says how many were made.
 # Prints one table (scripts/bench_changes_table.py): per scene and change the
 # share within 5 cm / 5 deg and 2 cm / 2 deg, frames with no pose, answers off
 # by more than 10 cm or 10 deg, and the change of the 5 cm share against the
@@ -93,6 +97,36 @@ fi
 train_both "$out/room.model" --dataset "$room/train"
 for name in "" _normalised; do
   measure "synthetic room${name/_/, colour }" "$out/room$name.model" --dataset "$room/test"
+done
+
+# The world changed: KEY and synthesize's options of each; the room's test frames rendered
+# again from the changed room (its training frames come out the same).
+world_changes=(
+  "people|--test-people 1"
+  "people|--test-people 2"
+  "people|--test-people 3"
+  "moved_furniture|--test-moved-furniture 3"
+  "removed_objects|--test-removed-objects 3"
+  "added_objects|--test-added-objects 3"
+  "lamp|--test-lamp off"
+  "lamp|--test-lamp on"
+)
+changes=("in the light of training|")
+for entry in "${world_changes[@]}"; do
+  key=${entry%%|*} options=${entry#*|}
+  changed="$out/room-$(echo "$options" | tr -c 'a-zA-Z0-9\n' '_')"
+  if [ ! -f "$changed/scene.json" ]; then
+    echo "bench_changes: synthesizing the room with $options into $changed"
+    # shellcheck disable=SC2086
+    "$tools/synthesize" --seed 1 --train-frames 300 --test-frames 100 $options --output "$changed" \
+      > "$changed.log" 2>&1 || { echo "bench_changes: synthesize failed, see $changed.log"; exit 1; }
+  fi
+  made=$(python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['test_changes']['made'][sys.argv[2]])" \
+    "$changed/scene.json" "$key")
+  for name in "" _normalised; do
+    measure "synthetic room${name/_/, colour }: $options (made: $made)" "$out/room$name.model" \
+      --dataset "$changed/test"
+  done
 done
 
 python3 "$root/scripts/bench_changes_table.py" "$manifest" "$out/changes.json"
