@@ -21,7 +21,7 @@ ASAN_BUILD_DIR := build/asan
 ASAN_CXX_FLAGS := -O1 -g1 -DNDEBUG
 FUZZ_SECONDS ?= 60
 
-.PHONY: all deps build test demo bench bench-places clean test-asan fuzz test-workspaces
+.PHONY: all deps build test demo bench bench-places bench-changes clean test-asan fuzz test-workspaces
 
 all: build
 
@@ -77,6 +77,10 @@ bench: build
 # Many places in one node: latency, wrong places and memory with 10 places.
 bench-places: build
 	@./scripts/bench_places.sh $(BUILD_DIR)
+
+# The world changed after training: other light on the test frames.
+bench-changes: build
+	@./scripts/bench_changes.sh $(BUILD_DIR)
 
 clean:
 	rm -rf $(BUILD_DIR) $(DEVEL_DIR)

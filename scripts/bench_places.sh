@@ -17,21 +17,12 @@
 # PLACES_KITCHEN_MODEL (a kitchen model to use instead of training one: `make bench`
 # passes the model it has just trained), PLACES_JSON (where places.json goes),
 # PLACES_NODE (1; 0 skips the node's memory check).
-set -euo pipefail
-if [ "${1:-}" = "-h" ] || [ "${1:-}" = "--help" ]; then
-  sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'
-  exit 0
-fi
-build_dir=${1:-build}
-export PATH=/usr/bin:/bin:$PATH
-root=$PWD
-devel=${RELOCALIZER_DEVEL:-$root/devel}
-tools="$devel/lib/relocalizer"
+. "$(dirname "$0")/bench_setup.sh"
 out="$root/$build_dir/bench_places"
 mkdir -p "$out"
 train_frames=${PLACES_TRAIN_FRAMES:-200}
 test_frames=${PLACES_TEST_FRAMES:-50}
-data="$root/../shared/data/7scenes-redkitchen-dev"
+data=$kitchen
 rooms=9
 [ -f "$data/frame-000000.pose.txt" ] || rooms=10
 

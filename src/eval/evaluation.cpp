@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -106,6 +107,10 @@ std::string formatEvaluationTable(const EvaluationSummary& s, const std::string&
       << " / " << number(a.median_rotation_deg, "%.2f deg") << "\n";
   out << "  ATE RMSE (Horn-aligned)    " << number(100.0 * a.ate_rmse_m, "%.2f cm") << "\n";
   out << "  frames with no pose        " << (a.frames - a.frames_with_pose) << "\n";
+  char wrong_label[64];
+  std::snprintf(wrong_label, sizeof wrong_label, "wrong (> %g cm or %g deg)",
+                100.0 * kWrongPose.metres, kWrongPose.degrees);
+  out << "  " << std::left << std::setw(27) << wrong_label << a.wrong_answers << "\n";
   if (s.wrong_place >= 0) {
     // The label column of the rows above is 27 characters wide.
     const std::string label = "wrong place (not " + s.expected_place + ")";
@@ -202,6 +207,7 @@ Status writeSummary(const std::string& path, const EvaluationSummary& summary,
   j["frames_without_pose"] = a.frames - a.frames_with_pose;
   j["within_5cm_5deg"] = jsonNumber(a.within_5cm_5deg);
   j["within_2cm_2deg"] = jsonNumber(a.within_2cm_2deg);
+  j["wrong_answers"] = a.wrong_answers;
   j["median_translation_cm"] = jsonNumber(100.0 * a.median_translation_m);
   j["median_rotation_deg"] = jsonNumber(a.median_rotation_deg);
   j["ate_rmse_cm"] = jsonNumber(100.0 * a.ate_rmse_m);

@@ -29,6 +29,8 @@ bool within(const FrameError& error, PoseTolerance tolerance) {
          error.rotation_deg <= tolerance.degrees;
 }
 
+bool wrongAnswer(const FrameError& error) { return error.has_pose && !within(error, kWrongPose); }
+
 Pose hornAlignment(const std::vector<Eigen::Vector3d>& source,
                    const std::vector<Eigen::Vector3d>& target) {
   if (source.size() != target.size() || source.size() < 3)
@@ -54,6 +56,7 @@ AccuracySummary summarizeAccuracy(const std::vector<FrameError>& errors,
     ++s.frames_with_pose;
     within5 += within(e, kCorrectPose) ? 1 : 0;
     within2 += within(e, kFinePose) ? 1 : 0;
+    s.wrong_answers += wrongAnswer(e) ? 1 : 0;
   }
   if (s.frames > 0) {
     s.within_5cm_5deg = static_cast<double>(within5) / s.frames;

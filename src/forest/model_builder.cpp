@@ -12,7 +12,9 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
-bool ModelBuilder::add(const RgbdFrame& frame) { return appendTrainingImage(frame, images_); }
+bool ModelBuilder::add(const RgbdFrame& frame) {
+  return appendTrainingImage(frame, params_.colour_normalisation, images_);
+}
 
 Expected<Model> ModelBuilder::build(TrainingSummary provenance,
                                     const ModelBuildProgress& progress) {

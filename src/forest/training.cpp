@@ -242,10 +242,11 @@ Forest trainForest(const std::vector<TrainingImage>& images, ForestKind kind,
 
 namespace relocalizer {
 
-bool appendTrainingImage(const RgbdFrame& frame, std::vector<TrainingImage>& images) {
+bool appendTrainingImage(const RgbdFrame& frame, ColourNormalisation normalisation,
+                         std::vector<TrainingImage>& images) {
   if (!frame.ground_truth) return false;
   TrainingImage image;
-  image.colour = frame.colour;
+  image.colour = normaliseColour(frame.colour, normalisation);
   image.depth = frame.depth;
   image.camera = frame.camera;
   image.pose = *frame.ground_truth;

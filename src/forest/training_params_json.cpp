@@ -45,6 +45,7 @@ namespace detail {
 json trainingParamsJson(const TrainingParams& p) {
   const auto& l = p.line_sampling;
   return {{"seed", p.seed},
+          {"colour_normalisation", colourNormalisationName(p.colour_normalisation)},
           {"surface", surfaceJson(p)},
           {"train_points", p.train_points},
           {"train_lines", p.train_lines},
@@ -95,6 +96,21 @@ void readForest(const json& j, const std::string& prefix, ForestParams& p) {
   readMeanShift(j.at("mean_shift"), prefix + "mean_shift.", p.mean_shift);
 }
 
+// One of an enum's names at `key`, read by `named`; `absent` when the key is
+// not there (a header written before the choice existed). Throws
+// std::out_of_range naming the key and the `choices` otherwise.
+template <typename Choice>
+Choice readChoice(const json& j, const std::string& prefix, const std::string& key, Choice absent,
+                  std::optional<Choice> (*named)(const std::string&), const char* choices) {
+  if (!j.contains(key)) return absent;
+  const json& name = j.at(key);
+  const std::optional<Choice> choice =
+      name.is_string() ? named(name.get<std::string>()) : std::nullopt;
+  if (!choice)
+    throw std::out_of_range("'" + prefix + key + "' must be " + choices + ", got " + name.dump());
+  return *choice;
+}
+
 void readSurface(const json& j, TrainingParams& p) {
   const std::string prefix = "surface.";
   readField(j, prefix, "enabled", p.build_surface);
@@ -111,6 +127,10 @@ namespace detail {
 
 void readTrainingParams(const json& j, TrainingParams& p) {
   readField(j, "", "seed", p.seed);
+  // Models written before it existed saw the recorded colour: they keep doing so.
+  p.colour_normalisation =
+      readChoice(j, "", "colour_normalisation", ColourNormalisation::kNone,
+                 colourNormalisationNamed, "\"channel_statistics\" or \"none\"");
   // Version-1 model headers predate the surface: they keep the defaults, and the
   // model no surface (the file has none to read).
   if (j.contains("surface")) readSurface(j.at("surface"), p);
@@ -123,16 +143,8 @@ void readTrainingParams(const json& j, TrainingParams& p) {
   const std::string prefix = "line_sampling.";
   // Models written before our own detector existed used OpenCV's LSD: they
   // keep it, whatever today's default.
-  s.line_detector = LineDetector::kOpenCvLsd;
-  if (l.contains("line_detector")) {
-    const json& name = l.at("line_detector");
-    const auto detector =
-        name.is_string() ? lineDetectorNamed(name.get<std::string>()) : std::nullopt;
-    if (!detector)
-      throw std::out_of_range(
-          "'" + prefix + "line_detector' must be \"own\" or \"opencv_lsd\", got " + name.dump());
-    s.line_detector = *detector;
-  }
+  s.line_detector = readChoice(l, prefix, "line_detector", LineDetector::kOpenCvLsd,
+                               lineDetectorNamed, "\"own\" or \"opencv_lsd\"");
   readField(l, prefix, "min_segment_length_px", s.min_segment_length_px);
   readField(l, prefix, "spacing_px", s.spacing_px);
   readField(l, prefix, "lsd_scale", s.lsd_scale);

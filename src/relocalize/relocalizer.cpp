@@ -77,6 +77,14 @@ bool usesLines(const Model& model, const RelocalizerParams& params) {
   return params.use_lines && !model.lines.empty();
 }
 
+// The frame as the forests see it: its colour as the model's training saw colour
+// (the same pixels when the model normalises none).
+RgbdFrame asTrainingSaw(const RgbdFrame& recorded, const Model& model) {
+  RgbdFrame frame = recorded;
+  frame.colour = normaliseColour(recorded.colour, model.params.colour_normalisation);
+  return frame;
+}
+
 // Draws the frame's samples and their descriptors in two branches that share
 // nothing but the frame: random pixels, and LSD -> line samples. LSD runs on
 // one core whatever the thread count, so with two or more threads it overlaps
@@ -85,9 +93,11 @@ bool usesLines(const Model& model, const RelocalizerParams& params) {
 // its forest at once, so LSD overlaps the point forest too. The point samples
 // are drawn first and the line branch has its own random stream forked from
 // the seed, so the answer does not depend on which branch runs first.
-void sampleFrame(const Model& model, const RelocalizerParams& params, const RgbdFrame& frame,
+void sampleFrame(const Model& model, const RelocalizerParams& params, const RgbdFrame& recorded,
                  FrameSamples& samples, ForestPredictions* predictions, StageTimings& timings,
                  const std::function<void(const FrameSamples&)>* points_ready = nullptr) {
+  const RgbdFrame frame = asTrainingSaw(recorded, model);
+  samples.colour = frame.colour;
   const bool use_points = usesPoints(model, params), use_lines = usesLines(model, params);
   samples.rng.seed(params.seed);
   auto stage = Clock::now();
@@ -178,6 +188,7 @@ SamplingRecipe Relocalizer::samplingRecipe() const {
   recipe.min_valid_depth = params_.min_valid_depth;
   recipe.seed = params_.seed;
   recipe.line_sampling = model_.params.line_sampling;
+  recipe.colour_normalisation = model_.params.colour_normalisation;
   return recipe;
 }
 
@@ -331,12 +342,12 @@ bool SamplingRecipe::sameAs(const SamplingRecipe& other) const {
   return use_points == other.use_points && use_lines == other.use_lines &&
          point_samples == other.point_samples && line_samples == other.line_samples &&
          min_valid_depth == other.min_valid_depth && seed == other.seed &&
-         a.line_detector == b.line_detector && a.min_segment_length_px == b.min_segment_length_px &&
-         a.spacing_px == b.spacing_px && a.lsd_scale == b.lsd_scale &&
-         a.lsd_min_width_px == b.lsd_min_width_px && a.lsd_validation == b.lsd_validation &&
-         a.edge_offset_px == b.edge_offset_px && a.ransac_inlier_m == b.ransac_inlier_m &&
-         a.ransac_iterations == b.ransac_iterations && a.min_inliers == b.min_inliers &&
-         a.min_inlier_ratio == b.min_inlier_ratio;
+         colour_normalisation == other.colour_normalisation && a.line_detector == b.line_detector &&
+         a.min_segment_length_px == b.min_segment_length_px && a.spacing_px == b.spacing_px &&
+         a.lsd_scale == b.lsd_scale && a.lsd_min_width_px == b.lsd_min_width_px &&
+         a.lsd_validation == b.lsd_validation && a.edge_offset_px == b.edge_offset_px &&
+         a.ransac_inlier_m == b.ransac_inlier_m && a.ransac_iterations == b.ransac_iterations &&
+         a.min_inliers == b.min_inliers && a.min_inlier_ratio == b.min_inlier_ratio;
 }
 
 std::string Relocalizer::limitations() const {
@@ -347,11 +358,12 @@ std::string Relocalizer::limitations() const {
   return {};
 }
 
-Expected<PredictionQuality> Relocalizer::measurePredictions(const RgbdFrame& frame,
+Expected<PredictionQuality> Relocalizer::measurePredictions(const RgbdFrame& recorded,
                                                             bool line_forest, float radius) const {
-  if (!frame.ground_truth) return makeError("frame has no ground truth");
-  const std::string invalid = frameValidationError(frame);
+  if (!recorded.ground_truth) return makeError("frame has no ground truth");
+  const std::string invalid = frameValidationError(recorded);
   if (!invalid.empty()) return makeError("invalid frame: " + invalid);
+  const RgbdFrame frame = asTrainingSaw(recorded, model_);
   const Forest& forest = line_forest ? model_.lines : model_.points;
   if (forest.empty())
     return makeError(std::string("the model has no ") + (line_forest ? "line" : "point") +

@@ -129,17 +129,25 @@ float Furniture::deskMonitor(int k, float s0, float width, float height, float& 
 // A book stack and a mug or box on the free desk top from `free_s`.
 void Furniture::deskClutter(int k, float s1, float depth, float height, float free_s) {
   if (s1 - free_s > 0.35f && rng_.chance(0.8)) {
+    const int begin = static_cast<int>(b_.room().boxes.size());
     bookStack(k, free_s + rng_.uniform(0.0, 0.05), rng_.uniform(0.05, 0.2), height,
               rng_.integer(2, 4));
+    recordObject(begin);
     free_s += 0.35f;
   }
   if (s1 - free_s > 0.2f) {  // a mug or a box, turned at random
+    const int begin = static_cast<int>(b_.room().boxes.size());
     const float half = rng_.uniform(0.04, 0.09);
     b_.turnedBox(
         k, free_s + 0.1f, depth * rng_.uniform(0.4, 0.7), height + half,
         Vec3f(half, half * rng_.uniform(0.8, 1.6), half), rng_.uniform(0, 1.5),
         allFaces(rng_.chance(0.5) ? b_.painted() : b_.posterMaterial(2 * half, 2 * half, false)));
+    recordObject(begin);
   }
+}
+
+void Furniture::recordObject(int begin) {
+  objects_.emplace_back(begin, static_cast<int>(b_.room().boxes.size()));
 }
 
 void Furniture::pushedInChair(int k, float s0, float width, float depth) {
@@ -218,6 +226,7 @@ float Furniture::cabinetTopObjects(int k, float s0, float s1, float depth, float
   float top_height = height;
   float s = s0 + rng_.uniform(0.05, 0.2);
   while (s < s1 - 0.2f) {
+    const int begin = static_cast<int>(b_.room().boxes.size());
     const int kind = rng_.integer(0, 3);
     if (kind == 0) {
       const float r = rng_.uniform(0.05, 0.08), h = rng_.uniform(0.15, 0.35);
@@ -247,6 +256,7 @@ float Furniture::cabinetTopObjects(int k, float s0, float s1, float depth, float
       bookStack(k, s, rng_.uniform(0.1, 0.2), height, rng_.integer(1, 3));
       s += 0.35f;
     }
+    recordObject(begin);
   }
   return top_height;
 }

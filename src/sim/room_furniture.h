@@ -2,6 +2,9 @@
 // Furniture against a wall: bookshelves, desks, cabinets, wardrobes, and the
 // things on them. Private to the sim module.
 
+#include <utility>
+#include <vector>
+
 #include "room_builder.h"
 
 namespace relocalizer {
@@ -19,7 +22,14 @@ class Furniture {
   float cabinet(int k, float s0, float width);
   float wardrobe(int k, float s0, float width);
 
+  // The boxes [begin, end) of each small thing put on the furniture so far
+  // (book stacks, mugs, vases, plants, photos on desks and cabinets), so that
+  // a changed room can take some away.
+  const std::vector<std::pair<int, int>>& smallObjects() const { return objects_; }
+
  private:
+  // Records the boxes added since `begin` as one small object.
+  void recordObject(int begin);
   // Pieces of the furniture above.
   void shelfOfBooks(int k, float s0, float s1, float depth, float z0, float pitch, int pages);
   void bookStack(int k, float s, float w, float z, int count);
@@ -35,6 +45,7 @@ class Furniture {
 
   RoomBuilder& b_;
   Rng& rng_;
+  std::vector<std::pair<int, int>> objects_;
 };
 
 }  // namespace synthetic

@@ -10,7 +10,6 @@
 #include "room_furniture.h"
 #include "room_layout.h"
 #include "room_rearrangement.h"
-#include "room_wall_features.h"
 
 namespace relocalizer {
 namespace synthetic {
@@ -37,7 +36,12 @@ class RoomLayout {
   void hangLights();
   // Materials of the moving distractors and the phases of time-varying effects.
   void prepareEffects();
-  const FurnishingRecord& record() const { return record_; }
+  // What furnishWalls put where, small things on the furniture included.
+  FurnishingRecord record() const {
+    FurnishingRecord record = record_;
+    record.objects = furniture_.smallObjects();
+    return record;
+  }
 
  private:
   using Wall = RoomBuilder::Wall;
@@ -226,35 +230,9 @@ void RoomLayout::placeDecorations(int k, float length, float start, float end, i
                                   std::vector<Rect>& blocked) {
   int decor = 0;
   for (int attempt = 0; attempt < 80 && decor < max_decor; ++attempt) {
-    const int kind = rng_.integer(0, 9);  // 0-2 poster, 3-6 picture, 7 cork, 8-9 shelf
-    float w, h;
-    if (kind <= 2) {
-      w = rng_.uniform(0.4, 0.8);
-      h = w * rng_.uniform(1.2, 1.5);
-    } else if (kind <= 6) {
-      w = rng_.uniform(0.4, 1.2);
-      h = rng_.uniform(0.35, 0.9);
-    } else if (kind == 7) {
-      w = rng_.uniform(0.6, 1.0);
-      h = rng_.uniform(0.45, 0.7);
-    } else {
-      w = rng_.uniform(0.5, 0.9);
-      h = 0.45f;
-    }
-    const auto [sc, zc] = drawDecorationSpot(rng_, room_.hi.z(), w, h, length);
-    if (!decorationFits(room_.hi.z(), sc, zc, w, h, start, end, blocked)) continue;
-    const int box_begin = static_cast<int>(room_.boxes.size());
-    if (kind <= 2)
-      features_.poster(k, sc, zc, w, h);
-    else if (kind <= 6)
-      features_.framedPicture(k, sc, zc, w, h);
-    else if (kind == 7)
-      features_.corkboard(k, sc, zc, w, h);
-    else
-      features_.wallShelf(k, sc, zc, w);
-    record_.decorations.push_back({k, sc - w / 2, sc + w / 2, zc - h / 2, zc + h / 2, box_begin,
-                                   static_cast<int>(room_.boxes.size())});
-    blocked.push_back({sc - w / 2, sc + w / 2, zc - h / 2, zc + h / 2});
+    const auto piece = tryDecoration(b_, features_, k, {length, start, end, {}, {}}, blocked);
+    if (!piece) continue;
+    record_.decorations.push_back(*piece);
     ++decor;
   }
 }
@@ -293,9 +271,9 @@ void RoomLayout::hangLights() {
     room_.lights[i].position = p;
     const float warm = rng_.uniform(0.0, 0.08);
     room_.lights[i].colour = Vec3f(0.62f + warm, 0.6f, 0.58f - warm);
+    room_.lights[i].falloff = 0.08f;
   }
   room_.ambient = Vec3f(0.44f, 0.44f, 0.46f);
-  room_.light_falloff = 0.08f;
 }
 
 void RoomLayout::prepareEffects() {
@@ -317,6 +295,48 @@ void RoomLayout::prepareEffects() {
 
 }  // namespace
 
+std::optional<FurnishingRecord::Piece> tryDecoration(RoomBuilder& b, WallFeatures& features, int k,
+                                                     const FurnishingRecord::Wall& wall,
+                                                     std::vector<Rect>& blocked) {
+  Rng& rng = b.rng();
+  const float room_height = b.room().hi.z();
+  const int kind = rng.integer(0, 9);  // 0-2 poster, 3-6 picture, 7 cork, 8-9 shelf
+  float w, h;
+  if (kind <= 2) {
+    w = rng.uniform(0.4, 0.8);
+    h = w * rng.uniform(1.2, 1.5);
+  } else if (kind <= 6) {
+    w = rng.uniform(0.4, 1.2);
+    h = rng.uniform(0.35, 0.9);
+  } else if (kind == 7) {
+    w = rng.uniform(0.6, 1.0);
+    h = rng.uniform(0.45, 0.7);
+  } else {
+    w = rng.uniform(0.5, 0.9);
+    h = 0.45f;
+  }
+  const auto [sc, zc] = drawDecorationSpot(rng, room_height, w, h, wall.length);
+  if (!decorationFits(room_height, sc, zc, w, h, wall.start, wall.end, blocked))
+    return std::nullopt;
+  const int box_begin = b.room().boxes.size();
+  if (kind <= 2)
+    features.poster(k, sc, zc, w, h);
+  else if (kind <= 6)
+    features.framedPicture(k, sc, zc, w, h);
+  else if (kind == 7)
+    features.corkboard(k, sc, zc, w, h);
+  else
+    features.wallShelf(k, sc, zc, w);
+  blocked.push_back({sc - w / 2, sc + w / 2, zc - h / 2, zc + h / 2});
+  return FurnishingRecord::Piece{k,
+                                 sc - w / 2,
+                                 sc + w / 2,
+                                 zc - h / 2,
+                                 zc + h / 2,
+                                 box_begin,
+                                 static_cast<int>(b.room().boxes.size())};
+}
+
 void buildRoom(SyntheticRoom::Impl& room) {
   Rng rng(mix64(room.appearance_seed ^ 0x5eed0f5ce9e5ULL));
   RoomBuilder b(room, rng);
@@ -328,12 +348,14 @@ void buildRoom(SyntheticRoom::Impl& room) {
   layout.layRug();
   layout.hangLights();
   layout.prepareEffects();
+  auto record = std::make_shared<FurnishingRecord>(layout.record());
   if (room.seed != room.appearance_seed) {
     // A generator of its own, so the appearance above is the appearance seed's room to the bit.
     Rng layout_rng(mix64(room.seed ^ 0x1a70e7a5ea7ULL));
     RoomBuilder look_alike(room, layout_rng);
-    rearrange(look_alike, layout.record());
+    rearrange(look_alike, *record);
   }
+  room.furnishing = std::move(record);
   room.nodes = buildBvh(room.boxes);
 }
 

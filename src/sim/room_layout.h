@@ -5,10 +5,11 @@
 // share. Private to the sim module.
 
 #include <array>
+#include <optional>
 #include <utility>
 #include <vector>
 
-#include "synthetic_internal.h"
+#include "room_wall_features.h"
 
 namespace relocalizer {
 namespace synthetic {
@@ -45,6 +46,9 @@ struct FurnishingRecord {
   };
   std::array<Wall, 4> walls;
   std::vector<Piece> furniture, decorations;
+  // Small things on the furniture (Furniture::smallObjects): only their boxes
+  // are known, and they move with their piece.
+  std::vector<std::pair<int, int>> objects;
 };
 
 // A centre (s, z) drawn for a decoration w x h on a wall `length` long in a room
@@ -54,6 +58,14 @@ std::pair<float, float> drawDecorationSpot(Rng& rng, float room_height, float w,
                                            float length);
 bool decorationFits(float room_height, float sc, float zc, float w, float h, float start, float end,
                     const std::vector<Rect>& blocked);
+
+// One try at a decoration on wall k, drawn from `b`'s generator as the room's
+// own are (a poster, a picture, a cork board or a shelf with things on it, at
+// a spot drawn along the wall): hung when the spot is clear of `blocked`
+// (which then holds it too), nothing otherwise.
+std::optional<FurnishingRecord::Piece> tryDecoration(RoomBuilder& b, WallFeatures& features, int k,
+                                                     const FurnishingRecord::Wall& wall,
+                                                     std::vector<Rect>& blocked);
 
 // Phases of the camera paths' loops and wobbles.
 void drawPathPhases(SyntheticRoom::Impl& room, Rng& rng);

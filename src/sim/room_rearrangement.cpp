@@ -18,6 +18,18 @@ constexpr int kFurnitureAttempts = 32;
 // Decorations are small beside the walls' free stretches, so this many random
 // spots all failing means the walls are full, not unlucky.
 constexpr int kDecorationAttempts = 400;
+// How far a changed room's moved furniture goes at least (metres).
+constexpr float kLeastFurnitureMove = 0.5f;
+
+// `free` without (a, b).
+void cut(std::vector<Interval>& free, float a, float b) {
+  std::vector<Interval> next;
+  for (const Interval& f : free) {
+    if (f.lo <= a) next.push_back({f.lo, std::min(f.hi, a)});
+    if (f.hi >= b) next.push_back({std::max(f.lo, b), f.hi});
+  }
+  free.swap(next);
+}
 
 // Where a piece `width` wide may start within [lo, hi] without coming within
 // `gap` of what `taken` holds.
@@ -25,15 +37,8 @@ std::vector<Interval> freeStarts(float lo, float hi, float width,
                                  const std::vector<Interval>& taken, float gap) {
   std::vector<Interval> free;
   if (hi - width >= lo) free.push_back({lo, hi - width});
-  for (const Interval& t : taken) {
-    const float a = t.lo - width - gap, b = t.hi + gap;  // starts strictly between clash
-    std::vector<Interval> next;
-    for (const Interval& f : free) {
-      if (f.lo <= a) next.push_back({f.lo, std::min(f.hi, a)});
-      if (f.hi >= b) next.push_back({std::max(f.lo, b), f.hi});
-    }
-    free.swap(next);
-  }
+  // Starts strictly between clash.
+  for (const Interval& t : taken) cut(free, t.lo - width - gap, t.hi + gap);
   return free;
 }
 
@@ -55,12 +60,22 @@ class Rearrangement {
   explicit Rearrangement(RoomBuilder& builder)
       : b_(builder), rng_(builder.rng()), room_(builder.room()) {}
 
-  void rearrange(const FurnishingRecord& record);
+  void rearrange(FurnishingRecord& record);
+  int moveFurniture(FurnishingRecord& record, const std::vector<int>& order, int count);
 
  private:
   using Wall = RoomBuilder::Wall;
-  void rearrangeFurniture(const FurnishingRecord& record,
-                          std::array<std::vector<Rect>, 4>& blocked);
+  void rearrangeFurniture(FurnishingRecord& record, std::array<std::vector<Rect>, 4>& blocked);
+  // Furniture standing on each wall: where it is and how far it reaches out.
+  struct Placed {
+    float s0, s1, depth;
+  };
+  using PlacedFurniture = std::array<std::vector<Placed>, 4>;
+  // Where a piece reaching `reach` into the room must not start on wall k:
+  // the door and window, the pieces there, and those on the neighbouring
+  // walls that it would meet in a corner.
+  std::vector<Interval> taken(const FurnishingRecord& record, const PlacedFurniture& placed, int k,
+                              float reach) const;
   // Where each piece of furniture may go, drawn afresh; wall -1 for a piece
   // that found no room. `depths`: how far each piece reaches into the room.
   struct Spot {
@@ -69,11 +84,10 @@ class Rearrangement {
   };
   std::vector<Spot> tryPlacingFurniture(const FurnishingRecord& record,
                                         const std::vector<float>& depths);
-  void rearrangeDecorations(const FurnishingRecord& record,
-                            std::array<std::vector<Rect>, 4>& blocked);
-  // The one motion: boxes [begin, end) from s = from_s on wall `from` to
-  // s = to_s on wall `to`, raised by dz.
-  void moveBoxes(int begin, int end, int from, float from_s, int to, float to_s, float dz);
+  void rearrangeDecorations(FurnishingRecord& record, std::array<std::vector<Rect>, 4>& blocked);
+  // The one motion: `piece`'s boxes from s = piece.s0 on its wall to s = to_s
+  // on wall `to`, raised by dz; the piece then records where it is.
+  void movePiece(FurnishingRecord::Piece& piece, int to, float to_s, float dz);
   // How far a piece reaches out from its wall, where it stands now.
   float reach(const FurnishingRecord::Piece& piece) const;
 
@@ -84,11 +98,16 @@ class Rearrangement {
 
 }  // namespace
 
-void rearrange(RoomBuilder& builder, const FurnishingRecord& record) {
+void rearrange(RoomBuilder& builder, FurnishingRecord& record) {
   Rearrangement(builder).rearrange(record);
 }
 
-void Rearrangement::rearrange(const FurnishingRecord& record) {
+int moveFurniture(RoomBuilder& builder, FurnishingRecord& record, const std::vector<int>& order,
+                  int count) {
+  return Rearrangement(builder).moveFurniture(record, order, count);
+}
+
+void Rearrangement::rearrange(FurnishingRecord& record) {
   std::array<std::vector<Rect>, 4> blocked;
   rearrangeFurniture(record, blocked);
   rearrangeDecorations(record, blocked);
@@ -96,7 +115,7 @@ void Rearrangement::rearrange(const FurnishingRecord& record) {
   drawPathPhases(room_, rng_);
 }
 
-void Rearrangement::rearrangeFurniture(const FurnishingRecord& record,
+void Rearrangement::rearrangeFurniture(FurnishingRecord& record,
                                        std::array<std::vector<Rect>, 4>& blocked) {
   std::vector<float> depths;
   for (const FurnishingRecord::Piece& piece : record.furniture) depths.push_back(reach(piece));
@@ -114,36 +133,18 @@ void Rearrangement::rearrangeFurniture(const FurnishingRecord& record,
   }
   for (int k = 0; k < 4; ++k) blocked[k] = record.walls[k].fixed;
   for (size_t i = 0; i < best.size(); ++i) {
-    const FurnishingRecord::Piece& piece = record.furniture[i];
+    FurnishingRecord::Piece& piece = record.furniture[i];
     // A piece that found no room stays where it was.
     const Spot spot = best[i].wall >= 0 ? best[i] : Spot{piece.wall, piece.s0};
-    moveBoxes(piece.box_begin, piece.box_end, piece.wall, piece.s0, spot.wall, spot.s, 0);
     blocked[spot.wall].push_back(
         furnitureClearance(spot.s, spot.s + piece.s1 - piece.s0, piece.z1));
+    movePiece(piece, spot.wall, spot.s, 0);
   }
 }
 
 std::vector<Rearrangement::Spot> Rearrangement::tryPlacingFurniture(
     const FurnishingRecord& record, const std::vector<float>& depths) {
-  struct Placed {
-    float s0, s1, depth;
-  };
-  std::array<std::vector<Placed>, 4> placed;
-  // Where a piece reaching `reach` into the room must not start on wall k:
-  // the door and window, the pieces there, and those on the neighbouring
-  // walls that it would meet in a corner.
-  const auto taken = [&](int k, float reach) {
-    std::vector<Interval> result = record.walls[k].no_furniture;
-    for (const Placed& p : placed[k]) result.push_back({p.s0, p.s1});
-    // Wall k starts where the one before ends, and ends where the next starts.
-    const int before = (k + 3) % 4, after = (k + 1) % 4;
-    const float before_length = record.walls[before].length, length = record.walls[k].length;
-    for (const Placed& p : placed[before])
-      if (p.s1 > before_length - reach - kFurnitureGap) result.push_back({-1.0f, p.depth});
-    for (const Placed& p : placed[after])
-      if (p.s0 < reach + kFurnitureGap) result.push_back({length - p.depth, length + 1.0f});
-    return result;
-  };
+  PlacedFurniture placed;
   const auto width = [&](int i) { return record.furniture[i].s1 - record.furniture[i].s0; };
   // Widest first, so the narrow pieces fill what the wide ones leave.
   std::vector<int> order(record.furniture.size());
@@ -156,7 +157,7 @@ std::vector<Rearrangement::Spot> Rearrangement::tryPlacingFurniture(
       const int k = (first + j) % 4;
       const FurnishingRecord::Wall& w = record.walls[k];
       const std::vector<Interval> starts =
-          freeStarts(w.start, w.end, width(i), taken(k, depths[i]), kFurnitureGap);
+          freeStarts(w.start, w.end, width(i), taken(record, placed, k, depths[i]), kFurnitureGap);
       if (starts.empty()) continue;
       float s = drawFrom(starts, rng_);
       // Half the pieces pushed to an end of their free stretch, so the
@@ -173,6 +174,52 @@ std::vector<Rearrangement::Spot> Rearrangement::tryPlacingFurniture(
   return spots;
 }
 
+std::vector<Interval> Rearrangement::taken(const FurnishingRecord& record,
+                                           const PlacedFurniture& placed, int k,
+                                           float reach) const {
+  std::vector<Interval> result = record.walls[k].no_furniture;
+  for (const Placed& p : placed[k]) result.push_back({p.s0, p.s1});
+  // Wall k starts where the one before ends, and ends where the next starts.
+  const int before = (k + 3) % 4, after = (k + 1) % 4;
+  const float before_length = record.walls[before].length, length = record.walls[k].length;
+  for (const Placed& p : placed[before])
+    if (p.s1 > before_length - reach - kFurnitureGap) result.push_back({-1.0f, p.depth});
+  for (const Placed& p : placed[after])
+    if (p.s0 < reach + kFurnitureGap) result.push_back({length - p.depth, length + 1.0f});
+  return result;
+}
+
+int Rearrangement::moveFurniture(FurnishingRecord& record, const std::vector<int>& order,
+                                 int count) {
+  int moved = 0;
+  for (size_t n = 0; n < order.size() && moved < count; ++n) {
+    FurnishingRecord::Piece& piece = record.furniture[order[n]];
+    const float width = piece.s1 - piece.s0, depth = reach(piece);
+    PlacedFurniture placed;  // everything but the piece itself
+    for (const FurnishingRecord::Piece& other : record.furniture)
+      if (&other != &piece) placed[other.wall].push_back({other.s0, other.s1, reach(other)});
+    const int first = rng_.integer(0, 3);
+    for (int j = 0; j < 4; ++j) {
+      const int k = (first + j) % 4;
+      std::vector<Interval> keep_off = taken(record, placed, k, depth);
+      // Decorations hang clear of the furniture below them (furnitureClearance).
+      for (const FurnishingRecord::Piece& d : record.decorations)
+        if (d.wall == k && d.z0 < furnitureClearance(0, 0, piece.z1).z1)
+          keep_off.push_back({d.s0 - 0.05f, d.s1 + 0.05f});
+      const FurnishingRecord::Wall& w = record.walls[k];
+      std::vector<Interval> starts = freeStarts(w.start, w.end, width, keep_off, kFurnitureGap);
+      // A move the eye cannot miss, not a nudge.
+      if (k == piece.wall)
+        cut(starts, piece.s0 - kLeastFurnitureMove, piece.s0 + kLeastFurnitureMove);
+      if (starts.empty()) continue;
+      movePiece(piece, k, drawFrom(starts, rng_), 0);
+      ++moved;
+      break;
+    }
+  }
+  return moved;
+}
+
 float Rearrangement::reach(const FurnishingRecord::Piece& piece) const {
   const Wall w = b_.wall(piece.wall);
   float depth = 0;
@@ -186,14 +233,14 @@ float Rearrangement::reach(const FurnishingRecord::Piece& piece) const {
   return depth;
 }
 
-void Rearrangement::rearrangeDecorations(const FurnishingRecord& record,
+void Rearrangement::rearrangeDecorations(FurnishingRecord& record,
                                          std::array<std::vector<Rect>, 4>& blocked) {
   std::vector<int> order(record.decorations.size());
   std::iota(order.begin(), order.end(), 0);
   for (int i = static_cast<int>(order.size()) - 1; i > 0; --i)
     std::swap(order[i], order[rng_.integer(0, i)]);
   for (const int i : order) {
-    const FurnishingRecord::Piece& piece = record.decorations[i];
+    FurnishingRecord::Piece& piece = record.decorations[i];
     const float w = piece.s1 - piece.s0, h = piece.z1 - piece.z0;
     const float from_z = (piece.z0 + piece.z1) / 2;
     const auto fits = [&](int k, float sc, float zc) {
@@ -216,21 +263,21 @@ void Rearrangement::rearrangeDecorations(const FurnishingRecord& record,
           if (fits(k, sc, zc)) std::tie(to_wall, to_sc, to_z) = std::tuple(k, sc, zc);
     if (to_wall < 0)
       std::tie(to_wall, to_sc, to_z) = std::tuple(piece.wall, (piece.s0 + piece.s1) / 2, from_z);
-    moveBoxes(piece.box_begin, piece.box_end, piece.wall, piece.s0, to_wall, to_sc - w / 2,
-              to_z - from_z);
+    movePiece(piece, to_wall, to_sc - w / 2, to_z - from_z);
     blocked[to_wall].push_back({to_sc - w / 2, to_sc + w / 2, to_z - h / 2, to_z + h / 2});
   }
 }
 
-void Rearrangement::moveBoxes(int begin, int end, int from, float from_s, int to, float to_s,
-                              float dz) {
+void Rearrangement::movePiece(FurnishingRecord::Piece& piece, int to, float to_s, float dz) {
+  const int from = piece.wall;
+  const float from_s = piece.s0;
   const Wall a = b_.wall(from), b = b_.wall(to);
   // The turn from wall a's (tangent, normal) to wall b's is a multiple of 90
   // degrees: its cosine and sine are exactly 0 or +-1, so a box turned with it
   // keeps its size, faces and texture coordinates to the bit.
   const float c = a.tangent.x() * b.tangent.x() + a.normal.x() * b.normal.x();
   const float s = a.tangent.x() * b.tangent.y() + a.normal.x() * b.normal.y();
-  for (int i = begin; i < end; ++i) {
+  for (int i = piece.box_begin; i < piece.box_end; ++i) {
     Box& box = room_.boxes[i];
     const Eigen::Vector2f p = box.centre.head<2>() - a.corner;
     const Eigen::Vector2f q =
@@ -247,6 +294,11 @@ void Rearrangement::moveBoxes(int begin, int end, int from, float from_s, int to
       box.sin_yaw = s;
     }
   }
+  piece.wall = to;
+  piece.s1 = to_s + (piece.s1 - piece.s0);
+  piece.s0 = to_s;
+  piece.z0 += dz;
+  piece.z1 += dz;
 }
 
 }  // namespace synthetic

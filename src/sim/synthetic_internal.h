@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "relocalizer/sim/synthetic_scene.h"
@@ -254,6 +255,8 @@ inline std::array<int, 6> allFaces(int material) {
   return {material, material, material, material, material, material};
 }
 
+struct FurnishingRecord;  // room_layout.h
+
 }  // namespace synthetic
 
 // ---------------------------------------------------------------- the room
@@ -269,8 +272,19 @@ struct SyntheticRoom::Impl {
 
   struct Light {
     Vec3f position;
-    Vec3f colour;  // intensity per channel
+    Vec3f colour;          // intensity per channel
+    float falloff = 0.1f;  // 1 / (1 + falloff * d^2)
   };
+  static constexpr int kMaxLights = 3;  // two ceiling lights and a changed room's lamp
+  // Someone or something going round the free floor, `inset` in from the
+  // walls, at `speed` radians per frame from `phase` (room_effects.cpp).
+  struct Walker {
+    double phase = 0, speed = 0;
+    float inset = 0.85f;
+    Vec3f half{0, 0, 0};
+    int material = 0;
+  };
+  static constexpr int kMaxMovers = 2 + SceneChanges::kMaxPeople;
 
   uint64_t seed = 0;             // the layout's seed, and the renders' (depth noise)
   uint64_t appearance_seed = 0;  // materials and pieces; == seed but in a look-alike room
@@ -280,20 +294,25 @@ struct SyntheticRoom::Impl {
   std::vector<Shape> shapes;
   std::vector<Box> boxes;
   std::vector<WideNode> nodes;
-  std::array<Light, 2> lights{};
+  std::array<Light, kMaxLights> lights{};
+  int light_count = 2;
   Vec3f ambient{0.4f, 0.4f, 0.4f};
-  float light_falloff = 0.1f;  // 1 / (1 + falloff * d^2)
-  RoomDoor door;               // recorded by the layout's placeDoor; draws nothing
+  RoomDoor door;  // recorded by the layout's placeDoor; draws nothing
   double path_phase = 0.0;
   std::array<double, 8> phases{};  // of path wobbles and time-varying effects
   int person_material = 0, cart_material = 0;
+  std::vector<Walker> people;  // a changed room's (SceneChanges::people)
+  SceneChanges changes;        // what changed() made of this room
+  // What stands where along the walls (room_layout.h), so a changed room can
+  // move, take away and add pieces.
+  std::shared_ptr<const synthetic::FurnishingRecord> furnishing;
 
   // Per-frame lighting and distractors.
   struct FrameState {
     Vec3f ambient;
-    std::array<Vec3f, 2> light_colour;
+    std::array<Vec3f, kMaxLights> light_colour;
     Vec3f gain;
-    std::array<Box, 2> movers;
+    std::array<Box, kMaxMovers> movers;
     int mover_count = 0;
   };
 

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "room_changes.h"
 #include "room_effects.h"
 #include "room_trajectories.h"
 #include "synthetic_textures.h"
@@ -139,11 +140,12 @@ Vec3f SyntheticRoom::Impl::shade(const Ray& r, const Hit& hit, const FrameState&
                 (0.3f * albedo_rgb.x() + 0.59f * albedo_rgb.y() + 0.11f * albedo_rgb.z()) > 0.05f;
   if (material.pattern == Pattern::kSky) return albedo_rgb.cwiseProduct(frame.gain);  // outdoors
   Vec3f irradiance = frame.ambient;
-  for (int i = 0; i < 2; ++i) {
+  for (int i = 0; i < light_count; ++i) {
     const Vec3f to_light = lights[i].position - p;
     const float d2 = to_light.squaredNorm();
     const float cosine = normal.dot(to_light) / std::sqrt(d2);
-    if (cosine > 0.0f) irradiance += frame.light_colour[i] * (cosine / (1.0f + light_falloff * d2));
+    if (cosine > 0.0f)
+      irradiance += frame.light_colour[i] * (cosine / (1.0f + lights[i].falloff * d2));
   }
   return albedo_rgb.cwiseProduct(irradiance).cwiseProduct(frame.gain);
 }
@@ -180,6 +182,19 @@ RoomDoor SyntheticRoom::door() const { return impl_->door; }
 SyntheticTrajectories SyntheticRoom::trajectories(int train_frames, int test_frames) const {
   return roomTrajectories(*impl_, train_frames, test_frames);
 }
+
+SyntheticRoom SyntheticRoom::changed(const SceneChanges& changes) const {
+  const std::string error = changes.validationError();
+  if (!error.empty()) throw std::invalid_argument("SyntheticRoom::changed: " + error);
+  if (!changes.any()) return *this;
+  auto impl = std::make_shared<Impl>(*impl_);
+  applyChanges(*impl, changes);
+  SyntheticRoom room = *this;
+  room.impl_ = std::move(impl);
+  return room;
+}
+
+SceneChanges SyntheticRoom::changes() const { return impl_->changes; }
 
 int SyntheticRoom::boxCount() const { return static_cast<int>(impl_->boxes.size()); }
 

@@ -85,7 +85,52 @@ std::vector<int> sheetFrames(int frames, int wanted) {
   return picked;
 }
 
+nlohmann::ordered_json changesJson(const SceneChanges& changes) {
+  return {{"people", changes.people},
+          {"moved_furniture", changes.moved_furniture},
+          {"removed_objects", changes.removed_objects},
+          {"added_objects", changes.added_objects},
+          {"lamp", lampChangeName(changes.lamp)}};
+}
+
 }  // namespace
+
+bool SceneChanges::any() const {
+  return people > 0 || moved_furniture > 0 || removed_objects > 0 || added_objects > 0 ||
+         lamp != LampChange::kNone;
+}
+
+std::string SceneChanges::validationError() const {
+  const std::pair<const char*, int> counts[] = {{"--test-people", people},
+                                                {"--test-moved-furniture", moved_furniture},
+                                                {"--test-removed-objects", removed_objects},
+                                                {"--test-added-objects", added_objects}};
+  const int most[] = {kMaxPeople, kMaxPieces, kMaxObjects, kMaxObjects};
+  for (int i = 0; i < 4; ++i)
+    if (counts[i].second < 0 || counts[i].second > most[i])
+      return std::string(counts[i].first) + " must be from 0 to " + std::to_string(most[i]) +
+             ", got " + std::to_string(counts[i].second);
+  if (lamp != LampChange::kNone && lamp != LampChange::kOff && lamp != LampChange::kOn)
+    return "--test-lamp must be none, off or on";
+  return {};
+}
+
+std::string lampChangeName(LampChange lamp) {
+  switch (lamp) {
+    case LampChange::kOff:
+      return "off";
+    case LampChange::kOn:
+      return "on";
+    default:
+      return "none";
+  }
+}
+
+std::optional<LampChange> lampChangeFromName(const std::string& name) {
+  for (const LampChange lamp : {LampChange::kNone, LampChange::kOff, LampChange::kOn})
+    if (lampChangeName(lamp) == name) return lamp;
+  return std::nullopt;
+}
 
 std::string SyntheticSceneOptions::validationError() const {
   if (train_frames < 1 || train_frames > kMaxFrames)
@@ -96,6 +141,8 @@ std::string SyntheticSceneOptions::validationError() const {
            std::to_string(test_frames);
   const std::string camera_error = camera.validationError();
   if (!camera_error.empty()) return "camera: " + camera_error;
+  const std::string changes_error = test_changes.validationError();
+  if (!changes_error.empty()) return changes_error;
   if (camera.width > kMaxImageSide || camera.height > kMaxImageSide)
     return "image size must be at most " + std::to_string(kMaxImageSide) + " pixels a side, got " +
            std::to_string(camera.width) + "x" + std::to_string(camera.height);
@@ -118,6 +165,9 @@ Status writeSyntheticScene(const std::string& output_dir, const SyntheticSceneOp
 
   const SyntheticRoom room(
       RoomRecipe{options.appearance_seed.value_or(options.seed), options.seed});
+  // The world as it is when the test frames are taken.
+  const SyntheticRoom test_room = room.changed(options.test_changes);
+  const SyntheticRoom* split_rooms[2] = {&room, &test_room};
   const SyntheticTrajectories paths = room.trajectories(options.train_frames, options.test_frames);
   const std::vector<Pose>* split_paths[2] = {&paths.train, &paths.test};
 
@@ -169,7 +219,8 @@ Status writeSyntheticScene(const std::string& output_dir, const SyntheticSceneOp
     if (options.motion_blur) effects.motion_blur_poses = motionBlurPoses(path, job.index);
     // Time runs on from training into test, as if recorded one after the other.
     const int time = job.split == 0 ? job.index : options.train_frames + job.index;
-    const RgbdFrame frame = room.render(path[job.index], options.camera, time, effects);
+    const RgbdFrame frame =
+        split_rooms[job.split]->render(path[job.index], options.camera, time, effects);
     const Status written = synthetic::writeFrameFiles(
         (split_dirs[job.split] / frameStem(job.index)).string(), frame, path[job.index]);
     if (!written) errors[j] = written.error();
@@ -201,6 +252,10 @@ Status writeSyntheticScene(const std::string& output_dir, const SyntheticSceneOp
   json["effects"] = {{"motion_blur", options.motion_blur},
                      {"illumination_change", options.illumination_change},
                      {"moving_objects", options.moving_objects}};
+  // As asked, and as made (fewer where the room had no place for more).
+  json["test_changes"] = changesJson(options.test_changes);
+  json["test_changes"]["made"] = changesJson(test_room.changes());
+  json["test_changes"]["test_room_boxes"] = test_room.boxCount();
   json["depth"] = {{"units_per_metre", 1000},
                    {"invalid_value", 0},
                    {"model",

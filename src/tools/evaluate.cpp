@@ -12,6 +12,7 @@
 #include "learning_curve.h"
 #include "named_places.h"
 #include "relocalizer/core/version.h"
+#include "relocalizer/data/changed_frame_source.h"
 #include "relocalizer/eval/frame_evaluation.h"
 #include "relocalizer/eval/latency_benchmark.h"
 #include "relocalizer/eval/plot.h"
@@ -297,6 +298,16 @@ Expected<RelocalizerParams> relocalizerParams(const Options& o) {
   return params;
 }
 
+// The frames to relocalize, seen under --light-* when given.
+Expected<std::unique_ptr<FrameSource>> openFrames(const Options& o) {
+  if (const std::string invalid = o.change.validationError(); !invalid.empty())
+    return makeError("--light-" + invalid);
+  auto source = o.source.open();
+  if (!source || o.change.identity()) return source;
+  return std::unique_ptr<FrameSource>(
+      std::make_unique<ChangedFrameSource>(std::move(*source), o.change));
+}
+
 // What summary.json adds to the evaluation's own figures.
 std::string summaryFields(const Options& o, const FrameSource& data, const nlohmann::json& learning,
                           const std::string& prediction_json, int thread_count,
@@ -316,6 +327,11 @@ std::string summaryFields(const Options& o, const FrameSource& data, const nlohm
   }
   extra["forests"] = o.forests;
   if (!o.hint.empty()) extra["hint"] = o.hint;
+  if (!o.change.identity())
+    extra["light_change"] = {{"stops", o.change.stops},
+                             {"kelvin", o.change.kelvin},
+                             {"gamma", o.change.gamma},
+                             {"description", o.change.describe()}};
   extra["threads"] = thread_count;
   extra["software_version"] = kSoftwareVersion;
   const nlohmann::json quality = nlohmann::json::parse(prediction_json);
@@ -350,7 +366,7 @@ int main(int argc, char** argv) {
   if (!configured) return cli::fail(app, configured.error());
   const RelocalizerParams& params = *configured;
 
-  auto source = o.source.open();
+  auto source = openFrames(o);
   if (!source) return cli::fail(app, source.error());
   const FrameSource& data = **source;
   std::printf("%s\n", data.summary().c_str());

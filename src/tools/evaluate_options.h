@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "relocalizer/core/key_frame_rule.h"
+#include "relocalizer/core/photometric_change.h"
 #include "relocalizer/eval/frame_evaluation.h"
 #include "relocalizer/eval/simulated_hints.h"
 #include "relocalizer/online/online_learner.h"
@@ -25,7 +26,8 @@ struct Options {
   int threads = 0;
   bool prediction_quality = false;
   cli::SourceOptions source;
-  std::string hint;  // --hint: every frame relocalized with a hint near its ground truth
+  std::string hint;          // --hint: every frame relocalized with a hint near its ground truth
+  PhotometricChange change;  // --light-stops, --light-kelvin, --light-gamma
 
   // One evaluation's hints in map frame `frame` (each draws the same), or none.
   std::unique_ptr<SimulatedHints> hints(const std::string& frame) const {
@@ -50,6 +52,26 @@ struct Learned {
   FrameEvaluation evaluation;
   nlohmann::json json;
 };
+
+// The world changed after training: --frames seen under other light.
+inline void addChangeOptions(App& app, PhotometricChange& change) {
+  const std::string group = "Changed light (--frames only; learn frames as recorded)";
+  app.addOption("--light-stops", change.stops,
+                "Light level or exposure in stops: linear light times 2^STOPS, clipped where "
+                "the sensor saturates (-1: half the light)")
+      ->range(-8.0, 8.0)
+      ->group(group);
+  app.addOption("--light-kelvin", change.kelvin,
+                "Colour temperature of the light for a camera balanced for " +
+                    std::to_string(static_cast<int>(PhotometricChange::kBalancedKelvin)) +
+                    " K: 2700 a tungsten lamp, 6500 overcast daylight (0: unchanged)")
+      ->range(0.0, PhotometricChange::kMaxKelvin)
+      ->group(group);
+  app.addOption("--light-gamma", change.gamma,
+                "Another tone curve: each encoded value v in [0, 1] becomes v^GAMMA")
+      ->range(0.2, 5.0)
+      ->group(group);
+}
 
 inline void addOptions(App& app, Options& o, LearnOptions& l) {
   app.addOption("-m,--model", o.models,
@@ -81,6 +103,7 @@ inline void addOptions(App& app, Options& o, LearnOptions& l) {
                 "ERROR_M,ERROR_DEG,SIGMA_M,SIGMA_DEG: each frame hinted (pose_hint.h) this far "
                 "off its ground truth in random directions (seeded), declaring these sigmas; "
                 "many places need --expect-place (the hint's map frame)");
+  addChangeOptions(app, o.change);
   const std::string group = "Online learning (--learn-frames)";
   auto* learn_option =
       app.addOption("--learn-frames", l.learn_frames,

@@ -15,6 +15,56 @@
 
 using relocalizer::cli::fail;
 
+namespace {
+
+// The --test-* options: changes of the world in the test frames only; --test-lamp's
+// value goes to `lamp`.
+void addTestChangeOptions(relocalizer::cli::App& app, relocalizer::SceneChanges& changes,
+                          std::string& lamp) {
+  using Changes = relocalizer::SceneChanges;
+  const std::string after =
+      " in the test frames only (the training frames stay those of a run without it)";
+  const auto addChange = [&](const std::string& name, int& count, int most,
+                             const std::string& what) {
+    app.addOption(name, count, what + after)->range(0, most)->showDefault();
+  };
+  addChange("--test-people", changes.people, Changes::kMaxPeople,
+            "People walking through the room, in colour and depth but never in the ground "
+            "truth, crossing the camera's view now and then,");
+  addChange("--test-moved-furniture", changes.moved_furniture, Changes::kMaxPieces,
+            "Pieces of furniture (with what is on them) moved at least 0.5 m along their wall "
+            "or to another wall, the poses staying exact ground truth,");
+  addChange("--test-removed-objects", changes.removed_objects, Changes::kMaxObjects,
+            "Wall decorations (posters, pictures, cork boards, shelves with their objects) "
+            "and small things on desks and cabinets (book stacks, mugs, vases, plants, "
+            "photos) taken away");
+  addChange("--test-added-objects", changes.added_objects, Changes::kMaxObjects,
+            "New wall decorations (new colours and textures) hung where the walls are free");
+  app.addOption("--test-lamp", lamp,
+                "Local light change" + after +
+                    ": off switches one of the two ceiling lights off, on switches on a lamp "
+                    "before what the test camera faces (that part of the room much brighter, the "
+                    "rest hardly); depth "
+                    "unchanged")
+      ->oneOf({"none", "off", "on"})
+      ->showDefault();
+}
+
+// Why a building's walk cannot be written with these options, or "".
+std::string walkError(const relocalizer::SyntheticSceneOptions& options,
+                      const relocalizer::BuildingWalkOptions& walk) {
+  if (options.test_frames > relocalizer::kWalkTestIdsPerRoom)
+    return "--test-frames: a walk holds at most " +
+           std::to_string(relocalizer::kWalkTestIdsPerRoom) + " test frames per room";
+  if (options.test_changes.any())
+    return "--test-*: the walk is rendered without changes of the world";
+  const std::string walk_invalid = walk.validationError();
+  if (!walk_invalid.empty()) return "--train-frames: the walk's " + walk_invalid;
+  return {};
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   relocalizer::cli::App app{
       "Writes a synthetic RGB-D relocalization dataset of a procedurally generated room: "
@@ -44,6 +94,8 @@ int main(int argc, char** argv) {
               "Vary exposure, colour cast and lights from frame to frame");
   app.addFlag("--moving-objects", options.moving_objects,
               "Add moving distractors (not part of the static ground truth)");
+  std::string lamp = "none";
+  addTestChangeOptions(app, options.test_changes, lamp);
   int rooms = 0;
   auto* rooms_option =
       app.addOption("--rooms", rooms,
@@ -72,6 +124,7 @@ int main(int argc, char** argv) {
 
   if (const relocalizer::cli::Exit done = app.parse(argc, argv)) return *done;
 
+  options.test_changes.lamp = *relocalizer::lampChangeFromName(lamp);  // oneOf checked it
   options.camera = relocalizer::CameraIntrinsics::kinectDefault();
   if (width > 0) options.camera = options.camera.scaledTo(width, height);
   const std::string invalid = options.validationError();
@@ -80,13 +133,8 @@ int main(int argc, char** argv) {
   const bool building = rooms_option->count() > 0;
   walk.loop_frames = options.train_frames;
   if (building && !no_walk) {
-    if (options.test_frames > relocalizer::kWalkTestIdsPerRoom)
-      return fail(app, "--test-frames: a walk holds at most " +
-                           std::to_string(relocalizer::kWalkTestIdsPerRoom) +
-                           " test frames per room (or give --no-walk)");
-    const std::string walk_invalid = walk.validationError();
-    if (!walk_invalid.empty())
-      return fail(app, "--train-frames: the walk's " + walk_invalid + " (or give --no-walk)");
+    const std::string walk_invalid = walkError(options, walk);
+    if (!walk_invalid.empty()) return fail(app, walk_invalid + " (or give --no-walk)");
   }
 
   const auto start = std::chrono::steady_clock::now();

@@ -67,7 +67,7 @@ TEST(Replay, MatchesOfflineEvaluatePoseForPose) {
   const auto b = readJson(offline / "summary.json");
   for (const char* key :
        {"frames", "frames_with_pose", "frames_without_pose", "within_5cm_5deg", "within_2cm_2deg",
-        "median_translation_cm", "median_rotation_deg", "ate_rmse_cm"})
+        "wrong_answers", "median_translation_cm", "median_rotation_deg", "ate_rmse_cm"})
     // The replayed pose went through a quaternion message: equal to ~1e-12, not bitwise.
     EXPECT_NEAR(a.at(key).get<double>(), b.at(key).get<double>(), 1e-6) << key;
   EXPECT_EQ(a.at("node").at("frames_dropped"), 0);

@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
@@ -83,6 +84,11 @@ std::string redkitchenDir() {
   if (std::filesystem::exists(dir / "frame-000000.pose.txt"))
     return std::filesystem::canonical(dir).string();
   return {};
+}
+
+bool sameImage(const cv::Mat& a, const cv::Mat& b) {
+  return a.size() == b.size() && a.type() == b.type() &&
+         std::equal(a.datastart, a.dataend, b.datastart, b.dataend);
 }
 
 std::string readBytes(const std::filesystem::path& path) {

@@ -37,6 +37,9 @@ RoomWalk submapRoomWalk();
 // An answer within 5 cm / 5 deg of the frame's ground truth (eval/metrics.h's rule).
 bool correctPose(const Relocalization& answer, const RgbdFrame& frame);
 
+// Same size, type and bytes (NaN depth holes included).
+bool sameImage(const cv::Mat& a, const cv::Mat& b);
+
 // A fresh folder under the system temp dir, removed when the object dies.
 class TempDir {
  public:

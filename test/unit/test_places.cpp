@@ -561,13 +561,8 @@ int runLogged(const std::string& tool, const std::string& arguments, const std::
   return relocalizer::testing::runTool(tool, arguments, log, log);
 }
 
-}  // namespace
-
-TEST_F(Places, EvaluateRelocalizesAgainstEveryModelAndNamesEachFramesPlace) {
-  const relocalizer::testing::TempDir dir;
-  for (const Room& room : rooms_)
-    ASSERT_TRUE(saveModel(room.relocalizer->model(), dir.str() + "/" + room.name + ".model").ok());
-  // Frames of room 7 (the same seed gives the same room), written as a dataset.
+// Six frames of room 7 (the same seed gives the same room), written as the dataset DIR/scene.
+void writeRoomSevenFrames(const relocalizer::testing::TempDir& dir) {
   ASSERT_EQ(
       runLogged("synthesize",
                 "--seed 7 --train-frames 1 --test-frames 6 --width 320 --height 240 --output '" +
@@ -575,6 +570,37 @@ TEST_F(Places, EvaluateRelocalizesAgainstEveryModelAndNamesEachFramesPlace) {
                 dir.str() + "/synthesize.log"),
       0)
       << relocalizer::testing::readBytes(dir.path() / "synthesize.log");
+}
+
+}  // namespace
+
+TEST_F(Places, EvaluateSeesTheFramesUnderOtherLightWhenAsked) {
+  const relocalizer::testing::TempDir dir;
+  ASSERT_TRUE(saveModel(rooms_[0].relocalizer->model(), dir.str() + "/room.model").ok());
+  writeRoomSevenFrames(dir);
+  const std::string evaluate = " --model '" + dir.str() + "/room.model' --dataset '" + dir.str() +
+                               "/scene/test' --output '" + dir.str() + "/out'";
+  ASSERT_EQ(runLogged("evaluate", evaluate + " --light-stops -1 --light-kelvin 2700",
+                      dir.str() + "/evaluate.log"),
+            0)
+      << relocalizer::testing::readBytes(dir.path() / "evaluate.log");
+  const std::string log = relocalizer::testing::readBytes(dir.path() / "evaluate.log");
+  EXPECT_NE(log.find("changed:      -1 stop, 2700 K"), std::string::npos) << log;
+  EXPECT_NE(log.find("wrong (> 10 cm or 10 deg)"), std::string::npos) << log;
+  const std::string summary = relocalizer::testing::readBytes(dir.path() / "out" / "summary.json");
+  EXPECT_NE(summary.find("\"description\": \"-1 stop, 2700 K\""), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"wrong_answers\""), std::string::npos) << summary;
+  // Out of range: refused before any frame is read, naming the option.
+  EXPECT_EQ(runLogged("evaluate", evaluate + " --light-kelvin 500", dir.str() + "/bad.log"), 2);
+  EXPECT_NE(relocalizer::testing::readBytes(dir.path() / "bad.log").find("--light-kelvin"),
+            std::string::npos);
+}
+
+TEST_F(Places, EvaluateRelocalizesAgainstEveryModelAndNamesEachFramesPlace) {
+  const relocalizer::testing::TempDir dir;
+  for (const Room& room : rooms_)
+    ASSERT_TRUE(saveModel(room.relocalizer->model(), dir.str() + "/" + room.name + ".model").ok());
+  writeRoomSevenFrames(dir);
   const std::string models = " --model room7='" + dir.str() + "/room7.model' --model room8='" +
                              dir.str() + "/room8.model' --dataset '" + dir.str() + "/scene/test'";
   ASSERT_EQ(runLogged("evaluate", models + " --expect-place room7 --output '" + dir.str() + "/out'",

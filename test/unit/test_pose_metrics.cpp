@@ -103,11 +103,31 @@ TEST(Metrics, SharesMediansAndAteAgainstHandComputedValues) {
   EXPECT_EQ(s.frames_with_pose, 3);
   EXPECT_DOUBLE_EQ(s.within_5cm_5deg, 0.5);
   EXPECT_DOUBLE_EQ(s.within_2cm_2deg, 0.25);
+  EXPECT_EQ(s.wrong_answers, 0);  // 10 cm is the last right answer; no pose is never wrong
   // Sorted translations: 0.01, 0.03, 0.10, inf -> median (0.03 + 0.10) / 2.
   EXPECT_NEAR(s.median_translation_m, 0.065, 1e-12);
   EXPECT_NEAR(s.median_rotation_deg, 1.0, 1e-9);
   EXPECT_TRUE(std::isfinite(s.ate_rmse_m));
   EXPECT_GE(s.ate_rmse_m, 0.0);
+}
+
+TEST(Metrics, WrongAnswersAreThoseBeyondTenCentimetresOrTenDegrees) {
+  const Pose truth = makePose(0, {0, 0, 1}, {0, 0, 0});
+  const std::vector<std::optional<Pose>> cases = {
+      makePose(0, {0, 0, 1}, {0.10, 0, 0}),   // 10 cm: imprecise, not wrong
+      makePose(0, {0, 0, 1}, {0.101, 0, 0}),  // wrong by translation
+      makePose(10.5, {0, 1, 0}, {0, 0, 0}),   // wrong by rotation
+      makePose(9.5, {0, 1, 0}, {0, 0, 0.09}), std::nullopt};
+  std::vector<FrameError> errors;
+  for (size_t i = 0; i < cases.size(); ++i)
+    errors.push_back(frameError(static_cast<int>(i), cases[i], truth));
+  EXPECT_FALSE(wrongAnswer(errors[0]));
+  EXPECT_TRUE(wrongAnswer(errors[1]));
+  EXPECT_TRUE(wrongAnswer(errors[2]));
+  EXPECT_FALSE(wrongAnswer(errors[3]));
+  EXPECT_FALSE(wrongAnswer(errors[4]));
+  EXPECT_EQ(summarizeAccuracy(errors, cases, std::vector<Pose>(cases.size(), truth)).wrong_answers,
+            2);
 }
 
 TEST(Metrics, CorrectIsInclusiveAndNeedsAPose) {

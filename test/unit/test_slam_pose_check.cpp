@@ -13,6 +13,7 @@
 #include <cstdio>
 
 #include "relocalizer/core/statistics.h"
+#include "relocalizer/eval/metrics.h"
 
 #include "relocalizer/online/key_frame_feed.h"
 #include "relocalizer/online/learned_places.h"
@@ -26,10 +27,6 @@ namespace {
 
 const CameraIntrinsics kCamera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
 constexpr double kFrameRate = 30.0;
-
-// Metres off a 10 cm / 10 deg answer may be: beyond it an answer is wrong.
-constexpr double kWrongMetres = 0.10;
-constexpr double kWrongDegrees = 10.0;
 
 class LyingSlam : public ::testing::Test {
  protected:
@@ -85,7 +82,7 @@ class LyingSlam : public ::testing::Test {
       const Pose truth = to_map * *frame.ground_truth;
       const double metres = translationError(r.pose, truth);
       a.worst_metres = std::max(a.worst_metres, metres);
-      if (metres > kWrongMetres || rotationErrorDegrees(r.pose, truth) > kWrongDegrees)
+      if (wrongAnswer(frameError(frame.id, r.pose, truth)))
         ++a.wrong;
       else
         ++a.right;

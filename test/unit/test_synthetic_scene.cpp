@@ -27,13 +27,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
+using relocalizer::testing::sameImage;
+
 const CameraIntrinsics kSmall = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
 const CameraIntrinsics kTiny = CameraIntrinsics::kinectDefault().scaledTo(160, 120);
-
-bool sameImage(const cv::Mat& a, const cv::Mat& b) {
-  return a.size() == b.size() && a.type() == b.type() &&
-         std::equal(a.datastart, a.dataend, b.datastart, b.dataend);
-}
 
 // NaN where either is NaN, otherwise bitwise equal.
 bool sameDepth(const cv::Mat& a, const cv::Mat& b) {

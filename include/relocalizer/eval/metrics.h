@@ -25,6 +25,11 @@ struct PoseTolerance {
 };
 inline constexpr PoseTolerance kCorrectPose{0.05, 5.0};  // "5 cm / 5 deg", the headline figure
 inline constexpr PoseTolerance kFinePose{0.02, 2.0};     // "2 cm / 2 deg"
+// An answer beyond this is wrong, not merely imprecise: a SLAM map that
+// trusts it is corrupted.
+inline constexpr PoseTolerance kWrongPose{0.10, 10.0};
+// An answer (a frame with a pose) more than kWrongPose off its truth.
+bool wrongAnswer(const FrameError& error);
 bool within(const FrameError& error, PoseTolerance tolerance);
 
 struct AccuracySummary {
@@ -34,6 +39,8 @@ struct AccuracySummary {
   // pose counts as a failure.
   double within_5cm_5deg = 0.0;
   double within_2cm_2deg = 0.0;
+  // Frames answered more than kWrongPose off their truth (wrongAnswer).
+  int wrong_answers = 0;
   // Medians over all frames, frames without a pose counting as infinite error
   // (so a median is infinite when more than half the frames have no pose).
   double median_translation_m = 0.0;

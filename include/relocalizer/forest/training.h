@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "relocalizer/core/frame.h"
+#include "relocalizer/forest/colour_normalisation.h"
 #include "relocalizer/forest/forest.h"
 #include "relocalizer/forest/mean_shift.h"
 #include "relocalizer/forest/sampling.h"
@@ -48,6 +49,10 @@ struct TrainingParams {
   ForestParams points;
   ForestParams lines;
   LineSamplingParams line_sampling;
+  // What the forests see of the colour (colour_normalisation.h); models
+  // written before it existed read kNone. Not the default: it costs online
+  // learning from sparse key frames a third of its accuracy (docs/benchmarks.md).
+  ColourNormalisation colour_normalisation = ColourNormalisation::kNone;
   bool train_points = true;
   bool train_lines = true;
   bool build_surface = true;  // fuse the images' depth into the scene surface (surface_model.h)
@@ -133,9 +138,10 @@ uint64_t treeSeed(uint64_t seed, ForestKind kind, int tree);
 
 namespace relocalizer {
 
-// A posed frame as training keeps it; false (and nothing appended) when the
-// frame has no ground truth.
-bool appendTrainingImage(const RgbdFrame& frame, std::vector<TrainingImage>& images);
+// A posed frame as training keeps it, its colour as the forests see it under
+// `normalisation`; false (and nothing appended) when the frame has no ground truth.
+bool appendTrainingImage(const RgbdFrame& frame, ColourNormalisation normalisation,
+                         std::vector<TrainingImage>& images);
 
 // The scene surface fused from the images' depth at their poses, in image order
 // (so the same images give the same surface).

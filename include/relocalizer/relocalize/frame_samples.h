@@ -7,6 +7,7 @@
 #include <random>
 #include <vector>
 
+#include "relocalizer/forest/colour_normalisation.h"
 #include "relocalizer/forest/features.h"
 #include "relocalizer/forest/sampling.h"
 
@@ -22,6 +23,7 @@ struct SamplingRecipe {
   int min_valid_depth = 0;
   uint32_t seed = 0;
   LineSamplingParams line_sampling;
+  ColourNormalisation colour_normalisation = ColourNormalisation::kNone;
 
   bool sameAs(const SamplingRecipe& other) const;
 };
@@ -30,6 +32,7 @@ struct FrameSamples {
   SamplingRecipe recipe;
   std::vector<Sample> points;
   LineSamples lines;
+  cv::Mat colour;      // the colour the forests see (normalised), which image views
   FeatureImage image;  // a view of the frame: it must outlive the samples
   std::vector<Descriptor> point_descriptors;
   std::vector<Descriptor> line_descriptors;

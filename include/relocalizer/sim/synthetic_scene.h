@@ -61,6 +61,46 @@ struct RenderEffects {
   std::vector<Pose> motion_blur_poses;
 };
 
+// Changes of the world after training (issue 40): what a changed room
+// (SyntheticRoom::changed) differs in from its room. Each follows from the
+// room's seed and the change's own count, so two runs with the same changes
+// change the same things, and a change left at zero changes nothing. They go
+// where the test path of the default split (SyntheticSceneOptions' frame
+// counts) looks, so that its frames show them.
+enum class LampChange {
+  kNone,
+  kOff,  // one of the two ceiling lights switched off
+  kOn,   // a lamp switched on before what the test camera faces: bright there, not far off
+};
+struct SceneChanges {
+  static constexpr int kMaxPeople = 3;
+  static constexpr int kMaxPieces = 4;   // of furniture moved
+  static constexpr int kMaxObjects = 6;  // decorations removed, or added
+  // People walking through the free floor between the furniture and the
+  // camera paths, in both directions: in colour and depth, never in the static
+  // ground truth (exactDepth, castRay, surfaceDistance), like moving_objects.
+  int people = 0;
+  // Pieces of furniture (shelves, desks, cabinets, wardrobes, with what is on
+  // them) moved at least 0.5 m along their wall or to another wall, where the
+  // walls are free; they are the changed room's static world.
+  int moved_furniture = 0;
+  // Wall decorations (posters, pictures, cork boards, shelves with their
+  // objects) and small things on desks and cabinets (book stacks, mugs,
+  // vases, plants, photos) taken away.
+  int removed_objects = 0;
+  // New wall decorations (new colours and textures) hung where the walls are free.
+  int added_objects = 0;
+  LampChange lamp = LampChange::kNone;
+
+  bool any() const;
+  // Empty when usable, otherwise why not, naming the synthesize option.
+  std::string validationError() const;
+};
+// "none", "off", "on": the names synthesize's --test-lamp takes, and back
+// (nothing for another name).
+std::string lampChangeName(LampChange lamp);
+std::optional<LampChange> lampChangeFromName(const std::string& name);
+
 struct SyntheticTrajectories {
   std::vector<Pose> train;
   std::vector<Pose> test;
@@ -80,6 +120,9 @@ struct SyntheticSceneOptions {
   bool motion_blur = false;
   bool illumination_change = false;
   bool moving_objects = false;
+  // Applied to the test frames only: the training frames are those of a run
+  // without them, byte for byte.
+  SceneChanges test_changes;
 
   // Empty when usable, otherwise why not.
   std::string validationError() const;
@@ -170,6 +213,17 @@ class SyntheticRoom {
   // Consecutive frames are ~1-3 cm and ~1-2 degrees apart (closer when there
   // are more frames than that).
   SyntheticTrajectories trajectories(int train_frames, int test_frames) const;
+
+  // This room after `changes`: the same seeds, shell, camera paths and depth
+  // noise, with furniture moved, objects taken away, decorations added, a light
+  // switched and people walking through. boxes() of the changed room lists
+  // its boxes in the original's order, those taken away left out and those
+  // added at the end. Unusable changes throw std::invalid_argument.
+  SyntheticRoom changed(const SceneChanges& changes) const;
+  // What changed() made of this room: as asked, but fewer pieces where the
+  // room has fewer or finds no free place for more (people at most kMaxPeople);
+  // nothing for a room as built.
+  SceneChanges changes() const;
 
   struct Impl;  // public only so the builder in the .cpp can fill it in
 
