@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <random>
+#include <string>
 
 #include <opencv2/imgproc.hpp>
 
@@ -208,21 +209,16 @@ void mix(uint64_t& hash, int64_t value) {
   }
 }
 
-}  // namespace
-
-TEST(LineSegmentDetector, SamplesOfFixedFramesMatchTheirDigest) {
-  // The line samples of three fixed 640x480 frames at the default settings
-  // (segments on the 160x120 input, sampled every 5 px, 3D lines by RANSAC),
-  // and the segments themselves to 1/64 px. Any platform, compiler or OpenCV
-  // version that detects or samples differently fails here.
+// The line samples of three fixed 640x480 frames (segments on the 160x120
+// input, sampled every 5 px, 3D lines by RANSAC), and the segments themselves
+// to 1/64 px, as one hash.
+std::string lineSamplesDigest(const LineSamplingParams& params, int& segments, int& samples) {
   uint64_t hash = 14695981039346656037ull;
-  int segments = 0, samples = 0;
+  segments = samples = 0;
   for (uint32_t seed : {11u, 12u, 13u}) {
     const RgbdFrame frame = digestFrame(seed);
-    const LineSamplingParams params;
-    ASSERT_EQ(params.line_detector, LineDetector::kOwn);
-    for (const LineSegment& s :
-         detectLineSegments(lineDetectorInput(frame.colour, lsdScaleFor(params, 640)))) {
+    for (const LineSegment& s : detectLineSegments(
+             lineDetectorInput(frame.colour, lsdScaleFor(params, 640)), params.lsd_validation)) {
       for (double c : {s.x1, s.y1, s.x2, s.y2}) mix(hash, std::llround(c * 64));
       ++segments;
     }
@@ -235,11 +231,34 @@ TEST(LineSegmentDetector, SamplesOfFixedFramesMatchTheirDigest) {
     }
     samples += static_cast<int>(lines.samples.size());
   }
-  EXPECT_GT(segments, 60);
-  EXPECT_GT(samples, 1000);
   char digest[20];
   std::snprintf(digest, sizeof digest, "%016llx", static_cast<unsigned long long>(hash));
-  EXPECT_STREQ(digest, "a24951beee50406a") << segments << " segments, " << samples << " samples";
+  return digest;
+}
+
+}  // namespace
+
+// Any platform, compiler or OpenCV version that detects or samples differently
+// fails here: a model trained on one platform answers the same on another.
+TEST(LineSegmentDetector, SamplesOfFixedFramesMatchTheirDigest) {
+  const LineSamplingParams defaults;
+  ASSERT_EQ(defaults.line_detector, LineDetector::kOwn);
+  ASSERT_FALSE(defaults.lsd_validation);
+  int segments = 0, samples = 0;
+  EXPECT_EQ(lineSamplesDigest(defaults, segments, samples), "67ca0905787b99ca")
+      << segments << " segments, " << samples << " samples";
+  EXPECT_GT(segments, 60);
+  EXPECT_GT(samples, 1000);
+}
+
+TEST(LineSegmentDetector, ValidatedSamplesOfFixedFramesMatchTheirDigest) {
+  // Models trained before lsd_validation was false, and those that set it.
+  LineSamplingParams validated;
+  validated.lsd_validation = true;
+  int segments = 0, samples = 0;
+  EXPECT_EQ(lineSamplesDigest(validated, segments, samples), "a24951beee50406a")
+      << segments << " segments, " << samples << " samples";
+  EXPECT_GT(segments, 60);
 }
 
 namespace {
@@ -280,7 +299,7 @@ TEST(LineSegmentDetector, UnvalidatedItFindsWhatOpenCvsLsdWithoutRefinementFinds
     cv::Mat colour;
     cv::cvtColor(grey, colour, cv::COLOR_GRAY2BGR);
     const float scale = lsdScaleFor(LineSamplingParams{}, 640);
-    const auto opencv = detectSegments(colour, LineDetector::kOpenCvLsd, scale);
+    const auto opencv = detectSegments(colour, LineDetector::kOpenCvLsd, scale, false);
     const auto ours = detectSegments(colour, LineDetector::kOwn, scale, false);
     const auto validated = detectSegments(colour, LineDetector::kOwn, scale, true);
     ASSERT_GT(opencv.size(), 20u);

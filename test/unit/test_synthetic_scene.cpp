@@ -489,7 +489,8 @@ TEST(SyntheticScene, ImagesAreTexturedWithManyStraightEdges) {
     textured_share_sum += share;
     textured_frames += share > 0.5;
     // The package's own line detector (OpenCV's LSD is a stub on OpenCV 4.1-4.5.3).
-    const std::vector<cv::Vec4f> lines = detectSegments(frame.colour, LineDetector::kOwn, 1.0f);
+    const std::vector<cv::Vec4f> lines =
+        detectSegments(frame.colour, LineDetector::kOwn, 1.0f, true);
     const auto long_lines = std::count_if(lines.begin(), lines.end(), [](const cv::Vec4f& l) {
       return std::hypot(l[2] - l[0], l[3] - l[1]) > 20.0;
     });

@@ -58,12 +58,13 @@ struct LineSamplingParams {
   // quarter of 320 px is 80). 0 = no floor, the behaviour of models trained
   // before it existed.
   int lsd_min_width_px = 160;
-  // Our detector's a-contrario validation (density check and NFA). Off, it
-  // keeps what OpenCV's LSD_REFINE_NONE keeps (96 % of its segments to
-  // 0.005 px on redkitchen): 2 points more of the line forest alone within
-  // 2 cm / 2 deg there, and weak, short segments (docs/benchmarks.md). Models
-  // without the key validated (OpenCV's LSD ignores it).
-  bool lsd_validation = true;
+  // Our detector's a-contrario validation (density check and NFA). Off (the
+  // default), it keeps what OpenCV's LSD_REFINE_NONE keeps (96 % of its
+  // segments to 0.005 px on redkitchen), weak and short segments included:
+  // validated, the line forest alone lost 2-3 points within 2 cm / 2 deg
+  // against OpenCV's LSD there (docs/benchmarks.md). Models without the key
+  // validated (OpenCV's LSD ignores it).
+  bool lsd_validation = false;
   // Samples are taken this many pixels off the detected edge, on both sides:
   // an intensity edge is often a depth edge, where depth is mixed or missing.
   float edge_offset_px = 0.0f;
@@ -81,7 +82,7 @@ float lsdScaleFor(const LineSamplingParams& params, int image_width);
 // by `scale`, in the scaled image's pixels. Throws std::runtime_error naming
 // the setting for OpenCV's LSD where this OpenCV does not have it.
 std::vector<cv::Vec4f> detectSegments(const cv::Mat& colour, LineDetector detector, float scale,
-                                      bool lsd_validation = true);
+                                      bool lsd_validation);
 
 // Up to `count` distinct pixels with valid depth, uniformly at random. Appends.
 void samplePoints(const RgbdFrame& frame, int count, std::mt19937& rng, std::vector<Sample>& out);
