@@ -16,6 +16,11 @@ bool ModelBuilder::add(const RgbdFrame& frame) {
   return appendTrainingImage(frame, params_.colour_normalisation, images_);
 }
 
+void ModelBuilder::add(TrainingImage image) {
+  image.colour = normaliseColour(image.colour, params_.colour_normalisation);
+  images_.push_back(std::move(image));
+}
+
 Expected<Model> ModelBuilder::build(TrainingSummary provenance,
                                     const ModelBuildProgress& progress) {
   if (images_.empty()) return makeError("no posed frame to train on");

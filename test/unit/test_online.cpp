@@ -404,6 +404,37 @@ TEST_F(OnlineRoom, RetrainTrainsOnTheDecodedKeyFramesInStoreOrder) {
             status.last_retrain_seconds + 1e-6);
 }
 
+// A learner whose training normalises colour trains its forests on the key
+// frames as the relocalizer will see the frames it is asked about: the model
+// is the one ModelBuilder makes of the same frames given as recorded frames.
+TEST_F(OnlineRoom, ALearnedModelSeesTheColourNormalisationItIsStoredWith) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+  LearningParams p = smallLearning();
+  p.training.colour_normalisation = ColourNormalisation::kChannelStatistics;
+  OnlineLearner learner(p, fastRelocalizer(), OnlineLearner::Mode::Inline);
+  for (const RgbdFrame& frame : learn_)
+    ASSERT_TRUE(learner.addKeyFrame(frame, *frame.ground_truth).ok());
+  ASSERT_TRUE(learner.drain().ok());
+  const Model& learned = learner.current()->model();
+  ASSERT_EQ(learned.params.colour_normalisation, ColourNormalisation::kChannelStatistics);
+
+  ModelBuilder builder(learned.params);
+  for (const KeyFrameStore::Entry& entry : learner.keyFrames()) {
+    auto image = decompressKeyFrame(*entry);
+    ASSERT_TRUE(image.ok()) << image.error();
+    RgbdFrame recorded;
+    recorded.colour = image->colour;
+    recorded.depth = image->depth;
+    recorded.camera = image->camera;
+    recorded.ground_truth = image->pose;
+    ASSERT_TRUE(builder.add(recorded));
+  }
+  auto reference = builder.build(learned.summary);
+  ASSERT_TRUE(reference.ok()) << reference.error();
+  reference->summary.seconds = learned.summary.seconds;
+  EXPECT_TRUE(serializeModel(*reference) == serializeModel(learned));
+}
+
 TEST_F(OnlineRoom, StoreStaysWithinItsCap) {
   LearningParams p = smallLearning();
   p.max_keyframes = 4;

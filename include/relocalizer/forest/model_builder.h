@@ -35,7 +35,10 @@ class ModelBuilder {
   // A frame posed by its ground truth (camera-to-world); false, and nothing
   // kept, when it has none.
   bool add(const RgbdFrame& frame);
-  void add(TrainingImage image) { images_.push_back(std::move(image)); }
+  // An image with the colour as recorded (a learner's key frame): the forests
+  // see it through the parameters' colour normalisation, as the relocalizer
+  // sees the frames it is asked about.
+  void add(TrainingImage image);
   size_t size() const { return images_.size(); }
 
   // Grows the forests and fuses the surface that `params` enable and fills the
