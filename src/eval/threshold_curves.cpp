@@ -37,12 +37,12 @@ std::vector<Sweep> sweepsFor(const std::vector<GateAnswer>& answers, const GateS
   const bool surface_checked = std::any_of(answers.begin(), answers.end(),
                                            [](const GateAnswer& a) { return a.agreement >= 0; });
   if (surface_checked)
-    sweeps.push_back({"min_agreement", "agreement_curves",
-                      "surface.min_agreement (share of the frame's depth on the scene surface)",
-                      c.min_agreement, [c](const GateAnswer& a, float t) {
-                        return a.score >= c.min_inlier_ratio && a.inliers >= c.min_inliers &&
-                               a.agreement >= t;
-                      }});
+    sweeps.push_back(
+        {"min_agreement", "agreement_curves",
+         "surface.min_agreement (share of the depth not in front of the surface that lies on it)",
+         c.min_agreement, [c](const GateAnswer& a, float t) {
+           return a.score >= c.min_inlier_ratio && a.inliers >= c.min_inliers && a.agreement >= t;
+         }});
   return sweeps;
 }
 

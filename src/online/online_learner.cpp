@@ -72,7 +72,11 @@ Expected<LearningParams> readLearningParams(LearningParams params, const std::st
 }
 
 RelocalizerParams learnedModelParams(const LearningParams& learning, RelocalizerParams params) {
-  if (!learning.surface_gate) params.surface.min_agreement = 0.0f;
+  if (!learning.surface_gate) {
+    params.surface.min_agreement = 0.0f;
+    params.surface.min_on_surface = 0.0f;
+    params.surface.max_seen_through = 1.0f;
+  }
   params.max_leaves = std::max(params.max_leaves, learning.min_backtracking_leaves);
   return params;
 }

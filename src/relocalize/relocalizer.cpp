@@ -59,8 +59,12 @@ std::string Relocalizer::validationError() const {
     return "surface.points must be >= 1, surface.iterations and surface.min_correspondences >= 0";
   if (!(s.max_distance > 0 && s.huber > 0 && s.tolerance > 0))
     return "surface.max_distance, surface.huber and surface.tolerance must be positive (metres)";
-  if (!(s.min_agreement >= 0 && s.min_agreement <= 1))
-    return "surface.min_agreement must be a share between 0 and 1";
+  if (!(s.min_agreement >= 0 && s.min_agreement <= 1 && s.min_on_surface >= 0 &&
+        s.min_on_surface <= 1 && s.max_seen_through >= 0 && s.max_seen_through <= 1))
+    return "surface.min_agreement, surface.min_on_surface and surface.max_seen_through must be "
+           "shares between 0 and 1";
+  if (!(s.occlusion_margin > 0 && s.occlusion_reach > 0))
+    return "surface.occlusion_margin and surface.occlusion_reach must be positive (metres)";
   return {};
 }
 
@@ -318,17 +322,11 @@ Relocalization Relocalizer::solve(const RgbdFrame& frame, const FrameSamples& sa
         fitToSurface(model_.surface, surfaceFitPoints(frame, params_.surface.points), solution.pose,
                      params_.surface);
     result.timings.surface = secondsSince(surface_start);
-    result.surface_agreement = fit.agreement;
+    result.surface_agreement = fit.view.agreement();
     result.surface_refined = fit.refined;
     result.pose = fit.pose;
-    if (fit.agreement < params_.surface.min_agreement) {
-      char buffer[200];
-      std::snprintf(buffer, sizeof buffer,
-                    "the pose does not fit the scene's surface: %.1f%% of the frame's depth lies "
-                    "on it (need %.1f%%)",
-                    100.0 * fit.agreement, 100.0 * params_.surface.min_agreement);
-      return failed(std::move(result), buffer, start);
-    }
+    std::string refusal = surfaceRefusal(fit.view, params_.surface);
+    if (!refusal.empty()) return failed(std::move(result), std::move(refusal), start);
   }
   result.point_inlier_world = inWorld(result.pose, solution.point_inlier_cameras);
   result.line_inlier_world = inWorld(result.pose, solution.line_inlier_cameras);

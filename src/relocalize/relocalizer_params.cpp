@@ -52,6 +52,10 @@ json toJson(const RelocalizerParams& p) {
             {"huber", p.surface.huber},
             {"tolerance", p.surface.tolerance},
             {"min_agreement", p.surface.min_agreement},
+            {"min_on_surface", p.surface.min_on_surface},
+            {"max_seen_through", p.surface.max_seen_through},
+            {"occlusion_margin", p.surface.occlusion_margin},
+            {"occlusion_reach", p.surface.occlusion_reach},
             {"min_correspondences", p.surface.min_correspondences}}}};
 }
 }  // namespace
@@ -103,6 +107,13 @@ Expected<RelocalizerParams> relocalizerParamsFromJson(const std::string& json_te
     readField(f, in, "tolerance", r.tolerance);
     readField(f, in, "min_agreement", r.min_agreement);
     readField(f, in, "min_correspondences", r.min_correspondences);
+    // Written since the occlusion-aware surface check; older parameter files keep the defaults.
+    for (const auto& [key, value] :
+         {std::pair<const char*, float*>{"min_on_surface", &r.min_on_surface},
+          {"max_seen_through", &r.max_seen_through},
+          {"occlusion_margin", &r.occlusion_margin},
+          {"occlusion_reach", &r.occlusion_reach}})
+      if (f.contains(key)) readField(f, in, key, *value);
   } catch (const std::exception& e) {
     return makeError(std::string("relocalizer parameters: ") + e.what());
   }

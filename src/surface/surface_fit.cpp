@@ -2,10 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "relocalizer/core/point_to_plane.h"
 
 namespace relocalizer {
+
+namespace {
+
+bool liesOn(const SurfaceElement* element, const Eigen::Vector3f& world, float tolerance) {
+  return element && std::abs(element->normal.dot(world - element->point)) <= tolerance;
+}
+
+}  // namespace
 
 std::vector<Eigen::Vector3f> surfaceFitPoints(const RgbdFrame& frame, int count) {
   std::vector<Eigen::Vector3f> points;
@@ -36,12 +45,94 @@ float surfaceAgreement(const SurfaceModel& surface,
   std::vector<const SurfaceElement*> elements(world.size());
   surface.nearAll(world.data(), world.size(), elements.data());
   int agreeing = 0;
-  for (size_t i = 0; i < world.size(); ++i) {
-    const SurfaceElement* element = elements[i];
-    if (element && std::abs(element->normal.dot(world[i] - element->point)) <= params.tolerance)
-      ++agreeing;
-  }
+  for (size_t i = 0; i < world.size(); ++i)
+    agreeing += liesOn(elements[i], world[i], params.tolerance);
   return static_cast<float>(agreeing) / static_cast<float>(camera_points.size());
+}
+
+namespace {
+
+// Whether the ray from `origin` along `direction` meets the surface between
+// `from` and `to` metres: a sample within half a voxel of an element's plane.
+// The samples are a voxel apart, so no plane is stepped over; they are looked
+// up together (SurfaceModel::nearAll), as one-by-one lookups miss the cache in
+// a large model.
+bool crossesSurface(const SurfaceModel& surface, const Eigen::Vector3f& origin,
+                    const Eigen::Vector3f& direction, float from, float to,
+                    std::vector<Eigen::Vector3f>& samples,
+                    std::vector<const SurfaceElement*>& elements) {
+  const float step = surface.voxelSize();
+  samples.clear();
+  for (float t = std::max(from, step); t <= to; t += step)
+    samples.push_back(origin + t * direction);
+  elements.resize(samples.size());
+  surface.nearAll(samples.data(), samples.size(), elements.data());
+  for (size_t k = 0; k < samples.size(); ++k)
+    if (liesOn(elements[k], samples[k], 0.5f * step)) return true;
+  return false;
+}
+
+}  // namespace
+
+SurfaceView viewSurface(const SurfaceModel& surface,
+                        const std::vector<Eigen::Vector3f>& camera_points, const Pose& pose,
+                        const SurfaceFitParams& params) {
+  SurfaceView view;
+  view.points = static_cast<int>(camera_points.size());
+  if (surface.empty()) return view;
+  const Eigen::Isometry3f to_world = pose.cast<float>();
+  const Eigen::Vector3f origin = to_world.translation();
+  std::vector<Eigen::Vector3f> world(camera_points.size());
+  for (size_t i = 0; i < world.size(); ++i) world[i] = to_world * camera_points[i];
+  std::vector<const SurfaceElement*> elements(world.size());
+  surface.nearAll(world.data(), world.size(), elements.data());
+  std::vector<Eigen::Vector3f> samples;
+  std::vector<const SurfaceElement*> found;
+  for (size_t i = 0; i < world.size(); ++i) {
+    if (liesOn(elements[i], world[i], params.tolerance)) {
+      ++view.on;
+      continue;
+    }
+    const float depth = camera_points[i].norm();
+    if (!(depth > 0.0f)) continue;
+    const Eigen::Vector3f direction = (world[i] - origin) / depth;
+    const float margin = params.occlusion_margin;
+    if (crossesSurface(surface, origin, direction, 0.0f, depth - margin, samples, found))
+      ++view.behind;
+    else if (crossesSurface(surface, origin, direction, depth + margin,
+                            depth + params.occlusion_reach, samples, found))
+      ++view.in_front;
+  }
+  return view;
+}
+
+float SurfaceView::agreement() const {
+  const int could_see = points - in_front;
+  return could_see > 0 ? static_cast<float>(on) / static_cast<float>(could_see) : 0.0f;
+}
+
+std::string surfaceRefusal(const SurfaceView& view, const SurfaceFitParams& params) {
+  const float all = static_cast<float>(std::max(1, view.points));
+  const float on = view.on / all, in_front = view.in_front / all, behind = view.behind / all;
+  char buffer[240];
+  if (view.agreement() < params.min_agreement)
+    std::snprintf(buffer, sizeof buffer,
+                  "the pose does not fit the scene's surface: %.1f%% of the frame's depth "
+                  "that is not in front of it lies on it (need %.1f%%)",
+                  100.0 * view.agreement(), 100.0 * params.min_agreement);
+  else if (on < params.min_on_surface)
+    std::snprintf(buffer, sizeof buffer,
+                  "too little of the scene's surface in view: %.1f%% of the frame's depth lies on "
+                  "it, %.1f%% in front of it (need %.1f%% on it)",
+                  100.0 * on, 100.0 * in_front, 100.0 * params.min_on_surface);
+  else if (behind > params.max_seen_through)
+    std::snprintf(buffer, sizeof buffer,
+                  "the pose sees through the scene's surface: %.1f%% of the frame's depth lies "
+                  "behind it (at most %.1f%%)",
+                  100.0 * behind, 100.0 * params.max_seen_through);
+  else
+    return {};
+  return buffer;
 }
 
 SurfaceFit fitToSurface(const SurfaceModel& surface,
@@ -83,6 +174,7 @@ SurfaceFit fitToSurface(const SurfaceModel& surface,
     fit.pose = pose;
     fit.agreement = agreement;
   }
+  fit.view = viewSurface(surface, camera_points, fit.pose, params);
   return fit;
 }
 

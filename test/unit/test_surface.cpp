@@ -156,26 +156,87 @@ TEST(SurfaceFit, AgreementSeparatesRightPosesFromWrongOnesAndOtherRooms) {
   SurfaceFitParams params;
   std::mt19937 rng(11);
   float lowest_right = 1.0f, highest_wrong = 0.0f;
+  int right_refused = 0, wrong_answered = 0;
+  const auto check = [&](const std::vector<Eigen::Vector3f>& points, const Pose& pose, bool right) {
+    const SurfaceFit fit = fitToSurface(r.surface, points, pose, params);
+    float& extreme = right ? lowest_right : highest_wrong;
+    extreme = right ? std::min(extreme, fit.agreement) : std::max(extreme, fit.agreement);
+    const bool refused = !surfaceRefusal(fit.view, params).empty();
+    (right ? right_refused : wrong_answered) += right == refused;
+  };
   for (size_t i = 0; i < r.paths.test.size(); i += 3) {
     const Pose& truth = r.paths.test[i];
     const RgbdFrame frame = r.room.render(truth, kCamera, 2000 + static_cast<int>(i));
     const auto points = surfaceFitPoints(frame, params.points);
-    lowest_right = std::min(lowest_right, fitToSurface(r.surface, points, truth, params).agreement);
-    const Pose wrong = perturbed(truth, 0.5, 30.0, rng);
-    highest_wrong =
-        std::max(highest_wrong, fitToSurface(r.surface, points, wrong, params).agreement);
+    check(points, truth, true);
+    check(points, perturbed(truth, 0.5, 30.0, rng), false);
   }
   for (size_t i = 0; i < other_paths.test.size(); i += 2) {
     // Another room's frame placed where it was taken, in this room's world.
     const RgbdFrame frame = other.render(other_paths.test[i], kCamera, static_cast<int>(i));
-    const auto points = surfaceFitPoints(frame, params.points);
-    highest_wrong = std::max(
-        highest_wrong, fitToSurface(r.surface, points, other_paths.test[i], params).agreement);
+    check(surfaceFitPoints(frame, params.points), other_paths.test[i], false);
   }
   std::printf("agreement: lowest right pose %.3f, highest wrong pose or other room %.3f\n",
               lowest_right, highest_wrong);
   EXPECT_GT(lowest_right, params.min_agreement);
   EXPECT_LT(highest_wrong, params.min_agreement);
+  EXPECT_EQ(right_refused, 0);
+  EXPECT_EQ(wrong_answered, 0);
+}
+
+// Share of the valid depth of `frame` nearer than the unchanged room's exact
+// depth by more than 5 cm: what the people cover.
+double occludedShare(const SyntheticRoom& room, const RgbdFrame& frame, const Pose& pose) {
+  const cv::Mat exact = room.exactDepth(pose, frame.camera);
+  int valid = 0, nearer = 0;
+  for (int v = 0; v < exact.rows; ++v)
+    for (int u = 0; u < exact.cols; ++u) {
+      const float z = frame.depth.at<float>(v, u);
+      if (!(z > 0.0f)) continue;
+      ++valid;
+      nearer += z < exact.at<float>(v, u) - 0.05f;
+    }
+  return valid > 0 ? static_cast<double>(nearer) / valid : 0.0;
+}
+
+TEST(SurfaceFit, PeopleInFrontOfTheSurfaceDoNotRefuseARightPoseNorPassAWrongOne) {
+  const Room& r = room();
+  const SyntheticRoom crowded = r.room.changed({3, 0, 0, 0, LampChange::kNone});
+  const SurfaceFitParams params;
+  std::mt19937 rng(13);
+  int with_people = 0, beyond_the_old_gate = 0;
+  for (size_t i = 0; i < r.paths.test.size(); ++i) {
+    const Pose& truth = r.paths.test[i];
+    const RgbdFrame frame = crowded.render(truth, kCamera, 3000 + static_cast<int>(i));
+    const double occluded = occludedShare(r.room, frame, truth);
+    if (occluded < 0.1) continue;
+    ++with_people;
+    const auto points = surfaceFitPoints(frame, params.points);
+    const SurfaceView right = viewSurface(r.surface, points, truth, params);
+    // Without the occluders, too little of the depth lies on the surface.
+    beyond_the_old_gate += static_cast<float>(right.on) / right.points < params.min_agreement;
+    EXPECT_EQ(surfaceRefusal(right, params), "")
+        << "frame " << i << ": " << 100 * occluded << "% of the depth on people";
+    EXPECT_GT(right.in_front, 0.5 * occluded * right.points) << "frame " << i;
+    // 15 cm along the view: nearer, the walls are seen through; farther, the
+    // whole view floats in front of them.
+    const Eigen::Vector3d view = truth.linear().col(2);
+    for (const double metres : {-0.15, 0.15}) {
+      Pose wrong = truth;
+      wrong.translation() += metres * view;
+      EXPECT_NE(surfaceRefusal(viewSurface(r.surface, points, wrong, params), params), "")
+          << "frame " << i << " moved " << metres << " m along the view";
+    }
+    const Pose wrong = perturbed(truth, 0.5, 30.0, rng);
+    EXPECT_NE(surfaceRefusal(viewSurface(r.surface, points, wrong, params), params), "")
+        << "frame " << i << " 0.5 m / 30 deg off";
+  }
+  std::printf(
+      "%d test frames with people over 10%% of the depth, %d of them below the agreement "
+      "gate when occluders count against it\n",
+      with_people, beyond_the_old_gate);
+  EXPECT_GE(with_people, 5);
+  EXPECT_GE(beyond_the_old_gate, 1) << "no frame tests the occluders";
 }
 
 TEST(SurfaceFit, EmptySurfaceAndNoPointsLeaveThePoseAlone) {

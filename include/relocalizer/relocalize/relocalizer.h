@@ -68,8 +68,9 @@ struct Relocalization {
   std::vector<Eigen::Vector3f> point_inlier_world;
   std::vector<Eigen::Vector3f> line_inlier_world;
   float score = 0.0f;  // inlier share of the samples
-  // Share of the frame's depth points on the scene surface at the answered pose
-  // (surface_fit.h); negative when not measured (no surface in the model, the
+  // Share of the frame's depth points that are not occluders (in front of the
+  // scene surface) which lie on it at the answered pose (SurfaceView::agreement
+  // in surface_fit.h); negative when not measured (no surface in the model, the
   // check off, or no solver pose to check).
   float surface_agreement = -1.0f;
   bool surface_refined = false;  // depth ICP moved the solver's pose
