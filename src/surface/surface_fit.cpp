@@ -54,21 +54,30 @@ namespace {
 
 // Whether the ray from `origin` along `direction` meets the surface between
 // `from` and `to` metres: a sample within half a voxel of an element's plane.
-// The samples are a voxel apart, so no plane is stepped over; they are looked
-// up together (SurfaceModel::nearAll), as one-by-one lookups miss the cache in
-// a large model.
+// The samples are a voxel apart, so no plane is stepped over. They are looked
+// up a batch at a time (SurfaceModel::nearAll: one-by-one lookups miss the
+// cache in a large model), starting at the end `nearest_first` names: a
+// surface is most often met near the measured point, and the first hit ends
+// the walk with the verdict all the samples would give.
+enum class WalkFrom { kStart, kEnd };
+
 bool crossesSurface(const SurfaceModel& surface, const Eigen::Vector3f& origin,
-                    const Eigen::Vector3f& direction, float from, float to,
+                    const Eigen::Vector3f& direction, float from, float to, WalkFrom nearest_first,
                     std::vector<Eigen::Vector3f>& samples,
                     std::vector<const SurfaceElement*>& elements) {
+  constexpr size_t kBatch = 16;
   const float step = surface.voxelSize();
   samples.clear();
   for (float t = std::max(from, step); t <= to; t += step)
     samples.push_back(origin + t * direction);
-  elements.resize(samples.size());
-  surface.nearAll(samples.data(), samples.size(), elements.data());
-  for (size_t k = 0; k < samples.size(); ++k)
-    if (liesOn(elements[k], samples[k], 0.5f * step)) return true;
+  if (nearest_first == WalkFrom::kEnd) std::reverse(samples.begin(), samples.end());
+  elements.resize(kBatch);
+  for (size_t first = 0; first < samples.size(); first += kBatch) {
+    const size_t count = std::min(kBatch, samples.size() - first);
+    surface.nearAll(samples.data() + first, count, elements.data());
+    for (size_t k = 0; k < count; ++k)
+      if (liesOn(elements[k], samples[first + k], 0.5f * step)) return true;
+  }
   return false;
 }
 
@@ -97,10 +106,11 @@ SurfaceView viewSurface(const SurfaceModel& surface,
     if (!(depth > 0.0f)) continue;
     const Eigen::Vector3f direction = (world[i] - origin) / depth;
     const float margin = params.occlusion_margin;
-    if (crossesSurface(surface, origin, direction, 0.0f, depth - margin, samples, found))
+    if (crossesSurface(surface, origin, direction, 0.0f, depth - margin, WalkFrom::kEnd, samples,
+                       found))
       ++view.behind;
     else if (crossesSurface(surface, origin, direction, depth + margin,
-                            depth + params.occlusion_reach, samples, found))
+                            depth + params.occlusion_reach, WalkFrom::kStart, samples, found))
       ++view.in_front;
   }
   return view;
