@@ -545,6 +545,16 @@ TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
             relocalizer::testing::readBytes(dir.path() / "out/poses.txt"));
   EXPECT_EQ(relocalizer::testing::readBytes(dir.path() / "again/places.csv"),
             relocalizer::testing::readBytes(dir.path() / "out/places.csv"));
+  // --relearn-agreement sets the rule of submaps: one store has none, and says so.
+  EXPECT_NE(relocalizer::testing::runTool("evaluate",
+                                          "--dataset '" + dir.str() + "/scene/train' --frames " +
+                                              kToolTestFrames +
+                                              " --learn-frames 0-79 --relearn-agreement 0.5",
+                                          log, log),
+            0);
+  EXPECT_NE(relocalizer::testing::readBytes(log).find("--relearn-agreement needs --submaps"),
+            std::string::npos)
+      << relocalizer::testing::readBytes(log);
 
   // Named (--model NAME=FOLDER), the folder opens as the node opens it: the
   // same answers from places NAME/<index>; the group itself is no place to expect.
