@@ -21,7 +21,7 @@ ASAN_BUILD_DIR := build/asan
 ASAN_CXX_FLAGS := -O1 -g1 -DNDEBUG
 FUZZ_SECONDS ?= 60
 
-.PHONY: all deps build test demo bench bench-places bench-changes clean test-asan fuzz test-workspaces
+.PHONY: all deps build test demo bench bench-places bench-changes bench-heal clean test-asan fuzz test-workspaces
 
 all: build
 
@@ -81,6 +81,10 @@ bench-places: build
 # The world changed after training: other light on the test frames.
 bench-changes: build
 	@./scripts/bench_changes.sh $(BUILD_DIR)
+
+# A learned place heals itself after furniture moved (~6 min).
+bench-heal: build
+	@./scripts/bench_heal.sh $(BUILD_DIR)
 
 clean:
 	rm -rf $(BUILD_DIR) $(DEVEL_DIR)

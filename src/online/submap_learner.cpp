@@ -7,6 +7,7 @@
 
 #include "relocalizer/forest/model_io.h"
 #include "relocalizer/online/learned_places.h"
+#include "relocalizer/online/place_change.h"
 #include "relocalizer/online/submap_archive.h"
 
 namespace relocalizer {
@@ -124,6 +125,7 @@ Expected<SubmapPlacement> SubmapLearner::place(const RgbdFrame& frame,
   // placed (only an encoder failure is left, which the store reports).
   if (const std::string why = frameValidationError(frame); !why.empty())
     return makeError("key frame " + std::to_string(frame.id) + ": " + why);
+  const bool may_cover = !placeChanged(*this, frame, camera_to_world);
   SubmapPlacement placement;
   std::shared_ptr<OnlineLearner> active;
   bool freeze_inline = false;
@@ -132,12 +134,12 @@ Expected<SubmapPlacement> SubmapLearner::place(const RgbdFrame& frame,
     // A new submap waits for room in the queue, and for a save waiting for
     // the queue (either mode: an Inline freeze is pending while it runs, and
     // a save meanwhile would leave it out). Only this thread changes the
-    // index, so the decision holds across the wait.
+    // index, so the decision (and may_cover) holds across the wait.
     const auto room = [&] {
       return saves_waiting_ == 0 && static_cast<int>(pending_.size()) < kMaxPendingFreezes;
     };
     if (active_ && !room()) {
-      const SubmapDecision next = index_.decide(camera_to_world);
+      const SubmapDecision next = index_.decide(camera_to_world, may_cover);
       if (next == SubmapDecision::NewFull || next == SubmapDecision::NewLeft) {
         const auto start = std::chrono::steady_clock::now();
         freeze_cv_.wait(lock, room);
@@ -150,7 +152,7 @@ Expected<SubmapPlacement> SubmapLearner::place(const RgbdFrame& frame,
     // entries (also in arrival order, never evicted: a full submap is
     // replaced, not thinned) line up with its key frames.
     const int was_active = index_.active();
-    placement = index_.place(next_id_++, camera_to_world);
+    placement = index_.place(next_id_++, camera_to_world, may_cover);
     if (placement.decision == SubmapDecision::Covered) {
       ++covered_;
       return placement;
@@ -192,10 +194,9 @@ Expected<SubmapPlacement> SubmapLearner::place(const RgbdFrame& frame,
     }
     active = active_;
   }
-  // Inline, outside the lock: a retrain takes seconds, and models() may be
-  // read meanwhile. A submap that fails its last retrain (or its write) keeps
-  // the model it had: the failure is the caller's to report, the run goes on
-  // with the new submap, which the index has already started.
+  // Inline, outside the lock: a retrain takes seconds, and models() may be read meanwhile. A
+  // submap that fails its last retrain (or its write) keeps the model it had: the failure is
+  // the caller's to report, the run goes on with the new submap, which the index has started.
   const Status frozen = freeze_inline ? freezeFront() : okStatus();
   if (auto added = active->addKeyFrame(frame, camera_to_world); !added)
     return makeError(added.error());
@@ -222,7 +223,6 @@ Status SubmapLearner::drain() {
 }
 
 // --- The set on disk (submap_archive.h) ---------------------------------------
-
 Status SubmapLearner::writeManifest(const std::string& folder, int finished) {
   std::vector<FileReplacement> manifest_file;
   {

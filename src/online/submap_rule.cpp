@@ -22,6 +22,9 @@ std::string submapParamsError(const SubmapParams& p, int max_keyframes, const Se
   if (!(p.cover_steps >= 0.0 && std::isfinite(p.cover_steps)))
     return n("cover_steps") + " must be finite and >= 0 (got " + std::to_string(p.cover_steps) +
            ")";
+  if (!(p.relearn_agreement >= 0.0 && p.relearn_agreement <= 1.0))
+    return n("relearn_agreement") + " must be a share between 0 and 1 (got " +
+           std::to_string(p.relearn_agreement) + ")";
   if (p.min_submap_keyframes < 0 || p.min_submap_keyframes > max_keyframes)
     return n("min_submap_keyframes") + " must be between 0 and " + n("max_keyframes") + " (got " +
            std::to_string(p.min_submap_keyframes) + ")";
@@ -50,18 +53,22 @@ bool SubmapIndex::inActiveArea(const Pose& pose) const {
   });
 }
 
-bool SubmapIndex::coveredByFrozen(const Pose& pose) const {
-  if (params_.cover_steps <= 0.0) return false;
+std::vector<int> SubmapIndex::coveringSubmaps(const Pose& pose) const {
+  std::vector<int> covering;
+  if (params_.cover_steps <= 0.0) return covering;
   for (int s = first_of_place_; s < submapCount(); ++s) {
     if (!frozen(s)) continue;  // so that a run that fits one submap learns as one store does
-    for (const SubmapKeyFrame& k : submaps_[static_cast<std::size_t>(s)])
-      if (keyFrameDistance(k.pose, pose) < params_.cover_steps) return true;
+    const std::vector<SubmapKeyFrame>& frames = submaps_[static_cast<std::size_t>(s)];
+    if (std::any_of(frames.begin(), frames.end(), [&](const SubmapKeyFrame& k) {
+          return keyFrameDistance(k.pose, pose) < params_.cover_steps;
+        }))
+      covering.push_back(s);
   }
-  return false;
+  return covering;
 }
 
-SubmapDecision SubmapIndex::decide(const Pose& pose) const {
-  if (coveredByFrozen(pose)) return SubmapDecision::Covered;
+SubmapDecision SubmapIndex::decide(const Pose& pose, bool may_cover) const {
+  if (may_cover && !coveringSubmaps(pose).empty()) return SubmapDecision::Covered;
   if (active_ < 0) return SubmapDecision::Start;
   if (active_ < first_of_place_) return SubmapDecision::NewLeft;  // of the map SLAM left
   const int held = static_cast<int>(keyFrames(active_).size());
@@ -84,9 +91,9 @@ std::vector<SubmapKeyFrame> SubmapIndex::nearestOfActive(const Pose& pose, int c
   return frames;
 }
 
-SubmapPlacement SubmapIndex::place(std::int64_t id, const Pose& pose) {
+SubmapPlacement SubmapIndex::place(std::int64_t id, const Pose& pose, bool may_cover) {
   SubmapPlacement placement;
-  placement.decision = decide(pose);
+  placement.decision = decide(pose, may_cover);
   switch (placement.decision) {
     case SubmapDecision::Covered:
       return placement;

@@ -208,7 +208,7 @@ cli::Exit learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
                        const RelocalizerParams& params, const FrameSource& data, Learned& out) {
   auto learn = openLearning(o, l, "learning submaps", "each");
   if (!learn) return cli::fail(app, learn.error());
-  SubmapLearner submaps(l.learning, SubmapParams{}, params);
+  SubmapLearner submaps(l.learning, l.submap_rule, params);
   if (!o.model_path.empty()) {
     auto resumed = submaps.resume(o.model_path);
     if (!resumed) return cli::fail(app, resumed.error());
@@ -257,6 +257,8 @@ cli::Exit learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
 std::string combinationError(const Options& o, const LearnOptions& learn, bool many_places) {
   if (many_places && !learn.learn_frames.empty())
     return "--learn-frames learns one place: give one --model PATH";
+  if (!learn.submaps && learn.submap_rule.relearn_agreement != SubmapParams{}.relearn_agreement)
+    return "--relearn-agreement needs --submaps (one store has no frozen submaps to cover)";
   if (many_places && o.prediction_quality)
     return "--prediction-quality measures one model's forests: give one --model";
   if (!o.expect_place.empty() && !many_places)

@@ -13,6 +13,7 @@
 #include "relocalizer/eval/frame_evaluation.h"
 #include "relocalizer/eval/simulated_hints.h"
 #include "relocalizer/online/online_learner.h"
+#include "relocalizer/online/submap_rule.h"
 #include "relocalizer/relocalize/relocalizer.h"
 #include "source_arguments.h"
 
@@ -43,6 +44,7 @@ struct LearnOptions {
   int curve_every = 50;
   bool submaps = false;
   LearningParams learning;
+  SubmapParams submap_rule;
 };
 
 // What learning online leaves for the evaluation: the model, the evaluation
@@ -131,6 +133,12 @@ inline void addOptions(App& app, Options& o, LearnOptions& l) {
   learn_only(app.addFlag("--submaps", l.submaps,
                          "Learn submaps (--max-keyframes each; a full one is frozen and a new "
                          "one starts) and relocalize across them as places in one map frame"));
+  learn_only(app.addOption("--relearn-agreement", l.submap_rule.relearn_agreement,
+                           "With --submaps: a key frame the frozen submaps cover is learned "
+                           "again when less than this share of its depth lies on their surface "
+                           "(the place changed there); 0: never")
+                 ->range(0.0, 1.0)
+                 ->showDefault());
   learn_only(app.addOption("--save-model", l.save_model,
                            "Write the learned model and its key frames (MODEL.keyframes) here; "
                            "with --submaps a folder (manifest.json and each submap's pair), "

@@ -18,6 +18,7 @@
 #include "relocalizer/online/key_frame_feed.h"
 #include "relocalizer/online/submap_archive.h"
 #include "relocalizer/online/submap_learner.h"
+#include "relocalizer/sim/synthetic_scene.h"
 #include "support.h"
 
 using namespace relocalizer;
@@ -118,6 +119,64 @@ TEST_F(SubmapRoom, AWalkThatFitsOneSubmapLearnsWhatOneLearnerDoes) {
   Model submap_model = models[0].relocalizer->model(), one_model = one.current()->model();
   submap_model.summary.seconds = one_model.summary.seconds = 0.0;
   EXPECT_EQ(serializeModel(submap_model), serializeModel(one_model));
+}
+
+// A place that changed heals: walking again where frozen submaps cover the
+// walk, a key frame whose view the change altered (furniture moved) is learned
+// again, one whose view it left alone stays covered. The known answer is each
+// view's noiseless depth in the room before and after the change.
+TEST_F(SubmapRoom, AChangedViewIsLearnedAgainWhereAnUnchangedOneStaysCovered) {
+  const CameraIntrinsics camera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
+  const SyntheticRoom room(7);
+  SceneChanges moved;
+  moved.moved_furniture = 1;
+  const SyntheticRoom changed = room.changed(moved);
+  ASSERT_EQ(changed.changes().moved_furniture, 1);
+  // The share of a view's depth the change moved by more than 10 cm.
+  const auto movedShare = [&](const Pose& pose) {
+    const cv::Mat before = room.exactDepth(pose, camera), after = changed.exactDepth(pose, camera);
+    int moved_pixels = 0;
+    for (int y = 0; y < before.rows; ++y)
+      for (int x = 0; x < before.cols; ++x)
+        moved_pixels += !(std::abs(before.at<float>(y, x) - after.at<float>(y, x)) <= 0.1f);
+    return double(moved_pixels) / before.total();
+  };
+  // The walk learned in capped submaps, then walked again in `world` (its
+  // frames rendered afresh, so with other depth noise): each frame's outcome.
+  const auto walkAgain = [&](const SyntheticRoom& world) {
+    SubmapParams rule;
+    rule.overlap = 2;
+    SubmapLearner submaps(smallLearning(6), rule, fastRelocalizer());
+    for (const RgbdFrame& frame : learn_)
+      EXPECT_TRUE(submaps.addKeyFrame(frame, *frame.ground_truth).ok());
+    std::vector<KeyFrameAdded> outcomes;
+    for (const RgbdFrame& frame : learn_) {
+      const RgbdFrame again = world.render(*frame.ground_truth, camera, 1000 + frame.id);
+      auto added = submaps.addKeyFrame(again, *frame.ground_truth);
+      EXPECT_TRUE(added.ok()) << added.error();
+      outcomes.push_back(added.ok() ? *added : KeyFrameAdded::Stored);
+    }
+    return outcomes;
+  };
+  const std::vector<KeyFrameAdded> same = walkAgain(room), after_change = walkAgain(changed);
+  int altered_views = 0, unaltered_views = 0;
+  for (size_t i = 0; i < learn_.size(); ++i) {
+    if (same[i] != KeyFrameAdded::Covered) continue;  // the active submap's, not covered
+    // Relearned below 90 % agreement with the surface (relearn_agreement);
+    // views near that bound are left out.
+    const double share = movedShare(*learn_[i].ground_truth);
+    if (share > 0.1) {
+      ++altered_views;
+      EXPECT_EQ(after_change[i], KeyFrameAdded::Stored) << "altered view " << i;
+    } else if (share < 0.05) {
+      ++unaltered_views;
+      EXPECT_EQ(after_change[i], KeyFrameAdded::Covered) << "unaltered view " << i;
+    }
+  }
+  std::printf("covered views walked again after the change: %d altered, %d not\n", altered_views,
+              unaltered_views);
+  EXPECT_GE(altered_views, 2);
+  EXPECT_GE(unaltered_views, 2);
 }
 
 // One feed over either learner (learner.h), as the node and the tools drive
@@ -486,6 +545,16 @@ TEST(SubmapEvaluation, EvaluateLearnsSubmapsAndAnswersAcrossThem) {
             relocalizer::testing::readBytes(dir.path() / "out/poses.txt"));
   EXPECT_EQ(relocalizer::testing::readBytes(dir.path() / "again/places.csv"),
             relocalizer::testing::readBytes(dir.path() / "out/places.csv"));
+  // --relearn-agreement sets the rule of submaps: one store has none, and says so.
+  EXPECT_NE(relocalizer::testing::runTool("evaluate",
+                                          "--dataset '" + dir.str() + "/scene/train' --frames " +
+                                              kToolTestFrames +
+                                              " --learn-frames 0-79 --relearn-agreement 0.5",
+                                          log, log),
+            0);
+  EXPECT_NE(relocalizer::testing::readBytes(log).find("--relearn-agreement needs --submaps"),
+            std::string::npos)
+      << relocalizer::testing::readBytes(log);
 
   // Named (--model NAME=FOLDER), the folder opens as the node opens it: the
   // same answers from places NAME/<index>; the group itself is no place to expect.

@@ -162,6 +162,21 @@ TEST(SubmapRule, CoveringOffStoresEveryKeyFrame) {
   EXPECT_EQ(index.place(10, walkPose(0)).decision, D::Start);
 }
 
+// A place that changed is learned again where a frozen submap covers it: the
+// caller (which sees the images) says so, and the key frame is placed as if
+// nothing covered it.
+TEST(SubmapRule, ACoveredKeyFrameOfAChangedPlaceIsPlacedAsIfUncovered) {
+  SubmapIndex index(smallSubmaps(), 4);
+  for (int i = 0; i < 4; ++i) index.place(i, walkPose(i));
+  index.freezeActive();
+  EXPECT_EQ(index.coveringSubmaps(walkPose(1)), std::vector<int>{0});
+  EXPECT_EQ(index.decide(walkPose(1)), D::Covered);
+  const SubmapPlacement placed = index.place(10, walkPose(1), false);
+  EXPECT_EQ(placed.decision, D::Start);
+  EXPECT_EQ(placed.submap, 1);
+  EXPECT_TRUE(index.coveringSubmaps(walkPose(1)) == std::vector<int>{0});
+}
+
 TEST(SubmapRule, UnusableSettingsAreNamed) {
   const SettingName node = [](const std::string& field) { return "~learn_" + field; };
   SubmapParams params;
@@ -176,6 +191,10 @@ TEST(SubmapRule, UnusableSettingsAreNamed) {
   params = SubmapParams{};
   params.cover_steps = -1.0;
   EXPECT_NE(submapParamsError(params, 16).find("cover_steps"), std::string::npos);
+  params = SubmapParams{};
+  params.relearn_agreement = 1.5;
+  EXPECT_NE(submapParamsError(params, 16).find("relearn_agreement must be a share"),
+            std::string::npos);
   params = SubmapParams{};
   params.min_submap_keyframes = 17;
   EXPECT_NE(submapParamsError(params, 16).find("min_submap_keyframes"), std::string::npos);

@@ -146,7 +146,9 @@ class SubmapLearner : public Learner {
 
   // A key frame (already chosen by the key-frame rule) with SLAM's
   // camera-to-world pose, as the feed checked it (key_frame_feed.h); a
-  // covered key frame is placed nowhere (placement.submap -1). A new submap
+  // covered key frame is placed nowhere (placement.submap -1), unless what
+  // it sees no longer lies on the covering frozen submaps' surface (the place
+  // changed there: it is learned again, so the place heals). A new submap
   // freezes the active, which retrains it (seconds: Inline here, Background
   // on the freeze thread); a failed freeze is returned (Inline) or in
   // status().last_error.
@@ -176,6 +178,7 @@ class SubmapLearner : public Learner {
   // Key frames learned: frozen submaps whole, the active as far as its model goes.
   LearnerSummary summary() const override;
   const SubmapIndex& index() const { return index_; }
+  const SubmapParams& submapParams() const { return submap_params_; }
   // The active submap's learner, or null before the first key frame.
   const OnlineLearner* active() const { return active_.get(); }
 

@@ -1,0 +1,22 @@
+#pragma once
+// Whether a learned place changed where the camera looks (issue 40, a map that
+// heals itself). A key frame taken where frozen submaps already hold one is
+// not stored again (SubmapParams::cover_steps), unless what it sees no longer
+// lies on their surface: furniture moved there, so that part is learned again
+// while the unchanged parts add nothing.
+
+#include "relocalizer/core/frame.h"
+#include "relocalizer/core/pose.h"
+#include "relocalizer/online/submap_learner.h"
+
+namespace relocalizer {
+
+// Whether `submaps` would cover a key frame `frame` at `camera_to_world`
+// (SubmapIndex::decide) but on none of the covering frozen submaps' surfaces
+// lies SubmapParams::relearn_agreement of its depth points (surface_fit.h's
+// agreement, at each relocalizer's surface settings). False where no covering
+// submap has a surface to compare with.
+bool placeChanged(const SubmapLearner& submaps, const RgbdFrame& frame,
+                  const Pose& camera_to_world);
+
+}  // namespace relocalizer
