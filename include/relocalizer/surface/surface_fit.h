@@ -43,7 +43,7 @@ struct SurfaceFitParams {
   float tolerance = 0.02f;       // metres: a point agrees when this close to the surface's plane
   float min_agreement = 0.5f;    // evidence needed to answer with a pose: SurfaceView::agreement()
   float min_on_surface = 0.25f;  // and this share of all the points on the surface, occluded or not
-  float max_seen_through = 0.05f;  // and at most this share seen through the surface
+  float max_seen_through = 0.10f;  // and at most this share seen through the surface
   int min_correspondences = 100;   // fewer leave the pose as solved
   // Along its camera ray, a depth point this far short of the surface is an
   // occluder (something new in front of it: a person); a surface crossed this
