@@ -8,8 +8,9 @@ namespace relocalizer {
 bool placeChanged(const SubmapLearner& submaps, const RgbdFrame& frame,
                   const Pose& camera_to_world) {
   // The caller is the one thread that changes the index.
-  if (submaps.index().decide(camera_to_world) != SubmapDecision::Covered) return false;
+  // What SubmapIndex::decide calls "covered": some frozen submap covers this pose.
   const std::vector<int> covering = submaps.index().coveringSubmaps(camera_to_world);
+  if (covering.empty()) return false;
   std::vector<Eigen::Vector3f> points;
   bool compared = false;
   for (const SubmapModel& submap : submaps.models()) {

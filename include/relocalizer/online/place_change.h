@@ -12,7 +12,7 @@
 namespace relocalizer {
 
 // Whether `submaps` would cover a key frame `frame` at `camera_to_world`
-// (SubmapIndex::decide) but on none of the covering frozen submaps' surfaces
+// (SubmapIndex::coveringSubmaps is not empty) but on none of the covering frozen submaps' surfaces
 // lies SubmapParams::relearn_agreement of its depth points (surface_fit.h's
 // agreement, at each relocalizer's surface settings). False where no covering
 // submap has a surface to compare with.
