@@ -61,6 +61,19 @@ TEST(NodeParams, OverridesReachTheCoreAndFramesLoseLeadingSlashes) {
   EXPECT_EQ(p->relocalizer.point_samples, relocalizer::RelocalizerParams{}.point_samples);
 }
 
+// The learn_* settings reach the learner's submap rule, not only the dump.
+TEST(NodeParams, LearnSubmapSettingsReachTheSubmapRule) {
+  ros::NodeHandle nh("/learn_override");
+  nh.setParam("learn", true);
+  nh.setParam("publish_tf", false);
+  nh.setParam("learn_cover_steps", 2.0);
+  nh.setParam("learn_relearn_agreement", 0.75);
+  auto p = loadNodeParams(nh);
+  ASSERT_TRUE(p.ok()) << p.error();
+  EXPECT_EQ(p->submaps.cover_steps, 2.0);
+  EXPECT_EQ(p->submaps.relearn_agreement, 0.75);
+}
+
 namespace {
 
 // A `places` entry as rosparam stores a YAML mapping.
@@ -272,6 +285,13 @@ TEST(NodeParams, MistakesAreErrorsNamingTheParameter) {
          nh.setParam("learn_cover_steps", "one");
        },
        "learn_cover_steps' has the wrong type"},
+      {"/relearn",
+       [](ros::NodeHandle& nh) {
+         nh.setParam("learn", true);
+         nh.setParam("publish_tf", false);
+         nh.setParam("learn_relearn_agreement", 1.5);
+       },
+       "'/relearn/learn_relearn_agreement' must be a share between 0 and 1 (got 1.500000)"},
       {"/submap_name",
        [](ros::NodeHandle& nh) {
          nh.setParam("learn", true);

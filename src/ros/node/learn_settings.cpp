@@ -30,6 +30,7 @@ void checkLearning(ParamReader& reader, LearnSettings& p) {
   p.submaps.area_radius = p.learn_submap_radius;
   p.submaps.overlap = p.learn_submap_overlap;
   p.submaps.cover_steps = p.learn_cover_steps;
+  p.submaps.relearn_agreement = p.learn_relearn_agreement;
   reader.fail(relocalizer::submapParamsError(p.submaps, p.learning.max_keyframes, name));
 }
 
@@ -44,6 +45,7 @@ void readLearnSettings(ParamReader& reader, LearnSettings& p) {
   reader.read("learn_submap_radius", p.learn_submap_radius);
   reader.readInt("learn_submap_overlap", p.learn_submap_overlap, 0);
   reader.read("learn_cover_steps", p.learn_cover_steps);
+  reader.read("learn_relearn_agreement", p.learn_relearn_agreement);
   reader.readInt("learn_first_retrain", p.learn_first_retrain, 1);
   reader.read("learn_retrain_growth", p.learn_retrain_growth);
   reader.read("learn_surface_gate", p.learn_surface_gate);

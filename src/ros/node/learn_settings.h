@@ -32,10 +32,14 @@ struct LearnSettings {
   double learn_submap_radius = 1.5;
   int learn_submap_overlap = 4;
   double learn_cover_steps = 1.0;
+  // A covered key frame is learned again where less than this share of its
+  // depth lies on the covering submaps' surface (online/place_change.h).
+  double learn_relearn_agreement = 0.9;
   // The learn_* settings as the learner takes them, read and checked by
   // readLearningParams (online_learner.h), the one check the tools share.
   relocalizer::LearningParams learning;
-  // The learn_submap_* and learn_cover_steps settings, checked by submapParamsError.
+  // The learn_submap_*, learn_cover_steps and learn_relearn_agreement settings,
+  // checked by submapParamsError.
   relocalizer::SubmapParams submaps;
 };
 

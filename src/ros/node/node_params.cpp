@@ -163,6 +163,7 @@ std::string nodeParamsToJson(const NodeParams& p) {
             {"learn_submap_radius", p.learn_submap_radius},
             {"learn_submap_overlap", p.learn_submap_overlap},
             {"learn_cover_steps", p.learn_cover_steps},
+            {"learn_relearn_agreement", p.learn_relearn_agreement},
             {"learn_first_retrain", p.learn_first_retrain},
             {"learn_retrain_growth", p.learn_retrain_growth},
             {"learn_surface_gate", p.learn_surface_gate},
