@@ -5,7 +5,9 @@
 // rate on whatever model is current. Reports whether the stream kept up, when
 // the first correct relocalization came, relocalization latency and memory.
 // With --submaps the stream is learned as submaps (online/submap_learner.h),
-// as the node does, and each frame is relocalized across all of them.
+// as the node does, and each frame is relocalized across all of them. With
+// --model the learner continues a saved place, as the node in learn mode with
+// `model` does: how a changed place heals against the clock.
 
 #include <array>
 #include <atomic>
@@ -45,6 +47,7 @@ double since(Clock::time_point start) {
 struct Attempt {
   double at, latency;
   bool correct;
+  bool wrong;  // answered beyond kWrongPose (metrics.h)
   int keyframes_learned;
   int frame;  // its id, so that latency can be read per place
 };
@@ -98,8 +101,9 @@ std::vector<Attempt> relocalizeUntilDone(const Dataset& test_data,
     const auto t0 = Clock::now();
     const Relocalization r = learned.relocalize(frame);
     const EvaluationRecord record = recordAttempt(frame.id, frame.stamp, *frame.ground_truth, r);
-    const bool correct = within(frameError(record.id, record.estimate, record.truth), kCorrectPose);
-    attempts.push_back({since(start), since(t0), correct, learned.keyFramesLearned(), frame.id});
+    const FrameError error = frameError(record.id, record.estimate, record.truth);
+    attempts.push_back({since(start), since(t0), within(error, kCorrectPose), wrongAnswer(error),
+                        learned.keyFramesLearned(), frame.id});
     if (slot < Clock::now()) slot = Clock::now();
   }
   return attempts;
@@ -156,11 +160,21 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
   const auto [rss, peak] = residentMiB();
   double first_correct = -1.0;
   std::vector<double> latencies;
-  int correct = 0;
+  int correct = 0, wrong = 0;
+  // Attempts, correct and wrong ones in each window of the stream: how a
+  // place that is learned (or heals) gets better with time.
+  constexpr double kWindowSeconds = 10.0;
+  std::vector<std::array<int, 3>> windows;
   for (const Attempt& a : attempts) {
     if (a.correct && first_correct < 0) first_correct = a.at;
     correct += a.correct;
+    wrong += a.wrong;
     latencies.push_back(1000.0 * a.latency);
+    const auto window = static_cast<size_t>(a.at / kWindowSeconds);
+    if (windows.size() <= window) windows.resize(window + 1, {0, 0, 0});
+    ++windows[window][0];
+    windows[window][1] += a.correct;
+    windows[window][2] += a.wrong;
   }
   const double p50 = latencies.empty() ? 0.0 : median(latencies);
   const double p95 = latencies.empty() ? 0.0 : percentile(latencies, 95.0);
@@ -191,9 +205,16 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
         submaps->freezes_pending, submaps->freeze_waits, submaps->freeze_wait_seconds,
         submaps->last_error.empty() ? "" : "; last error: ", submaps->last_error.c_str());
   std::printf(
-      "relocalization: %zu attempts, %d correct (5 cm / 5 deg); first correct at %.1f s of stream; "
-      "latency median %.0f ms, p95 %.0f ms\n",
-      attempts.size(), correct, first_correct, p50, p95);
+      "relocalization: %zu attempts, %d correct (5 cm / 5 deg), %d wrong (> 10 cm / 10 deg); first "
+      "correct at %.1f s of stream; latency median %.0f ms, p95 %.0f ms\n",
+      attempts.size(), correct, wrong, first_correct, p50, p95);
+  std::string by_window;
+  for (size_t w = 0; w < windows.size(); ++w)
+    by_window += (w ? ", " : "") + std::to_string(windows[w][1]) + "/" +
+                 std::to_string(windows[w][0]) +
+                 (windows[w][2] ? " (" + std::to_string(windows[w][2]) + " wrong)" : "");
+  if (!windows.empty())
+    std::printf("correct per %.0f s of stream: %s\n", kWindowSeconds, by_window.c_str());
   std::printf("memory: resident %.0f MiB now, peak %.0f MiB\n", rss, peak);
   if (output.empty()) return;
   std::filesystem::create_directories(output);
@@ -203,9 +224,9 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
     csv << row[0] << ',' << row[1] << ',' << row[2] << ',' << row[3] << ',' << row[4] << ','
         << row[5] << '\n';
   std::ofstream attempts_csv(output + "/relocalizations.csv");
-  attempts_csv << "seconds,latency_ms,correct,keyframes_learned,frame\n";
+  attempts_csv << "seconds,latency_ms,correct,wrong,keyframes_learned,frame\n";
   for (const Attempt& a : attempts)
-    attempts_csv << a.at << ',' << 1000.0 * a.latency << ',' << a.correct << ','
+    attempts_csv << a.at << ',' << 1000.0 * a.latency << ',' << a.correct << ',' << a.wrong << ','
                  << a.keyframes_learned << ',' << a.frame << '\n';
   nlohmann::json summary = {{"frames", stream.frames},
                             {"rate", stream.rate},
@@ -217,6 +238,8 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
                             {"backlog", status.backlog},
                             {"attempts", attempts.size()},
                             {"correct", correct},
+                            {"wrong", wrong},
+                            {"attempts_correct_wrong_per_10s", windows},
                             {"first_correct_s", first_correct},
                             {"latency_median_ms", p50},
                             {"latency_p95_ms", p95},
@@ -244,11 +267,12 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
 struct BenchOptions {
   cli::DatasetArguments arguments;
   std::string learn_frames, min_motion = formatMinMotion(KeyFrameMotion{}), learn_config, output,
-                            learn_folder;
+                            learn_folder, model;
   double rate = 30.0, reloc_rate = 2.0, seconds = 60.0;
   int threads = 1;
   bool submaps = false;
   LearningParams learning;
+  SubmapParams submap_rule;
 };
 
 void addOptions(cli::App& app, BenchOptions& o) {
@@ -273,18 +297,35 @@ void addOptions(cli::App& app, BenchOptions& o) {
       ->range(2, 100000)
       ->showDefault();
   app.addOption("--learn-config", o.learn_config, "Training YAML for the retrains");
+  app.addOption("--model", o.model,
+                "Continue this saved place (with --submaps: a folder of learned submaps; "
+                "without: a model saved with its key frames), as the node in learn mode with "
+                "`model`");
+  app.addOption("--relearn-agreement", o.submap_rule.relearn_agreement,
+                "With --submaps: a key frame the frozen submaps cover is learned again where "
+                "less than this share of its depth lies on their surface (0: never)")
+      ->range(0.0, 1.0)
+      ->showDefault();
   app.addOption("-j,--threads", o.threads, "Threads of one relocalization")
       ->range(1, 1024)
       ->showDefault();
   app.addOption("-o,--output", o.output, "Folder for timeline.csv and summary.json");
 }
 
-// Submaps learned as the node learns them, frozen ones written into
-// `learn_folder` when one is given.
+// Submaps learned as the node learns them (continuing the saved place
+// `model` when one is given), frozen ones written into `learn_folder` when one is given.
 Expected<std::unique_ptr<SubmapLearner>> backgroundSubmaps(const LearningParams& learning,
+                                                           const SubmapParams& rule,
+                                                           const std::string& model,
                                                            const std::string& learn_folder) {
-  auto learner = std::make_unique<SubmapLearner>(learning, SubmapParams{}, RelocalizerParams{},
-                                                 SubmapNames{}, OnlineLearner::Mode::Background);
+  auto learner = std::make_unique<SubmapLearner>(learning, rule, RelocalizerParams{}, SubmapNames{},
+                                                 OnlineLearner::Mode::Background);
+  if (!model.empty()) {
+    auto resumed = learner->resume(model);
+    if (!resumed) return makeError("--model: " + resumed.error());
+    for (const std::string& warning : *resumed)
+      std::fprintf(stderr, "learn_benchmark: %s\n", warning.c_str());
+  }
   if (!learn_folder.empty())
     if (Status working = learner->useFolder(learn_folder); !working)
       return makeError("--learn-folder: " + working.error());
@@ -328,13 +369,25 @@ int main(int argc, char** argv) {
   std::unique_ptr<SubmapLearner> submaps;
   if (!o.learn_folder.empty() && !o.submaps)
     return cli::fail(app, "--learn-folder needs --submaps");
+  // A continued set writes its frozen submaps into its working folder, which
+  // would be the saved place itself: a benchmark leaves its input as it was.
+  if (!o.model.empty() && o.submaps && o.learn_folder.empty())
+    return cli::fail(app,
+                     "--model with --submaps needs --learn-folder (the set learned on is "
+                     "written there, not into the saved place)");
+  if (o.submap_rule.relearn_agreement != SubmapParams{}.relearn_agreement && !o.submaps)
+    return cli::fail(app, "--relearn-agreement needs --submaps");
   if (o.submaps) {
-    auto made = backgroundSubmaps(*checked, o.learn_folder);
+    auto made = backgroundSubmaps(*checked, o.submap_rule, o.model, o.learn_folder);
     if (!made) return cli::fail(app, made.error());
     submaps = std::move(*made);
-  } else
+  } else {
     one_store = std::make_unique<OnlineLearner>(*checked, RelocalizerParams{},
                                                 OnlineLearner::Mode::Background);
+    if (!o.model.empty())
+      if (Status resumed = one_store->resume(o.model); !resumed)
+        return cli::fail(app, "--model: " + resumed.error());
+  }
   Learner& learner = submaps ? static_cast<Learner&>(*submaps) : *one_store;
   KeyFrameFeed feed(learner, *checked);
   // The relocalizing thread's alone (its place set is not shared).

@@ -621,7 +621,7 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
       relocalizer::testing::readBytes(dir.path() / "bench/relocalizations.csv"));
   std::string row;
   std::getline(rows, row);
-  EXPECT_EQ(row, "seconds,latency_ms,correct,keyframes_learned,frame");
+  EXPECT_EQ(row, "seconds,latency_ms,correct,wrong,keyframes_learned,frame");
   std::vector<std::string> test_frames;
   std::istringstream frame_list(kToolTestFrames);
   for (std::string frame; std::getline(frame_list, frame, ',');) test_frames.push_back(frame);
@@ -629,6 +629,13 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   for (; std::getline(rows, row); ++attempts)
     EXPECT_EQ(row.substr(row.rfind(',') + 1), test_frames[attempts % test_frames.size()]) << row;
   EXPECT_EQ(attempts, summary.at("attempts").get<long>());
+  // The 10 s windows split the same attempts, correct and wrong ones.
+  long windowed[3] = {0, 0, 0};
+  for (const auto& window : summary.at("attempts_correct_wrong_per_10s"))
+    for (int i = 0; i < 3; ++i) windowed[i] += window.at(i).get<long>();
+  EXPECT_EQ(windowed[0], attempts);
+  EXPECT_EQ(windowed[1], summary.at("correct").get<long>());
+  EXPECT_EQ(windowed[2], summary.at("wrong").get<long>());
   // Every submap but the active one was frozen and written before the tool
   // ended (pending freezes end first), each with its final model.
   auto working = loadSavedSubmaps(dir.str() + "/working", "learned", "map", fastRelocalizer());
@@ -638,4 +645,31 @@ TEST(SubmapEvaluation, LearnBenchmarkStreamsSubmapsBesideRelocalizations) {
   const std::vector<int> keyframes = summary.at("submap_keyframes").get<std::vector<int>>();
   for (std::size_t i = 0; i < working->places.size(); ++i)
     EXPECT_EQ(working->places[i].relocalizer->model().summary.images, keyframes[i]) << i;
+
+  // --model continues the saved set, as the node in learn mode does, and
+  // learns on into --learn-folder: the saved set stays as it was.
+  const std::string manifest =
+      relocalizer::testing::readBytes(dir.path() / "working/manifest.json");
+  const std::string again = "--dataset '" + dir.str() +
+                            "/scene/train' --learn-frames 0-79 --frames " + kToolTestFrames +
+                            " --submaps --max-keyframes 6 --seconds 2 " + "--learn-config '" +
+                            dir.str() + "/small.yaml' --model '" + dir.str() + "/working'";
+  EXPECT_NE(relocalizer::testing::runTool("learn_benchmark", again, log, log), 0);
+  EXPECT_NE(
+      relocalizer::testing::readBytes(log).find("--model with --submaps needs --learn-folder"),
+      std::string::npos)
+      << relocalizer::testing::readBytes(log);
+  ASSERT_EQ(relocalizer::testing::runTool("learn_benchmark",
+                                          again + " --learn-folder '" + dir.str() +
+                                              "/continued' --output '" + dir.str() + "/bench2'",
+                                          log, log),
+            0)
+      << relocalizer::testing::readBytes(log);
+  const nlohmann::json continued =
+      nlohmann::json::parse(relocalizer::testing::readBytes(dir.path() / "bench2/summary.json"));
+  EXPECT_GE(continued.at("submaps").get<int>(), static_cast<int>(working->places.size()));
+  EXPECT_EQ(relocalizer::testing::readBytes(dir.path() / "working/manifest.json"), manifest);
+  auto written = loadSavedSubmaps(dir.str() + "/continued", "learned", "map", fastRelocalizer());
+  ASSERT_TRUE(written.ok()) << written.error();
+  EXPECT_GE(written->places.size(), working->places.size());
 }
