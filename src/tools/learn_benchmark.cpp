@@ -154,30 +154,41 @@ std::string streamFrames(size_t learn_frames, double seconds, Clock::time_point 
   return failure;
 }
 
+// What the relocalizing thread's attempts add up to.
+struct AttemptTally {
+  double first_correct = -1.0;  // stream seconds; -1: none
+  int correct = 0, wrong = 0;
+  double p50 = 0.0, p95 = 0.0;  // latency, ms
+  // Attempts, correct and wrong ones in each kWindowSeconds of the stream:
+  // how a place that is learned (or heals) gets better with time.
+  static constexpr double kWindowSeconds = 10.0;
+  std::vector<std::array<int, 3>> windows;
+};
+
+AttemptTally tally(const std::vector<Attempt>& attempts) {
+  AttemptTally t;
+  std::vector<double> latencies;
+  for (const Attempt& a : attempts) {
+    if (a.correct && t.first_correct < 0) t.first_correct = a.at;
+    t.correct += a.correct;
+    t.wrong += a.wrong;
+    latencies.push_back(1000.0 * a.latency);
+    const auto window = static_cast<size_t>(a.at / AttemptTally::kWindowSeconds);
+    if (t.windows.size() <= window) t.windows.resize(window + 1, {0, 0, 0});
+    ++t.windows[window][0];
+    t.windows[window][1] += a.correct;
+    t.windows[window][2] += a.wrong;
+  }
+  t.p50 = latencies.empty() ? 0.0 : median(latencies);
+  t.p95 = latencies.empty() ? 0.0 : percentile(latencies, 95.0);
+  return t;
+}
+
 // `status` is the one learner's, or with submaps the active submap's (`submaps` then set).
 void report(const Stream& stream, const std::vector<Attempt>& attempts,
             const LearningStatus& status, const SubmapStatus* submaps, const std::string& output) {
   const auto [rss, peak] = residentMiB();
-  double first_correct = -1.0;
-  std::vector<double> latencies;
-  int correct = 0, wrong = 0;
-  // Attempts, correct and wrong ones in each window of the stream: how a
-  // place that is learned (or heals) gets better with time.
-  constexpr double kWindowSeconds = 10.0;
-  std::vector<std::array<int, 3>> windows;
-  for (const Attempt& a : attempts) {
-    if (a.correct && first_correct < 0) first_correct = a.at;
-    correct += a.correct;
-    wrong += a.wrong;
-    latencies.push_back(1000.0 * a.latency);
-    const auto window = static_cast<size_t>(a.at / kWindowSeconds);
-    if (windows.size() <= window) windows.resize(window + 1, {0, 0, 0});
-    ++windows[window][0];
-    windows[window][1] += a.correct;
-    windows[window][2] += a.wrong;
-  }
-  const double p50 = latencies.empty() ? 0.0 : median(latencies);
-  const double p95 = latencies.empty() ? 0.0 : percentile(latencies, 95.0);
+  const AttemptTally t = tally(attempts);
   std::printf(
       "stream: %ld frames in %.1f s at %.0f Hz (%ld later than one frame period, worst lag %.0f "
       "ms)\n",
@@ -207,14 +218,15 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
   std::printf(
       "relocalization: %zu attempts, %d correct (5 cm / 5 deg), %d wrong (> 10 cm / 10 deg); first "
       "correct at %.1f s of stream; latency median %.0f ms, p95 %.0f ms\n",
-      attempts.size(), correct, wrong, first_correct, p50, p95);
+      attempts.size(), t.correct, t.wrong, t.first_correct, t.p50, t.p95);
   std::string by_window;
-  for (size_t w = 0; w < windows.size(); ++w)
-    by_window += (w ? ", " : "") + std::to_string(windows[w][1]) + "/" +
-                 std::to_string(windows[w][0]) +
-                 (windows[w][2] ? " (" + std::to_string(windows[w][2]) + " wrong)" : "");
-  if (!windows.empty())
-    std::printf("correct per %.0f s of stream: %s\n", kWindowSeconds, by_window.c_str());
+  for (size_t w = 0; w < t.windows.size(); ++w)
+    by_window += (w ? ", " : "") + std::to_string(t.windows[w][1]) + "/" +
+                 std::to_string(t.windows[w][0]) +
+                 (t.windows[w][2] ? " (" + std::to_string(t.windows[w][2]) + " wrong)" : "");
+  if (!t.windows.empty())
+    std::printf("correct per %.0f s of stream: %s\n", AttemptTally::kWindowSeconds,
+                by_window.c_str());
   std::printf("memory: resident %.0f MiB now, peak %.0f MiB\n", rss, peak);
   if (output.empty()) return;
   std::filesystem::create_directories(output);
@@ -237,12 +249,12 @@ void report(const Stream& stream, const std::vector<Attempt>& attempts,
                             {"retrains", status.retrains},
                             {"backlog", status.backlog},
                             {"attempts", attempts.size()},
-                            {"correct", correct},
-                            {"wrong", wrong},
-                            {"attempts_correct_wrong_per_10s", windows},
-                            {"first_correct_s", first_correct},
-                            {"latency_median_ms", p50},
-                            {"latency_p95_ms", p95},
+                            {"correct", t.correct},
+                            {"wrong", t.wrong},
+                            {"attempts_correct_wrong_per_10s", t.windows},
+                            {"first_correct_s", t.first_correct},
+                            {"latency_median_ms", t.p50},
+                            {"latency_p95_ms", t.p95},
                             {"resident_mib", rss},
                             {"peak_resident_mib", peak},
                             {"frames_untracked", stream.outcomes[0]},
