@@ -257,8 +257,9 @@ cli::Exit learnSubmaps(const cli::App& app, const Options& o, LearnOptions l,
 std::string combinationError(const Options& o, const LearnOptions& learn, bool many_places) {
   if (many_places && !learn.learn_frames.empty())
     return "--learn-frames learns one place: give one --model PATH";
-  if (!learn.submaps && learn.submap_rule.relearn_agreement != SubmapParams{}.relearn_agreement)
-    return "--relearn-agreement needs --submaps (one store has no frozen submaps to cover)";
+  if (std::string error = cli::relearnAgreementError(learn.submap_rule, learn.submaps);
+      !error.empty())
+    return error;
   if (many_places && o.prediction_quality)
     return "--prediction-quality measures one model's forests: give one --model";
   if (!o.expect_place.empty() && !many_places)

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "learn_options.h"
 #include "relocalizer/core/key_frame_rule.h"
 #include "relocalizer/core/photometric_change.h"
 #include "relocalizer/eval/frame_evaluation.h"
@@ -133,12 +134,7 @@ inline void addOptions(App& app, Options& o, LearnOptions& l) {
   learn_only(app.addFlag("--submaps", l.submaps,
                          "Learn submaps (--max-keyframes each; a full one is frozen and a new "
                          "one starts) and relocalize across them as places in one map frame"));
-  learn_only(app.addOption("--relearn-agreement", l.submap_rule.relearn_agreement,
-                           "With --submaps: a key frame the frozen submaps cover is learned "
-                           "again when less than this share of its depth lies on their surface "
-                           "(the place changed there); 0: never")
-                 ->range(0.0, 1.0)
-                 ->showDefault());
+  learn_only(addRelearnAgreement(app, l.submap_rule));
   learn_only(app.addOption("--save-model", l.save_model,
                            "Write the learned model and its key frames (MODEL.keyframes) here; "
                            "with --submaps a folder (manifest.json and each submap's pair), "

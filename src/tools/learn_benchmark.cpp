@@ -21,6 +21,7 @@
 
 #include "cli_support.h"
 #include "dataset_arguments.h"
+#include "learn_options.h"
 #include "relocalizer/core/statistics.h"
 #include "relocalizer/eval/evaluation.h"
 #include "relocalizer/eval/latency_benchmark.h"
@@ -313,11 +314,7 @@ void addOptions(cli::App& app, BenchOptions& o) {
                 "Continue this saved place (with --submaps: a folder of learned submaps; "
                 "without: a model saved with its key frames), as the node in learn mode with "
                 "`model`");
-  app.addOption("--relearn-agreement", o.submap_rule.relearn_agreement,
-                "With --submaps: a key frame the frozen submaps cover is learned again where "
-                "less than this share of its depth lies on their surface (0: never)")
-      ->range(0.0, 1.0)
-      ->showDefault();
+  cli::addRelearnAgreement(app, o.submap_rule);
   app.addOption("-j,--threads", o.threads, "Threads of one relocalization")
       ->range(1, 1024)
       ->showDefault();
@@ -387,8 +384,8 @@ int main(int argc, char** argv) {
     return cli::fail(app,
                      "--model with --submaps needs --learn-folder (the set learned on is "
                      "written there, not into the saved place)");
-  if (o.submap_rule.relearn_agreement != SubmapParams{}.relearn_agreement && !o.submaps)
-    return cli::fail(app, "--relearn-agreement needs --submaps");
+  if (std::string error = cli::relearnAgreementError(o.submap_rule, o.submaps); !error.empty())
+    return cli::fail(app, error);
   if (o.submaps) {
     auto made = backgroundSubmaps(*checked, o.submap_rule, o.model, o.learn_folder);
     if (!made) return cli::fail(app, made.error());
