@@ -53,17 +53,19 @@ bool SubmapIndex::inActiveArea(const Pose& pose) const {
   });
 }
 
+bool SubmapIndex::holdsNear(int submap, const Pose& pose) const {
+  if (params_.cover_steps <= 0.0) return false;
+  const std::vector<SubmapKeyFrame>& frames = keyFrames(submap);
+  return std::any_of(frames.begin(), frames.end(), [&](const SubmapKeyFrame& k) {
+    return keyFrameDistance(k.pose, pose) < params_.cover_steps;
+  });
+}
+
 std::vector<int> SubmapIndex::coveringSubmaps(const Pose& pose) const {
   std::vector<int> covering;
-  if (params_.cover_steps <= 0.0) return covering;
-  for (int s = first_of_place_; s < submapCount(); ++s) {
-    if (!frozen(s)) continue;  // so that a run that fits one submap learns as one store does
-    const std::vector<SubmapKeyFrame>& frames = submaps_[static_cast<std::size_t>(s)];
-    if (std::any_of(frames.begin(), frames.end(), [&](const SubmapKeyFrame& k) {
-          return keyFrameDistance(k.pose, pose) < params_.cover_steps;
-        }))
-      covering.push_back(s);
-  }
+  for (int s = first_of_place_; s < submapCount(); ++s)
+    // Frozen ones only, so that a run that fits one submap learns as one store does.
+    if (frozen(s) && holdsNear(s, pose)) covering.push_back(s);
   return covering;
 }
 
@@ -71,6 +73,11 @@ SubmapDecision SubmapIndex::decide(const Pose& pose, bool may_cover) const {
   if (may_cover && !coveringSubmaps(pose).empty()) return SubmapDecision::Covered;
   if (active_ < 0) return SubmapDecision::Start;
   if (active_ < first_of_place_) return SubmapDecision::NewLeft;  // of the map SLAM left
+  // A view of a changed place that the active submap already holds is being
+  // learned again there: a camera that loops past it would otherwise relearn
+  // it on every lap (only frozen submaps cover, and until the active one
+  // freezes, the old ones still disagree there).
+  if (!may_cover && holdsNear(active_, pose)) return SubmapDecision::Covered;
   const int held = static_cast<int>(keyFrames(active_).size());
   // Before the cap: a camera that left starts afresh rather than with seeds
   // from an area it is no longer in.

@@ -177,6 +177,25 @@ TEST(SubmapRule, ACoveredKeyFrameOfAChangedPlaceIsPlacedAsIfUncovered) {
   EXPECT_TRUE(index.coveringSubmaps(walkPose(1)) == std::vector<int>{0});
 }
 
+// A camera looping past a changed place relearns each view once: the active
+// submap that holds it then covers it for the changed place's key frames only.
+TEST(SubmapRule, AChangedViewTheActiveSubmapHoldsIsNotLearnedAgainOnTheNextLap) {
+  SubmapIndex index(smallSubmaps(), 8);
+  for (int i = 0; i < 4; ++i) index.place(i, walkPose(i));
+  index.freezeActive();
+  ASSERT_EQ(index.place(10, walkPose(1), false).submap, 1);
+  ASSERT_EQ(index.place(11, walkPose(2), false).decision, D::Active);
+  const SubmapPlacement again = index.place(12, walkPose(1), false);
+  EXPECT_EQ(again.decision, D::Covered);
+  EXPECT_EQ(again.submap, -1);
+  EXPECT_EQ(index.keyFrames(1).size(), 2u);
+  // Where the old submaps still agree, the active covers nothing (a run that
+  // fits one submap learns as one store does), and a new view is learned.
+  EXPECT_EQ(index.decide(walkPose(1)), D::Covered);
+  EXPECT_TRUE(index.coveringSubmaps(walkPose(1)) == std::vector<int>{0});
+  EXPECT_EQ(index.decide(walkPose(3), false), D::Active);
+}
+
 TEST(SubmapRule, UnusableSettingsAreNamed) {
   const SettingName node = [](const std::string& field) { return "~learn_" + field; };
   SubmapParams params;

@@ -80,7 +80,9 @@ class SubmapIndex {
 
   // Where a key frame at `pose` would go, changing nothing. `may_cover`
   // false: the frozen submaps near it no longer know what the camera sees
-  // there (the place changed), so it is learned again as if not covered.
+  // there (the place changed), so it is learned again as if not covered,
+  // unless the active submap holds a key frame as near as cover_steps (it
+  // learns that view already).
   SubmapDecision decide(const Pose& pose, bool may_cover = true) const;
   // decide(), then records the key frame (and a new submap with its seeds).
   SubmapPlacement place(std::int64_t id, const Pose& pose, bool may_cover = true);
@@ -110,6 +112,8 @@ class SubmapIndex {
 
  private:
   bool inActiveArea(const Pose& pose) const;
+  // `submap` holds a key frame within cover_steps of `pose`.
+  bool holdsNear(int submap, const Pose& pose) const;
   std::vector<SubmapKeyFrame> nearestOfActive(const Pose& pose, int count) const;
 
   SubmapParams params_;
