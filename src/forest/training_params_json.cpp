@@ -130,7 +130,7 @@ void readTrainingParams(const json& j, TrainingParams& p) {
   // Models written before it existed saw the recorded colour: they keep doing so.
   p.colour_normalisation =
       readChoice(j, "", "colour_normalisation", ColourNormalisation::kNone,
-                 colourNormalisationNamed, "\"channel_statistics\" or \"none\"");
+                 colourNormalisationNamed, "\"channel_statistics\", \"local_mean\" or \"none\"");
   // Version-1 model headers predate the surface: they keep the defaults, and the
   // model no surface (the file has none to read).
   if (j.contains("surface")) readSurface(j.at("surface"), p);

@@ -1,9 +1,11 @@
-// What the forests see of colour: the frame's own channel statistics, so that
-// other light (a gain, a colour cast) leaves it as it was.
+// What the forests see of colour: the frame's own channel statistics, or each
+// pixel against its neighbourhood, so that other light (a gain, a colour cast)
+// leaves it as it was.
 
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "relocalizer/forest/colour_normalisation.h"
@@ -49,6 +51,48 @@ TEST(ColourNormalisation, AGainAndAColourCastCancel) {
   }
 }
 
+TEST(ColourNormalisation, AgainstTheLocalMeanAGainAndAColourCastCancel) {
+  const cv::Mat seen = normaliseColour(texture({1, 1, 1}), ColourNormalisation::kLocalMean);
+  const cv::Mat other_light =
+      normaliseColour(texture({0.5, 0.8, 1.3}), ColourNormalisation::kLocalMean);
+  // The rounding of the recorded values and of the gains remains.
+  EXPECT_LE(cv::norm(seen, other_light, cv::NORM_INF), 3.0);
+  cv::Scalar mean = cv::mean(seen);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(mean[c], 96.0, 3.0);
+}
+
+// A person walking into view (a large bright patch) changes what the forests
+// see only around them with the local mean; through the whole frame's
+// statistics, every pixel.
+TEST(ColourNormalisation, AgainstTheLocalMeanAPersonChangesOnlyTheirSurroundings) {
+  cv::Mat room(480, 640, CV_8UC3);
+  cv::resize(texture({1, 1, 1}), room, room.size(), 0, 0, cv::INTER_NEAREST);
+  cv::Mat with_person = room.clone();
+  with_person(cv::Rect(0, 40, 160, 440)).setTo(cv::Scalar(200, 215, 250));
+  // Beyond the person, past the window of the local mean (16 blocks of 8
+  // pixels) and one block of interpolation.
+  const cv::Rect far_away(160 + 17 * 8 + 8, 0, 640 - (160 + 17 * 8 + 8), 480);
+  const cv::Mat local = normaliseColour(room, ColourNormalisation::kLocalMean);
+  const cv::Mat local_person = normaliseColour(with_person, ColourNormalisation::kLocalMean);
+  EXPECT_EQ(cv::norm(local(far_away), local_person(far_away), cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(local, local_person, cv::NORM_INF), 50.0);
+  const cv::Mat global = normaliseColour(room, ColourNormalisation::kChannelStatistics);
+  const cv::Mat global_person =
+      normaliseColour(with_person, ColourNormalisation::kChannelStatistics);
+  EXPECT_GT(cv::norm(global(far_away), global_person(far_away), cv::NORM_INF), 10.0);
+}
+
+TEST(ColourNormalisation, AgainstTheLocalMeanDarknessIsNotBlownUp) {
+  cv::Mat dark(200, 400, CV_8UC3, cv::Scalar(2, 3, 4));
+  dark(cv::Rect(300, 0, 100, 200)).setTo(cv::Scalar(200, 200, 200));
+  const cv::Mat seen = normaliseColour(dark, ColourNormalisation::kLocalMean);
+  // At most 6 times: 2, 3, 4 levels become at most 12, 18, 24.
+  const cv::Vec3b corner = seen.at<cv::Vec3b>(0, 0);
+  for (int c = 0; c < 3; ++c) EXPECT_LE(corner[c], 6 * (2 + c));
+  // Where the bright half dominates the neighbourhood, it stays bright.
+  EXPECT_GT(seen.at<cv::Vec3b>(100, 399)[0], 80);
+}
+
 TEST(ColourNormalisation, AFlatImageIsNotStretchedIntoTexture) {
   std::mt19937 rng(5);
   std::normal_distribution<double> noise(100.0, 2.0);
@@ -59,13 +103,16 @@ TEST(ColourNormalisation, AFlatImageIsNotStretchedIntoTexture) {
   cv::meanStdDev(normaliseColour(wall, ColourNormalisation::kChannelStatistics), mean, deviation);
   // At most 48 / 8 = 6 times its spread of about 2 levels.
   for (int c = 0; c < 3; ++c) EXPECT_LT(deviation[c], 14.0);
+  // Against the local mean, a flat wall stays flat: its mean is the local mean everywhere.
+  cv::meanStdDev(normaliseColour(wall, ColourNormalisation::kLocalMean), mean, deviation);
+  for (int c = 0; c < 3; ++c) EXPECT_LT(deviation[c], 3.0);
 }
 
 TEST(ColourNormalisation, NoneIsTheRecordedColourAndNamesRoundTrip) {
   const cv::Mat recorded = texture({1, 1, 1});
   EXPECT_EQ(normaliseColour(recorded, ColourNormalisation::kNone).data, recorded.data);
-  for (ColourNormalisation n :
-       {ColourNormalisation::kNone, ColourNormalisation::kChannelStatistics})
+  for (ColourNormalisation n : {ColourNormalisation::kNone, ColourNormalisation::kChannelStatistics,
+                                ColourNormalisation::kLocalMean})
     EXPECT_EQ(colourNormalisationNamed(colourNormalisationName(n)), n);
   EXPECT_FALSE(colourNormalisationNamed("grey_world"));
   EXPECT_THROW(normaliseColour(cv::Mat(4, 4, CV_8UC1), ColourNormalisation::kChannelStatistics),
@@ -73,17 +120,21 @@ TEST(ColourNormalisation, NoneIsTheRecordedColourAndNamesRoundTrip) {
 }
 
 TEST(ColourNormalisation, ModelsWithoutItKeepTheRecordedColour) {
-  TrainingParams normalised;
-  normalised.colour_normalisation = ColourNormalisation::kChannelStatistics;
-  nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(normalised));
-  EXPECT_EQ(header["colour_normalisation"], "channel_statistics");
-  auto same = trainingParamsFromJson(header.dump());
-  ASSERT_TRUE(same.ok()) << same.error();
-  EXPECT_EQ(same->colour_normalisation, ColourNormalisation::kChannelStatistics);
-  ASSERT_EQ(header.erase("colour_normalisation"), 1u);
-  auto read = trainingParamsFromJson(header.dump());
-  ASSERT_TRUE(read.ok()) << read.error();
-  EXPECT_EQ(read->colour_normalisation, ColourNormalisation::kNone);
+  EXPECT_EQ(TrainingParams{}.colour_normalisation, ColourNormalisation::kNone);
+  for (ColourNormalisation n :
+       {ColourNormalisation::kChannelStatistics, ColourNormalisation::kLocalMean}) {
+    TrainingParams normalised;
+    normalised.colour_normalisation = n;
+    nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(normalised));
+    EXPECT_EQ(header["colour_normalisation"], colourNormalisationName(n));
+    auto same = trainingParamsFromJson(header.dump());
+    ASSERT_TRUE(same.ok()) << same.error();
+    EXPECT_EQ(same->colour_normalisation, n);
+    ASSERT_EQ(header.erase("colour_normalisation"), 1u);
+    auto read = trainingParamsFromJson(header.dump());
+    ASSERT_TRUE(read.ok()) << read.error();
+    EXPECT_EQ(read->colour_normalisation, ColourNormalisation::kNone);
+  }
   auto preset =
       loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/colour_normalised.yaml");
   ASSERT_TRUE(preset.ok()) << preset.error();

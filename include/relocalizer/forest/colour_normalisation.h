@@ -1,10 +1,13 @@
 #pragma once
 // What the forests see of a frame's colour. The split features compare
 // absolute intensities, so light that is dimmer or warmer than in training
-// moves every split's response; seen through the frame's own colour
-// statistics (each channel's mean and spread mapped to fixed values), a
-// global gain, a colour cast and an offset of the light cancel out, before the
-// features, the patch descriptors and the line detector see the image.
+// moves every split's response. Seen against each channel's mean around the
+// pixel, a gain and a colour cast of the light
+// cancel out, also where they differ across the room (a lamp), and what walks
+// into view changes only its surroundings; seen through the whole frame's
+// statistics, an offset cancels too, but people in view shift every pixel.
+// The features, the patch descriptors and the line detector see the image
+// normalised.
 
 #include <opencv2/core.hpp>
 #include <optional>
@@ -15,6 +18,7 @@ namespace relocalizer {
 enum class ColourNormalisation {
   kNone,               // the recorded colour (every model before issue 40)
   kChannelStatistics,  // each channel's mean to 128 and standard deviation to 48
+  kLocalMean,          // each channel divided by its mean within 128 pixels, times 96
 };
 
 const char* colourNormalisationName(ColourNormalisation normalisation);

@@ -50,8 +50,10 @@ struct TrainingParams {
   ForestParams lines;
   LineSamplingParams line_sampling;
   // What the forests see of the colour (colour_normalisation.h); models
-  // written before it existed read kNone. Not the default: it costs online
-  // learning from sparse key frames a third of its accuracy (docs/benchmarks.md).
+  // written before it existed read kNone. Not yet a default: the whole
+  // frame's statistics lose frames with people in view, and the local mean
+  // lets a place learned from sparse key frames take a look-alike view for
+  // one it knows (docs/benchmarks.md).
   ColourNormalisation colour_normalisation = ColourNormalisation::kNone;
   bool train_points = true;
   bool train_lines = true;
