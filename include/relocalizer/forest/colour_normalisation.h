@@ -2,12 +2,11 @@
 // What the forests see of a frame's colour. The split features compare
 // absolute intensities, so light that is dimmer or warmer than in training
 // moves every split's response. Seen against each channel's mean around the
-// pixel, a gain and a colour cast of the light
-// cancel out, also where they differ across the room (a lamp), and what walks
-// into view changes only its surroundings; seen through the whole frame's
-// statistics, an offset cancels too, but people in view shift every pixel.
-// The features, the patch descriptors and the line detector see the image
-// normalised.
+// pixel, a gain and a colour cast of the light cancel out, also where they
+// differ across the room (a lamp), and what walks into view changes only its
+// surroundings; seen through the whole frame's statistics, an offset cancels
+// too, but people in view shift every pixel. The features, the patch
+// descriptors and the line detector see the image normalised.
 
 #include <opencv2/core.hpp>
 #include <optional>
