@@ -13,12 +13,11 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
 }  // namespace
 
 bool ModelBuilder::add(const RgbdFrame& frame) {
-  return appendTrainingImage(frame, params_.colour_normalisation, images_);
+  return appendTrainingImage(frame, params_, images_);
 }
 
 void ModelBuilder::add(TrainingImage image) {
-  image.colour = normaliseColour(image.colour, params_.colour_normalisation);
-  images_.push_back(std::move(image));
+  appendTrainingImage(std::move(image), params_, images_);
 }
 
 Expected<Model> ModelBuilder::build(TrainingSummary provenance,

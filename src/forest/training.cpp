@@ -242,16 +242,29 @@ Forest trainForest(const std::vector<TrainingImage>& images, ForestKind kind,
 
 namespace relocalizer {
 
-bool appendTrainingImage(const RgbdFrame& frame, ColourNormalisation normalisation,
+bool appendTrainingImage(const RgbdFrame& frame, const TrainingParams& params,
                          std::vector<TrainingImage>& images) {
   if (!frame.ground_truth) return false;
   TrainingImage image;
-  image.colour = normaliseColour(frame.colour, normalisation);
+  image.colour = frame.colour;
   image.depth = frame.depth;
   image.camera = frame.camera;
   image.pose = *frame.ground_truth;
-  images.push_back(std::move(image));
+  appendTrainingImage(std::move(image), params, images);
   return true;
+}
+
+void appendTrainingImage(TrainingImage image, const TrainingParams& params,
+                         std::vector<TrainingImage>& images) {
+  if (params.light_augmentation.enabled()) {
+    // Its own stream per image, apart from the trees' and the line cache's.
+    constexpr int kLightStreams = 200000;
+    const uint64_t bits =
+        treeSeed(params.seed, ForestKind::Points, kLightStreams + static_cast<int>(images.size()));
+    image.colour = applyPhotometricChange(image.colour, drawLight(params.light_augmentation, bits));
+  }
+  image.colour = normaliseColour(image.colour, params.colour_normalisation);
+  images.push_back(std::move(image));
 }
 
 SurfaceModel buildSurface(const std::vector<TrainingImage>& images, const SurfaceParams& params) {

@@ -46,6 +46,10 @@ json trainingParamsJson(const TrainingParams& p) {
   const auto& l = p.line_sampling;
   return {{"seed", p.seed},
           {"colour_normalisation", colourNormalisationName(p.colour_normalisation)},
+          {"light_augmentation",
+           {{"max_stops", p.light_augmentation.max_stops},
+            {"min_kelvin", p.light_augmentation.min_kelvin},
+            {"max_kelvin", p.light_augmentation.max_kelvin}}},
           {"surface", surfaceJson(p)},
           {"train_points", p.train_points},
           {"train_lines", p.train_lines},
@@ -111,6 +115,15 @@ Choice readChoice(const json& j, const std::string& prefix, const std::string& k
   return *choice;
 }
 
+void readLightAugmentation(const json& j, LightAugmentation& a) {
+  const std::string prefix = "light_augmentation.";
+  readField(j, prefix, "max_stops", a.max_stops);
+  readField(j, prefix, "min_kelvin", a.min_kelvin);
+  readField(j, prefix, "max_kelvin", a.max_kelvin);
+  const std::string why = a.validationError();
+  if (!why.empty()) throw std::out_of_range(why);
+}
+
 void readSurface(const json& j, TrainingParams& p) {
   const std::string prefix = "surface.";
   readField(j, prefix, "enabled", p.build_surface);
@@ -131,6 +144,9 @@ void readTrainingParams(const json& j, TrainingParams& p) {
   p.colour_normalisation =
       readChoice(j, "", "colour_normalisation", ColourNormalisation::kNone,
                  colourNormalisationNamed, "\"channel_statistics\", \"local_mean\" or \"none\"");
+  // Models written before it existed were trained on the recorded light.
+  if (j.contains("light_augmentation"))
+    readLightAugmentation(j.at("light_augmentation"), p.light_augmentation);
   // Version-1 model headers predate the surface: they keep the defaults, and the
   // model no surface (the file has none to read).
   if (j.contains("surface")) readSurface(j.at("surface"), p);

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+
 #include "relocalizer/core/photometric_change.h"
 #include "relocalizer/core/statistics.h"
 #include "relocalizer/eval/metrics.h"
@@ -15,35 +17,77 @@ using namespace relocalizer;
 
 namespace {
 
+// The room, the camera and the paths every test here shares.
+const SyntheticRoom& room() {
+  static const SyntheticRoom kRoom(7);
+  return kRoom;
+}
+CameraIntrinsics smallCamera() { return CameraIntrinsics::kinectDefault().scaledTo(320, 240); }
+constexpr int kTrainFrames = 80, kTestFrames = 30;
+
+// Forests of the room's training frames grown to CI's size under `params`'
+// colour choices.
+Model trainedOnRoom(TrainingParams params) {
+  for (ForestParams* f : {&params.points, &params.lines}) {
+    f->trees = 3;
+    f->max_depth = 16;
+    f->samples_per_image = 1000;
+  }
+  const SyntheticTrajectories paths = room().trajectories(kTrainFrames, kTestFrames);
+  ModelBuilder builder(params);
+  for (size_t i = 0; i < paths.train.size(); ++i)
+    builder.add(room().render(paths.train[i], smallCamera(), static_cast<int>(i)));
+  auto built = builder.build({});
+  if (!built.ok()) throw std::runtime_error(built.error());
+  return std::move(*built);
+}
+
+RelocalizerParams smallRelocalization() {
+  RelocalizerParams reloc;
+  reloc.point_samples = 1000;
+  reloc.line_samples = 500;
+  reloc.solver.hypotheses = 256;
+  return reloc;
+}
+
+// How `relocalizer` does on `frames` seen under `light`.
+AccuracySummary accuracyUnder(const Relocalizer& relocalizer, const std::vector<RgbdFrame>& frames,
+                              const PhotometricChange& light) {
+  std::vector<FrameError> errors;
+  std::vector<std::optional<Pose>> estimates;
+  std::vector<Pose> truths;
+  for (const RgbdFrame& recorded : frames) {
+    RgbdFrame frame = recorded;
+    frame.colour = applyPhotometricChange(recorded.colour, light);
+    const Relocalization r = relocalizer.relocalize(frame);
+    estimates.push_back(r.success ? std::optional<Pose>(r.pose) : std::nullopt);
+    errors.push_back(frameError(frame.id, estimates.back(), *frame.ground_truth));
+    truths.push_back(*frame.ground_truth);
+  }
+  return summarizeAccuracy(errors, estimates, truths);
+}
+
+PhotometricChange evening() {
+  PhotometricChange light;
+  light.stops = -1;
+  light.kelvin = 2700;
+  return light;
+}
+
 // Small enough for CI (about half a minute on 2 cores), large enough to be a
 // real relocalization problem: 320x240, 80 training frames along one loop,
 // 30 test frames along another.
 class SyntheticRoomRelocalization : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    const SyntheticRoom room(7);
-    const CameraIntrinsics camera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
-    const SyntheticTrajectories paths = room.trajectories(80, 30);
+    const SyntheticTrajectories paths = room().trajectories(kTrainFrames, kTestFrames);
+    for (size_t i = 0; i < paths.test.size(); ++i)
+      test_frames_.push_back(
+          room().render(paths.test[i], smallCamera(), static_cast<int>(kTrainFrames + i)));
     TrainingParams params;
     params.colour_normalisation = ColourNormalisation::kChannelStatistics;
-    for (ForestParams* f : {&params.points, &params.lines}) {
-      f->trees = 3;
-      f->max_depth = 16;
-      f->samples_per_image = 1000;
-    }
-    ModelBuilder builder(params);
-    for (size_t i = 0; i < paths.train.size(); ++i)
-      builder.add(room.render(paths.train[i], camera, static_cast<int>(i)));
-    for (size_t i = 0; i < paths.test.size(); ++i)
-      test_frames_.push_back(room.render(paths.test[i], camera, static_cast<int>(80 + i)));
-
-    auto built = builder.build({});
-    ASSERT_TRUE(built.ok()) << built.error();
-    Model model = std::move(*built);
-    RelocalizerParams reloc;
-    reloc.point_samples = 1000;
-    reloc.line_samples = 500;
-    reloc.solver.hypotheses = 256;
+    Model model = trainedOnRoom(params);
+    const RelocalizerParams reloc = smallRelocalization();
     RelocalizerParams unchecked = reloc;
     unchecked.surface.enabled = false;
     without_surface_ = new Relocalizer(model, unchecked);
@@ -122,23 +166,28 @@ TEST_F(SyntheticRoomRelocalization, NinetyPercentOfTestFramesWithinFiveCentimetr
 // are found as in the training light: 100 % here, against 50 % (the rest "no
 // pose") with the fixture's model trained with colour_normalisation none.
 TEST_F(SyntheticRoomRelocalization, EveningLightIsFoundAsInTheLightOfTraining) {
-  PhotometricChange evening;
-  evening.stops = -1;
-  evening.kelvin = 2700;
-  std::vector<FrameError> errors;
-  std::vector<std::optional<Pose>> estimates;
-  std::vector<Pose> truths;
-  for (const RgbdFrame& recorded : test_frames_) {
-    RgbdFrame frame = recorded;
-    frame.colour = applyPhotometricChange(recorded.colour, evening);
-    const Relocalization r = relocalizer_->relocalize(frame);
-    estimates.push_back(r.success ? std::optional<Pose>(r.pose) : std::nullopt);
-    errors.push_back(frameError(frame.id, estimates.back(), *frame.ground_truth));
-    truths.push_back(*frame.ground_truth);
-  }
-  const AccuracySummary s = summarizeAccuracy(errors, estimates, truths);
+  const AccuracySummary s = accuracyUnder(*relocalizer_, test_frames_, evening());
   std::printf("synthetic room, evening light: %.1f%% within 5 cm / 5 deg, %d wrong\n",
               100 * s.within_5cm_5deg, s.wrong_answers);
+  EXPECT_GE(s.within_5cm_5deg, 0.90);
+  EXPECT_EQ(s.wrong_answers, 0);
+}
+
+// The other way to the same end (light_augmentation.h): the room trained on
+// its recorded frames each seen under a light drawn at random, relocalized in
+// the evening from the frames' recorded colour. Trained without it, the same
+// model found a third of these frames (33 %, the rest "no pose").
+TEST_F(SyntheticRoomRelocalization, TrainedUnderDrawnLightsEveningIsFoundFromTheRecordedColour) {
+  TrainingParams params;
+  params.light_augmentation.max_stops = 1.0;
+  params.light_augmentation.min_kelvin = 2500.0;
+  params.light_augmentation.max_kelvin = 8500.0;
+  const Relocalizer augmented(trainedOnRoom(params), smallRelocalization());
+  const AccuracySummary s = accuracyUnder(augmented, test_frames_, evening());
+  std::printf(
+      "synthetic room trained under drawn lights, evening: %.1f%% within 5 cm / 5 deg, "
+      "%d wrong\n",
+      100 * s.within_5cm_5deg, s.wrong_answers);
   EXPECT_GE(s.within_5cm_5deg, 0.90);
   EXPECT_EQ(s.wrong_answers, 0);
 }
@@ -178,7 +227,7 @@ TEST_F(SyntheticRoomRelocalization, TheSurfaceCheckAloneRefusesFramesOfAnotherRo
   const Relocalizer surface_gate_only(relocalizer_->model(), params);
   const SyntheticRoom other(8);
   const SyntheticTrajectories paths = other.trajectories(10, 10);
-  const CameraIntrinsics camera = CameraIntrinsics::kinectDefault().scaledTo(320, 240);
+  const CameraIntrinsics camera = smallCamera();
   int answered = 0, refused_by_surface = 0, without_hypothesis = 0;
   float highest = 0.0f;
   for (size_t i = 0; i < paths.test.size(); ++i) {

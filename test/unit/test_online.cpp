@@ -251,7 +251,7 @@ TEST_F(OnlineRoom, ModelBuilderGivesTheForestsAndSurfaceOfTheirOwnTraining) {
   std::vector<TrainingImage> images;
   ModelBuilder builder(params);
   for (const RgbdFrame& frame : learn_) {
-    ASSERT_TRUE(appendTrainingImage(frame, params.colour_normalisation, images));
+    ASSERT_TRUE(appendTrainingImage(frame, params, images));
     ASSERT_TRUE(builder.add(frame));
   }
   RgbdFrame unposed = learn_.front();

@@ -21,6 +21,7 @@
 #include "relocalizer/core/frame.h"
 #include "relocalizer/forest/colour_normalisation.h"
 #include "relocalizer/forest/forest.h"
+#include "relocalizer/forest/light_augmentation.h"
 #include "relocalizer/forest/mean_shift.h"
 #include "relocalizer/forest/sampling.h"
 #include "relocalizer/surface/surface_model.h"
@@ -55,6 +56,9 @@ struct TrainingParams {
   // lets a place learned from sparse key frames take a look-alike view for
   // one it knows (docs/benchmarks.md).
   ColourNormalisation colour_normalisation = ColourNormalisation::kNone;
+  // The lights each training image is seen under before the normalisation
+  // (light_augmentation.h); models written before it existed read none.
+  LightAugmentation light_augmentation;
   bool train_points = true;
   bool train_lines = true;
   bool build_surface = true;  // fuse the images' depth into the scene surface (surface_model.h)
@@ -140,9 +144,13 @@ uint64_t treeSeed(uint64_t seed, ForestKind kind, int tree);
 
 namespace relocalizer {
 
-// A posed frame as training keeps it, its colour as the forests see it under
-// `normalisation`; false (and nothing appended) when the frame has no ground truth.
-bool appendTrainingImage(const RgbdFrame& frame, ColourNormalisation normalisation,
+// A posed frame as training keeps it, its colour as the forests see it: under
+// the light `params` draw for the image's place in `images`, then normalised.
+// False (and nothing appended) when the frame has no ground truth.
+bool appendTrainingImage(const RgbdFrame& frame, const TrainingParams& params,
+                         std::vector<TrainingImage>& images);
+// The same for an image that already has its pose (colour as recorded).
+void appendTrainingImage(TrainingImage image, const TrainingParams& params,
                          std::vector<TrainingImage>& images);
 
 // The scene surface fused from the images' depth at their poses, in image order
