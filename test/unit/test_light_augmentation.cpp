@@ -144,6 +144,12 @@ TEST(LightAugmentation, ModelsKeepItAndModelsWithoutItWereTrainedOnTheRecordedLi
   auto older = trainingParamsFromJson(header.dump());
   ASSERT_TRUE(older.ok()) << older.error();
   EXPECT_FALSE(older->light_augmentation.enabled());
+  auto preset =
+      loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/light_augmented.yaml");
+  ASSERT_TRUE(preset.ok()) << preset.error();
+  EXPECT_EQ(preset->light_augmentation.max_stops, 1.0);
+  EXPECT_EQ(preset->light_augmentation.min_kelvin, 2500.0);
+  EXPECT_EQ(preset->colour_normalisation, ColourNormalisation::kNone);
   header["light_augmentation"] = {{"max_stops", 1.0}, {"min_kelvin", 3000.0}, {"max_kelvin", 0.0}};
   auto broken = trainingParamsFromJson(header.dump());
   ASSERT_FALSE(broken.ok());
