@@ -330,14 +330,14 @@ void predictForest(const Forest& forest, const FeatureImage& image,
 }
 
 void computeDescriptors(const FeatureImage& image, const std::vector<Sample>& samples,
-                        std::vector<Descriptor>& out) {
+                        DescriptorNormalisation normalisation, std::vector<Descriptor>& out) {
   out.resize(samples.size());
-  tbb::parallel_for(
-      tbb::blocked_range<size_t>(0, samples.size(), 128),
-      [&](const tbb::blocked_range<size_t>& range) {
-        for (size_t i = range.begin(); i < range.end(); ++i)
-          out[i] = quantizeDescriptor(computeDescriptor(image, samples[i].u, samples[i].v));
-      });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, samples.size(), 128),
+                    [&](const tbb::blocked_range<size_t>& range) {
+                      for (size_t i = range.begin(); i < range.end(); ++i)
+                        out[i] = quantizeDescriptor(
+                            computeDescriptor(image, samples[i].u, samples[i].v, normalisation));
+                    });
 }
 
 }  // namespace relocalizer

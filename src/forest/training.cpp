@@ -157,7 +157,8 @@ std::vector<TreeDraw> drawSamples(const std::vector<TrainingImage>& images,
 // keeps the last thread from finishing alone on a big tree. A shared counter
 // rather than a partitioned range, which would give each thread a fixed half.
 void growTrees(const std::vector<TrainingImage>& images, std::vector<TreeDraw>& draws,
-               const TrainingProgress& progress, uint64_t seed, std::vector<Forest*> forests) {
+               const TrainingProgress& progress, const TrainingParams& params,
+               std::vector<Forest*> forests) {
   std::vector<size_t> order(draws.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
@@ -175,8 +176,9 @@ void growTrees(const std::vector<TrainingImage>& images, std::vector<TreeDraw>& 
         for (size_t k = next++; k < order.size(); k = next++) {
           TreeDraw& draw = draws[order[k]];
           const auto start = std::chrono::steady_clock::now();
-          forests[static_cast<int>(draw.kind)]->trees[draw.tree] = growTree(
-              images, draw.samples, *draw.params, treeSeed(seed, draw.kind, draw.tree), progress);
+          forests[static_cast<int>(draw.kind)]->trees[draw.tree] =
+              growTree(images, draw.samples, *draw.params, params.descriptor_normalisation,
+                       treeSeed(params.seed, draw.kind, draw.tree), progress);
           if (progress.tree_done)
             progress.tree_done(
                 draw.kind, draw.tree,
@@ -216,7 +218,7 @@ void trainForestsImpl(const std::vector<TrainingImage>& images, const TrainingPa
   reportDrawn(draws, progress);
   if (params.train_points) points = Forest{};
   if (params.train_lines) lines = Forest{};
-  growTrees(images, draws, progress, params.seed, {&points, &lines});
+  growTrees(images, draws, progress, params, {&points, &lines});
 }
 
 }  // namespace
@@ -234,7 +236,7 @@ Forest trainForest(const std::vector<TrainingImage>& images, ForestKind kind,
   std::vector<TreeDraw> draws = drawSamples(images, params, {kind}, {});
   reportDrawn(draws, progress);
   Forest points, lines;
-  growTrees(images, draws, progress, params.seed, {&points, &lines});
+  growTrees(images, draws, progress, params, {&points, &lines});
   return kind == ForestKind::Points ? points : lines;
 }
 

@@ -50,6 +50,7 @@ json trainingParamsJson(const TrainingParams& p) {
            {{"max_stops", p.light_augmentation.max_stops},
             {"min_kelvin", p.light_augmentation.min_kelvin},
             {"max_kelvin", p.light_augmentation.max_kelvin}}},
+          {"descriptor_normalisation", descriptorNormalisationName(p.descriptor_normalisation)},
           {"surface", surfaceJson(p)},
           {"train_points", p.train_points},
           {"train_lines", p.train_lines},
@@ -147,6 +148,10 @@ void readTrainingParams(const json& j, TrainingParams& p) {
   // Models written before it existed were trained on the recorded light.
   if (j.contains("light_augmentation"))
     readLightAugmentation(j.at("light_augmentation"), p.light_augmentation);
+  // Models written before it existed scaled the whole descriptor.
+  p.descriptor_normalisation =
+      readChoice(j, "", "descriptor_normalisation", DescriptorNormalisation::kWhole,
+                 descriptorNormalisationNamed, "\"per_channel\" or \"whole\"");
   // Version-1 model headers predate the surface: they keep the defaults, and the
   // model no surface (the file has none to read).
   if (j.contains("surface")) readSurface(j.at("surface"), p);

@@ -61,7 +61,8 @@ struct SplitChoice {
 class TreeGrower {
  public:
   TreeGrower(const std::vector<TrainingImage>& images, TreeSamples& samples,
-             const ForestParams& params, uint64_t seed, const TrainingProgress& progress);
+             const ForestParams& params, DescriptorNormalisation descriptors, uint64_t seed,
+             const TrainingProgress& progress);
 
   // Depth first, left before right, so node order (and the model's bytes)
   // follows from the seed alone.
@@ -116,11 +117,12 @@ class TreeGrower {
   // A mode as the model stores it: the covariance as its inverse.
   static LeafMode leafMode(const Mode3D& mode);
   // A mode's descriptor: the sum of its samples' normalised and quantised.
-  static Descriptor modeDescriptor(DescriptorF& descriptor_sum);
+  Descriptor modeDescriptor(DescriptorF& descriptor_sum) const;
 
   const std::vector<TrainingImage>& images_;
   std::vector<TreeSamples::Item>& items_;
   const ForestParams& params_;
+  const DescriptorNormalisation descriptors_;
   std::mt19937 rng_;
   const TrainingProgress& progress_;
   std::vector<FeatureImage> views_;
@@ -142,10 +144,12 @@ class TreeGrower {
 };
 
 TreeGrower::TreeGrower(const std::vector<TrainingImage>& images, TreeSamples& samples,
-                       const ForestParams& params, uint64_t seed, const TrainingProgress& progress)
+                       const ForestParams& params, DescriptorNormalisation descriptors,
+                       uint64_t seed, const TrainingProgress& progress)
     : images_(images),
       items_(samples.items),
       params_(params),
+      descriptors_(descriptors),
       rng_(static_cast<uint32_t>(seed ^ (seed >> 32))),
       progress_(progress) {
   views_.reserve(images.size());
@@ -369,7 +373,7 @@ std::vector<DescriptorF> TreeGrower::modeDescriptorSums(size_t mode_count) const
     const int m = assignment_[k];
     if (m < 0) continue;
     const auto& item = items_[members_[k]];
-    const DescriptorF d = computeDescriptor(views_[item.image], item.u, item.v);
+    const DescriptorF d = computeDescriptor(views_[item.image], item.u, item.v, descriptors_);
     for (int j = 0; j < kDescriptorSize; ++j) sums[m][j] += d[j];
   }
   return sums;
@@ -382,25 +386,23 @@ LeafMode TreeGrower::leafMode(const Mode3D& mode) {
   return out;
 }
 
-Descriptor TreeGrower::modeDescriptor(DescriptorF& descriptor_sum) {
-  float norm = 0.0f;
-  for (float x : descriptor_sum) norm += x * x;
-  if (norm > 0.0f)
-    for (float& x : descriptor_sum) x /= std::sqrt(norm);
+Descriptor TreeGrower::modeDescriptor(DescriptorF& descriptor_sum) const {
+  normaliseDescriptor(descriptor_sum, descriptors_);
   return quantizeDescriptor(descriptor_sum);
 }
 
 }  // namespace
 
 Tree growTree(const std::vector<TrainingImage>& images, TreeSamples& samples,
-              const ForestParams& params, uint64_t seed, const TrainingProgress& progress) {
+              const ForestParams& params, DescriptorNormalisation descriptors, uint64_t seed,
+              const TrainingProgress& progress) {
   if (samples.items.empty()) {
     // No data (e.g. no line segments at all): a single leaf without modes.
     Tree tree;
     tree.nodes.push_back(SplitNode::leaf({0, 0}));
     return tree;
   }
-  return TreeGrower(images, samples, params, seed, progress).grow();
+  return TreeGrower(images, samples, params, descriptors, seed, progress).grow();
 }
 
 }  // namespace relocalizer

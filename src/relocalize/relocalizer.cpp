@@ -122,7 +122,8 @@ void sampleFrame(const Model& model, const RelocalizerParams& params, const Rgbd
     timings.sampling_lines = secondsSince(line_stage);
     line_stage = Clock::now();
     if (use_lines) {
-      computeDescriptors(samples.image, samples.lines.samples, samples.line_descriptors);
+      computeDescriptors(samples.image, samples.lines.samples,
+                         model.params.descriptor_normalisation, samples.line_descriptors);
       if (predictions)
         predictForest(model.lines, samples.image, samples.lines.samples, samples.line_descriptors,
                       prediction, predictions->lines);
@@ -132,7 +133,8 @@ void sampleFrame(const Model& model, const RelocalizerParams& params, const Rgbd
   branches.run_and_wait([&] {
     const auto point_stage = Clock::now();
     if (use_points) {
-      computeDescriptors(samples.image, samples.points, samples.point_descriptors);
+      computeDescriptors(samples.image, samples.points, model.params.descriptor_normalisation,
+                         samples.point_descriptors);
       if (predictions)
         predictForest(model.points, samples.image, samples.points, samples.point_descriptors,
                       prediction, predictions->points);
@@ -193,6 +195,7 @@ SamplingRecipe Relocalizer::samplingRecipe() const {
   recipe.seed = params_.seed;
   recipe.line_sampling = model_.params.line_sampling;
   recipe.colour_normalisation = model_.params.colour_normalisation;
+  recipe.descriptor_normalisation = model_.params.descriptor_normalisation;
   return recipe;
 }
 
@@ -340,12 +343,14 @@ bool SamplingRecipe::sameAs(const SamplingRecipe& other) const {
   return use_points == other.use_points && use_lines == other.use_lines &&
          point_samples == other.point_samples && line_samples == other.line_samples &&
          min_valid_depth == other.min_valid_depth && seed == other.seed &&
-         colour_normalisation == other.colour_normalisation && a.line_detector == b.line_detector &&
-         a.min_segment_length_px == b.min_segment_length_px && a.spacing_px == b.spacing_px &&
-         a.lsd_scale == b.lsd_scale && a.lsd_min_width_px == b.lsd_min_width_px &&
-         a.lsd_validation == b.lsd_validation && a.edge_offset_px == b.edge_offset_px &&
-         a.ransac_inlier_m == b.ransac_inlier_m && a.ransac_iterations == b.ransac_iterations &&
-         a.min_inliers == b.min_inliers && a.min_inlier_ratio == b.min_inlier_ratio;
+         colour_normalisation == other.colour_normalisation &&
+         descriptor_normalisation == other.descriptor_normalisation &&
+         a.line_detector == b.line_detector && a.min_segment_length_px == b.min_segment_length_px &&
+         a.spacing_px == b.spacing_px && a.lsd_scale == b.lsd_scale &&
+         a.lsd_min_width_px == b.lsd_min_width_px && a.lsd_validation == b.lsd_validation &&
+         a.edge_offset_px == b.edge_offset_px && a.ransac_inlier_m == b.ransac_inlier_m &&
+         a.ransac_iterations == b.ransac_iterations && a.min_inliers == b.min_inliers &&
+         a.min_inlier_ratio == b.min_inlier_ratio;
 }
 
 std::string Relocalizer::limitations() const {
@@ -375,7 +380,7 @@ Expected<PredictionQuality> Relocalizer::measurePredictions(const RgbdFrame& rec
   const FeatureImage image = FeatureImage::of(frame.colour, frame.depth);
   std::vector<Descriptor> descriptors;
   std::vector<Prediction> predictions;
-  computeDescriptors(image, samples, descriptors);
+  computeDescriptors(image, samples, model_.params.descriptor_normalisation, descriptors);
   PredictionParams prediction;
   prediction.max_leaves = params_.max_leaves;
   predictForest(forest, image, samples, descriptors, prediction, predictions);

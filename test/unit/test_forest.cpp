@@ -235,8 +235,10 @@ TEST(Descriptor, UnitLengthAndInvariantToContrastGain) {
   cv::randu(colour, 0, 120);
   cv::Mat brighter = colour * 2;
   cv::Mat depth(40, 40, CV_32FC1, cv::Scalar(1.0f));
-  const DescriptorF a = computeDescriptor(FeatureImage::of(colour, depth), 20, 20);
-  const DescriptorF b = computeDescriptor(FeatureImage::of(brighter, depth), 20, 20);
+  const DescriptorF a =
+      computeDescriptor(FeatureImage::of(colour, depth), 20, 20, DescriptorNormalisation::kWhole);
+  const DescriptorF b =
+      computeDescriptor(FeatureImage::of(brighter, depth), 20, 20, DescriptorNormalisation::kWhole);
   float norm = 0, diff = 0;
   for (int i = 0; i < kDescriptorSize; ++i) {
     norm += a[i] * a[i];
@@ -246,11 +248,49 @@ TEST(Descriptor, UnitLengthAndInvariantToContrastGain) {
   EXPECT_LT(diff, 1e-8f);
   // A flat patch has only DC energy.
   cv::Mat flat(40, 40, CV_8UC3, cv::Scalar(10, 20, 30));
-  const DescriptorF f = computeDescriptor(FeatureImage::of(flat, depth), 20, 20);
+  const DescriptorF f =
+      computeDescriptor(FeatureImage::of(flat, depth), 20, 20, DescriptorNormalisation::kWhole);
   for (int c = 0; c < 3; ++c)
     for (int k = 1; k < kDescriptorPerChannel; ++k)
       EXPECT_EQ(f[c * kDescriptorPerChannel + k], 0.0f);
   EXPECT_GT(f[2 * kDescriptorPerChannel], f[0]);  // red (30) over blue (10)
+}
+
+// A warm light multiplies each channel by its own gain: the descriptor scaled
+// per channel does not see it, the one scaled as a whole does.
+TEST(Descriptor, ScaledPerChannelIgnoresAColourCastThatTheWholeVectorSees) {
+  cv::Mat colour(40, 40, CV_8UC3);
+  cv::RNG(3).fill(colour, cv::RNG::UNIFORM, 20, 120);
+  cv::Mat warm;
+  cv::multiply(colour, cv::Scalar(1.0, 1.0, 2.0), warm);  // BGR: twice the red, exactly
+  const cv::Mat depth(40, 40, CV_32FC1, cv::Scalar(1.0f));
+  auto distance = [&](DescriptorNormalisation normalisation) {
+    const DescriptorF a = computeDescriptor(FeatureImage::of(colour, depth), 20, 20, normalisation);
+    const DescriptorF b = computeDescriptor(FeatureImage::of(warm, depth), 20, 20, normalisation);
+    float squared = 0.0f;
+    for (int i = 0; i < kDescriptorSize; ++i) squared += (a[i] - b[i]) * (a[i] - b[i]);
+    return std::sqrt(squared);
+  };
+  EXPECT_LT(distance(DescriptorNormalisation::kPerChannel), 1e-3f);
+  EXPECT_GT(distance(DescriptorNormalisation::kWhole), 0.3f);
+
+  const DescriptorF d = computeDescriptor(FeatureImage::of(colour, depth), 20, 20,
+                                          DescriptorNormalisation::kPerChannel);
+  for (int c = 0; c < 3; ++c) {
+    float squared = 0.0f;
+    for (int k = 0; k < kDescriptorPerChannel; ++k)
+      squared += d[c * kDescriptorPerChannel + k] * d[c * kDescriptorPerChannel + k];
+    EXPECT_NEAR(squared, 1.0f / 3.0f, 1e-5f) << "channel " << c;
+  }
+  // A black channel stays zero rather than dividing by nothing.
+  cv::Mat no_blue = colour.clone();
+  no_blue.forEach<cv::Vec3b>([](cv::Vec3b& pixel, const int*) { pixel[0] = 0; });
+  const DescriptorF z = computeDescriptor(FeatureImage::of(no_blue, depth), 20, 20,
+                                          DescriptorNormalisation::kPerChannel);
+  for (int k = 0; k < kDescriptorPerChannel; ++k) EXPECT_EQ(z[k], 0.0f);
+  EXPECT_EQ(descriptorNormalisationNamed("per_channel"), DescriptorNormalisation::kPerChannel);
+  EXPECT_EQ(descriptorNormalisationNamed("whole"), DescriptorNormalisation::kWhole);
+  EXPECT_FALSE(descriptorNormalisationNamed("Whole").has_value());
 }
 
 namespace {
@@ -308,7 +348,7 @@ TEST(Descriptor, SameFloatsAsTheFullFloatTransformInsideAndAtBorders) {
   int compared = 0;
   for (int v = -3; v < 40; v += 2)
     for (int u = -3; u < 56; u += 3) {
-      const DescriptorF fast = computeDescriptor(image, u, v);
+      const DescriptorF fast = computeDescriptor(image, u, v, DescriptorNormalisation::kWhole);
       const DescriptorF reference = referenceDescriptor(image, u, v);
       for (int i = 0; i < kDescriptorSize; ++i)
         ASSERT_EQ(fast[i], reference[i]) << "pixel (" << u << ", " << v << "), coefficient " << i;
@@ -348,6 +388,65 @@ TEST_F(TrainedTree, GrowsWithinLimitsAndEveryLeafHasAMode) {
 // were grown into, so every leaf gets at least min_samples_leaf of them.
 // cv::theRNG is put back after drawing the images: other tests' images come
 // from it, and some of their checks hold for the images they get today only.
+// The modes keep their mean descriptor scaled as the model says, so a mode and
+// a test frame's sample are compared on the same terms. The training images'
+// blue is faint: scaled as a whole, blue would have far less than a third of
+// each descriptor's energy.
+TEST(TreeGrowing, ModesKeepTheDescriptorScalingTheModelNames) {
+  const cv::RNG before = cv::theRNG();
+  std::vector<TrainingImage> images = randomImages(6, 21);
+  cv::theRNG() = before;
+  for (TrainingImage& image : images)
+    cv::multiply(image.colour, cv::Scalar(0.25, 1.0, 1.0), image.colour);
+  auto blueShare = [](const Descriptor& d) {
+    double blue = 0.0, others = 0.0;
+    for (int i = 0; i < kDescriptorSize; ++i) {
+      (i < kDescriptorPerChannel ? blue : others) += d[i] * d[i];
+    }
+    return blue / (blue + others);
+  };
+  TrainingParams params = smallParams();
+  for (DescriptorNormalisation normalisation :
+       {DescriptorNormalisation::kPerChannel, DescriptorNormalisation::kWhole}) {
+    params.descriptor_normalisation = normalisation;
+    const Forest forest = trainForest(images, ForestKind::Points, params);
+    double lowest = 1.0, highest = 0.0;
+    size_t modes = 0;
+    for (const Tree& tree : forest.trees)
+      for (const Descriptor& d : tree.descriptors) {
+        lowest = std::min(lowest, blueShare(d));
+        highest = std::max(highest, blueShare(d));
+        ++modes;
+      }
+    ASSERT_GT(modes, 20u);
+    if (normalisation == DescriptorNormalisation::kPerChannel) {
+      EXPECT_GT(lowest, 0.3);  // a third, but for the int8 rounding
+      EXPECT_LT(highest, 0.37);
+    } else {
+      EXPECT_LT(highest, 0.2);
+    }
+  }
+  // The header keeps the choice; models written before it scaled the whole vector.
+  params.descriptor_normalisation = DescriptorNormalisation::kPerChannel;
+  nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(params));
+  EXPECT_EQ(header["descriptor_normalisation"], "per_channel");
+  auto same = trainingParamsFromJson(header.dump());
+  ASSERT_TRUE(same.ok()) << same.error();
+  EXPECT_EQ(same->descriptor_normalisation, DescriptorNormalisation::kPerChannel);
+  header.erase("descriptor_normalisation");
+  auto older = trainingParamsFromJson(header.dump());
+  ASSERT_TRUE(older.ok()) << older.error();
+  EXPECT_EQ(older->descriptor_normalisation, DescriptorNormalisation::kWhole);
+  const auto wrong = parseTrainingParams("descriptor_normalisation: per_pixel\n", "d.yaml");
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.error().find("'descriptor_normalisation' must be"), std::string::npos)
+      << wrong.error();
+  // Samples described one way are not another model's.
+  SamplingRecipe whole, per_channel;
+  per_channel.descriptor_normalisation = DescriptorNormalisation::kPerChannel;
+  EXPECT_FALSE(whole.sameAs(per_channel));
+}
+
 TEST(TreeGrowing, TrainingSamplesDescendToTheLeavesTheyWereGrownInto) {
   const cv::RNG before = cv::theRNG();
   const std::vector<TrainingImage> images = randomImages(6, 21);
@@ -385,7 +484,7 @@ TEST_F(TrainedTree, OneLeafBacktrackingEqualsPlainDescentAndMoreLeavesNeverWorse
   std::vector<Sample> samples;
   samplePoints(frame, 200, rng, samples);
   std::vector<Descriptor> descriptors;
-  computeDescriptors(image.view(), samples, descriptors);
+  computeDescriptors(image.view(), samples, DescriptorNormalisation::kWhole, descriptors);
   const Tree& tree = forest_.trees[0];
   for (size_t i = 0; i < samples.size(); ++i) {
     const Sample& s = samples[i];
@@ -425,7 +524,7 @@ TEST_F(TrainedTree, LockStepPredictionEqualsPerSamplePrediction) {
       std::vector<Sample> samples;
       samplePoints(frame, count, rng, samples);
       std::vector<Descriptor> descriptors;
-      computeDescriptors(image.view(), samples, descriptors);
+      computeDescriptors(image.view(), samples, DescriptorNormalisation::kWhole, descriptors);
       for (int max_leaves : {1, 2, 3, 8, 16}) {
         PredictionParams params;
         params.max_leaves = max_leaves;

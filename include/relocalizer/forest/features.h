@@ -1,5 +1,5 @@
 #pragma once
-// Split features and the patch descriptor shared by training and prediction.
+// The split features, shared by training and prediction.
 //
 // Split feature (depth-adaptive pixel comparison, as in SCoRe forests):
 //   colour: f = I(p, c1) - I(p + delta / D(p), c2)            (intensity units)
@@ -12,16 +12,9 @@
 //   - for depth features, invalid depth at q reads as kFarDepth (10 m): holes
 //     are mostly "something behind" (edges, out of range), so they sort with
 //     far background rather than being dropped.
-// The same code evaluates features in training and at test time.
-//
-// Descriptor: Walsh-Hadamard (WHT) projections of the 16x16 pixel patch centred
-// on the sample, box-filtered 2x2 down to 8x8, per colour channel; the 4x4
-// lowest-sequency coefficients of each channel (16 x 3 = 48 values), the whole
-// vector L2-normalised and quantised to int8 (x127). Leaves keep the mean
-// descriptor of each mode so prediction can pick, among many modes, the one
-// whose local appearance matches.
+// The same code evaluates features in training and at test time. The patch
+// descriptor that picks among a leaf's modes is in patch_descriptor.h.
 
-#include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
 
@@ -142,28 +135,6 @@ inline void prefetchSecondPixel(const PixelFeature& feature, const FeatureImage&
   int qu, qv;
   secondPixel(feature, image, FeatureSite::at(u, v, depth_p), qu, qv);
   prefetchPixel(feature, image, qu, qv);
-}
-
-constexpr int kDescriptorPatch = 16;       // pixels per side
-constexpr int kDescriptorPerChannel = 16;  // 4x4 lowest-sequency WHT coefficients
-constexpr int kDescriptorSize = 3 * kDescriptorPerChannel;
-using Descriptor = std::array<int8_t, kDescriptorSize>;
-using DescriptorF = std::array<float, kDescriptorSize>;
-
-// Unit-length float descriptor of the patch centred on (u, v); the patch is
-// clamped to the image like the features.
-DescriptorF computeDescriptor(const FeatureImage& image, int u, int v);
-
-Descriptor quantizeDescriptor(const DescriptorF& descriptor);
-
-// Squared Euclidean distance between quantised descriptors (units of 1/127^2).
-inline int32_t descriptorDistance(const Descriptor& a, const Descriptor& b) {
-  int32_t sum = 0;
-  for (int i = 0; i < kDescriptorSize; ++i) {
-    const int32_t d = static_cast<int32_t>(a[i]) - static_cast<int32_t>(b[i]);
-    sum += d * d;
-  }
-  return sum;
 }
 
 }  // namespace relocalizer

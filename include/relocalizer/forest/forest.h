@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "relocalizer/forest/features.h"
+#include "relocalizer/forest/patch_descriptor.h"
 #include "relocalizer/forest/sampling.h"
 
 namespace relocalizer {
@@ -118,6 +119,6 @@ void predictForest(const Forest& forest, const FeatureImage& image,
 
 // Descriptors for all samples of a frame, in parallel.
 void computeDescriptors(const FeatureImage& image, const std::vector<Sample>& samples,
-                        std::vector<Descriptor>& out);
+                        DescriptorNormalisation normalisation, std::vector<Descriptor>& out);
 
 }  // namespace relocalizer

@@ -23,6 +23,7 @@
 #include "relocalizer/forest/forest.h"
 #include "relocalizer/forest/light_augmentation.h"
 #include "relocalizer/forest/mean_shift.h"
+#include "relocalizer/forest/patch_descriptor.h"
 #include "relocalizer/forest/sampling.h"
 #include "relocalizer/surface/surface_model.h"
 
@@ -59,6 +60,9 @@ struct TrainingParams {
   // The lights each training image is seen under before the normalisation
   // (light_augmentation.h); models written before it existed read none.
   LightAugmentation light_augmentation;
+  // How the patch descriptors are scaled (patch_descriptor.h); models written
+  // before it existed read kWhole.
+  DescriptorNormalisation descriptor_normalisation = DescriptorNormalisation::kWhole;
   bool train_points = true;
   bool train_lines = true;
   bool build_surface = true;  // fuse the images' depth into the scene surface (surface_model.h)
@@ -130,7 +134,8 @@ std::vector<TreeSamples> drawTreeSamples(const std::vector<TrainingImage>& image
 
 // Grows one tree from its samples (consumed: reordered in place).
 Tree growTree(const std::vector<TrainingImage>& images, TreeSamples& samples,
-              const ForestParams& params, uint64_t seed, const TrainingProgress& progress = {});
+              const ForestParams& params, DescriptorNormalisation descriptors, uint64_t seed,
+              const TrainingProgress& progress = {});
 
 // Grows all trees of one forest, in parallel over trees (TBB, bounded by the
 // caller's tbb::global_control), largest first.

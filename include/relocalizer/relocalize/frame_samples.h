@@ -9,6 +9,7 @@
 
 #include "relocalizer/forest/colour_normalisation.h"
 #include "relocalizer/forest/features.h"
+#include "relocalizer/forest/patch_descriptor.h"
 #include "relocalizer/forest/sampling.h"
 
 namespace relocalizer {
@@ -24,6 +25,7 @@ struct SamplingRecipe {
   uint32_t seed = 0;
   LineSamplingParams line_sampling;
   ColourNormalisation colour_normalisation = ColourNormalisation::kNone;
+  DescriptorNormalisation descriptor_normalisation = DescriptorNormalisation::kWhole;
 
   bool sameAs(const SamplingRecipe& other) const;
 };
