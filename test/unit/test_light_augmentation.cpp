@@ -150,6 +150,7 @@ TEST(LightAugmentation, ModelsKeepItAndModelsWithoutItWereTrainedOnTheRecordedLi
   EXPECT_EQ(preset->light_augmentation.max_stops, 1.0);
   EXPECT_EQ(preset->light_augmentation.min_kelvin, 2500.0);
   EXPECT_EQ(preset->colour_normalisation, ColourNormalisation::kNone);
+  EXPECT_EQ(preset->descriptor_normalisation, DescriptorNormalisation::kPerChannel);
   header["light_augmentation"] = {{"max_stops", 1.0}, {"min_kelvin", 3000.0}, {"max_kelvin", 0.0}};
   auto broken = trainingParamsFromJson(header.dump());
   ASSERT_FALSE(broken.ok());
