@@ -18,31 +18,6 @@ std::optional<DescriptorNormalisation> descriptorNormalisationNamed(const std::s
 
 namespace {
 
-// `values` scaled to `length`, or left at zero.
-void scaleToLength(float* values, int count, float length) {
-  float norm = 0.0f;
-  for (int i = 0; i < count; ++i) norm += values[i] * values[i];
-  const float scale = norm > 0.0f ? length / std::sqrt(norm) : 0.0f;
-  for (int i = 0; i < count; ++i) values[i] *= scale;
-}
-
-}  // namespace
-
-void normaliseDescriptor(DescriptorF& descriptor, DescriptorNormalisation normalisation) {
-  if (normalisation == DescriptorNormalisation::kWhole) {
-    scaleToLength(descriptor.data(), kDescriptorSize, 1.0f);
-    return;
-  }
-  // Equal lengths keep the whole vector at unit length, so distances between
-  // descriptors stay on the scale the quantisation was chosen for.
-  const float channel_length = 1.0f / std::sqrt(3.0f);
-  for (int c = 0; c < 3; ++c)
-    scaleToLength(descriptor.data() + c * kDescriptorPerChannel, kDescriptorPerChannel,
-                  channel_length);
-}
-
-namespace {
-
 // One coefficient of the 8-point Walsh-Hadamard transform in natural
 // (Hadamard) order: row N of the matrix is (-1)^popcount(N & j). With the
 // index a template argument every sign is a constant, so each coefficient is
@@ -63,7 +38,28 @@ inline void lowSequency(const int* x, int out[4]) {
   out[3] = hadamardCoefficient<2>(x);
 }
 
+// `values` scaled to `length`, or left at zero.
+void scaleToLength(float* values, int count, float length) {
+  float norm = 0.0f;
+  for (int i = 0; i < count; ++i) norm += values[i] * values[i];
+  const float scale = norm > 0.0f ? length / std::sqrt(norm) : 0.0f;
+  for (int i = 0; i < count; ++i) values[i] *= scale;
+}
+
 }  // namespace
+
+void normaliseDescriptor(DescriptorF& descriptor, DescriptorNormalisation normalisation) {
+  if (normalisation == DescriptorNormalisation::kWhole) {
+    scaleToLength(descriptor.data(), kDescriptorSize, 1.0f);
+    return;
+  }
+  // Equal lengths keep the whole vector at unit length, so distances between
+  // descriptors stay on the scale the quantisation was chosen for.
+  const float channel_length = 1.0f / std::sqrt(static_cast<float>(kDescriptorChannels));
+  for (int c = 0; c < kDescriptorChannels; ++c)
+    scaleToLength(descriptor.data() + c * kDescriptorPerChannel, kDescriptorPerChannel,
+                  channel_length);
+}
 
 DescriptorF computeDescriptor(const FeatureImage& image, int u, int v,
                               DescriptorNormalisation normalisation) {
@@ -72,7 +68,7 @@ DescriptorF computeDescriptor(const FeatureImage& image, int u, int v,
   // Cell sums stay integers (at most 4 * 255 per cell, 64 * 1020 per
   // coefficient, far below 2^24), so the transform is exact in int and the
   // floats below are the same as a float transform in any order would give.
-  int cells[3][kCells * kCells];
+  int cells[kDescriptorChannels][kCells * kCells];
   const int u0 = u - kDescriptorPatch / 2, v0 = v - kDescriptorPatch / 2;
   const bool inside = u0 >= 0 && v0 >= 0 && u0 + kDescriptorPatch <= image.width &&
                       v0 + kDescriptorPatch <= image.height;
@@ -90,13 +86,13 @@ DescriptorF computeDescriptor(const FeatureImage& image, int u, int v,
         x0 = std::clamp(x0, 0, image.width - 1);
         x1 = std::clamp(x1, 0, image.width - 1);
       }
-      for (int c = 0; c < 3; ++c)
+      for (int c = 0; c < kDescriptorChannels; ++c)
         cells[c][cy * kCells + cx] =
             row0[x0 * 3 + c] + row0[x1 * 3 + c] + row1[x0 * 3 + c] + row1[x1 * 3 + c];
     }
   }
   DescriptorF out;
-  for (int c = 0; c < 3; ++c) {
+  for (int c = 0; c < kDescriptorChannels; ++c) {
     // by_row[k][r]: horizontal coefficient k of cell row r; then the vertical
     // transform of each of those columns gives coefficient (sy, sx).
     int by_row[4][kCells];

@@ -116,7 +116,7 @@ class TreeGrower {
 
   // A mode as the model stores it: the covariance as its inverse.
   static LeafMode leafMode(const Mode3D& mode);
-  // A mode's descriptor: the sum of its samples' normalised and quantised.
+  // A mode's descriptor: the sum of its samples' scaled as the model says, and quantised.
   Descriptor modeDescriptor(DescriptorF& descriptor_sum) const;
 
   const std::vector<TrainingImage>& images_;

@@ -30,8 +30,9 @@ const char* descriptorNormalisationName(DescriptorNormalisation normalisation);
 std::optional<DescriptorNormalisation> descriptorNormalisationNamed(const std::string& name);
 
 constexpr int kDescriptorPatch = 16;       // pixels per side
+constexpr int kDescriptorChannels = 3;     // B, G, R
 constexpr int kDescriptorPerChannel = 16;  // 4x4 lowest-sequency WHT coefficients
-constexpr int kDescriptorSize = 3 * kDescriptorPerChannel;
+constexpr int kDescriptorSize = kDescriptorChannels * kDescriptorPerChannel;
 using Descriptor = std::array<int8_t, kDescriptorSize>;
 using DescriptorF = std::array<float, kDescriptorSize>;
 
