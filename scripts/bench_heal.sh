@@ -18,7 +18,9 @@
 # 2 cm / 2 deg, frames with no pose, answers off by more than 10 cm or 10 deg,
 # and the key frames learned / left covered; then the same learning with
 # --relearn-agreement 0 (covered key frames never learned again, as before
-# online/place_change.h). Everything goes to
+# online/place_change.h); then the same room surveyed by `train` from the lap
+# before the change, as it answers and as it heals in learn mode from its one
+# model file (the same rows). Everything goes to
 # BUILD_DIR/bench_heal (the rendered frames are reused by the next run;
 # heal.json holds the table).
 # Environment: HEAL_THREADS (2: threads of evaluate).
@@ -103,6 +105,28 @@ for seconds in 30 60; do
     --model "$out/place" --learn-frames "$stream-$((stream + seconds * rate - 1))" --submaps \
     --frames "$moved" --relearn-agreement 0 --save-model "$out/never_relearned_${seconds}s_place"
 done
+
+# The same room surveyed by `train` (every frame of the lap before the change,
+# default training) instead of learned: continued in learn mode from that one
+# model file, it answers as frozen submap 0 and learns only what its surface
+# does not hold (online/place_change.h: surveyCovers).
+rm -rf "$out"/survey_healed_*
+echo "bench_heal: training the survey"
+"$tools/train" --dataset "$data" --frames 0-$((lap - 1)) --threads "$threads" \
+  --output "$out/survey.model" > "$out/survey.log" 2>&1 ||
+  { echo "bench_heal: train failed, see $out/survey.log"; exit 1; }
+run "surveyed by train: before the change" survey_before --model "$out/survey.model" \
+  --frames "$unchanged"
+run "surveyed by train: just after the change" survey_just_after --model "$out/survey.model" \
+  --frames "$moved"
+for seconds in 30 60; do
+  run "surveyed by train: after ${seconds} s of learning in the changed room" \
+    "survey_after_${seconds}s" --model "$out/survey.model" \
+    --learn-frames "$stream-$((stream + seconds * rate - 1))" --submaps --frames "$moved" \
+    --save-model "$out/survey_healed_${seconds}s"
+done
+run "surveyed by train: unchanged room's frames after 60 s" survey_unchanged_after \
+  --model "$out/survey_healed_60s" --frames "$unchanged"
 
 python3 - "$manifest" "$out/heal.json" <<'EOF'
 import json, re, sys

@@ -120,7 +120,7 @@ Expected<SavedSubmaps> readSavedSubmaps(const std::string& folder, const SubmapM
   // The active submap answers with the model a learner continuing it would serve.
   std::shared_ptr<const Relocalizer> active;
   int active_index = -1;
-  ReadSubmaps read = readSubmaps(folder, manifest, learning->max_keyframes, served,
+  ReadSubmaps read = readSubmaps(folder, manifest, learning->max_keyframes, served, params,
                                  [&](const SubmapEntry& e) -> Expected<std::string> {
                                    auto model = readActiveSubmapModel(folder, e, served);
                                    if (!model) return makeError(model.error());
@@ -189,7 +189,7 @@ Expected<std::shared_ptr<OnlineLearner>> continueActiveSubmap(const std::string&
 
 ReadSubmaps readSubmaps(const std::string& folder, const SubmapManifest& manifest,
                         int max_keyframes, const RelocalizerParams& served,
-                        const ActiveSubmapReader& active) {
+                        const RelocalizerParams& surveyed, const ActiveSubmapReader& active) {
   // Indices are at most kMaxSubmapIndex (readSubmapManifest): the slots by
   // index cost a few MB at worst.
   const int count = manifest.submaps.empty() ? 0 : manifest.submaps.back().index + 1;
@@ -228,7 +228,8 @@ ReadSubmaps readSubmaps(const std::string& folder, const SubmapManifest& manifes
              std::to_string(found.crc) + "; the manifest names " + std::to_string(e.model_id.size) +
              " bytes, CRC " + std::to_string(e.model_id.crc) + ")";
     };
-    auto loaded = loadSubmapModel(inSubmapFolder(folder, e.model), refusal, served);
+    auto loaded = loadSubmapModel(inSubmapFolder(folder, e.model), refusal,
+                                  e.keyframe_poses.empty() ? surveyed : served);
     if (!loaded) {
       warnings.push_back(name + loaded.error() + skipped);
       continue;
@@ -241,6 +242,12 @@ ReadSubmaps readSubmaps(const std::string& folder, const SubmapManifest& manifes
   }
   for (std::string& orphan : unnamedFiles(folder, manifest)) warnings.push_back(std::move(orphan));
   return read;
+}
+
+Expected<std::shared_ptr<const Relocalizer>> loadSurveyedModel(const std::string& path,
+                                                               const RelocalizerParams& params) {
+  return loadSubmapModel(
+      path, [](const ModelFileId&) { return std::string(); }, params);
 }
 
 Expected<SavedSubmaps> loadSavedSubmaps(const std::string& folder, std::string group,

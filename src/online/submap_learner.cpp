@@ -104,21 +104,6 @@ Status SubmapLearner::freezeFront() {
   return frozen;
 }
 
-Expected<std::vector<std::string>> SubmapLearner::resumeModelFile(const std::string& path) {
-  auto learner = std::make_shared<OnlineLearner>(learning_, relocalizer_params_, mode_);
-  if (Status resumed = learner->resume(path); !resumed) return makeError(resumed.error());
-  std::vector<SubmapKeyFrame> key_frames;
-  for (const KeyFrameStore::Entry& k : learner->keyFrames())
-    key_frames.push_back({next_id_++, k->pose});
-  added_ = static_cast<int>(key_frames.size());
-  index_.restore({std::move(key_frames)}, 0);
-  active_ = std::move(learner);
-  warnings_.clear();
-  if (std::string note = active_->status().last_error; !note.empty())
-    warnings_.push_back(std::move(note));
-  return warnings_;
-}
-
 Expected<SubmapPlacement> SubmapLearner::place(const RgbdFrame& frame,
                                                const Pose& camera_to_world) {
   // Checked before the index records it: what the store refuses must not be
@@ -126,11 +111,17 @@ Expected<SubmapPlacement> SubmapLearner::place(const RgbdFrame& frame,
   if (const std::string why = frameValidationError(frame); !why.empty())
     return makeError("key frame " + std::to_string(frame.id) + ": " + why);
   const bool may_cover = !placeChanged(*this, frame, camera_to_world);
+  const bool surveyed = surveyCovers(*this, frame, camera_to_world);
   SubmapPlacement placement;
   std::shared_ptr<OnlineLearner> active;
   bool freeze_inline = false;
   {
     std::unique_lock<std::mutex> lock(mutex_);
+    if (surveyed) {
+      placement.decision = SubmapDecision::Covered;
+      ++covered_;
+      return placement;
+    }
     // A new submap waits for room in the queue, and for a save waiting for
     // the queue (either mode: an Inline freeze is pending while it runs, and
     // a save meanwhile would leave it out). Only this thread changes the
@@ -330,62 +321,6 @@ Status SubmapLearner::save(const std::string& folder) {
   }
   freeze_cv_.notify_all();
   return saved;
-}
-
-Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& folder) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (next_id_ != 0 || index_.submapCount() != 0)
-    return makeError("resume() must come before the first key frame, and only once");
-  if (std::error_code ec; !std::filesystem::is_directory(folder, ec))
-    return resumeModelFile(folder);
-  auto manifest = readSubmapManifest(folder);
-  if (!manifest) return makeError(manifest.error());
-  const int count = manifest->submaps.empty() ? 0 : manifest->submaps.back().index + 1;
-  std::vector<std::vector<SubmapKeyFrame>> slots(static_cast<std::size_t>(count));
-  std::shared_ptr<OnlineLearner> active;
-  int active_index = -1;
-  std::int64_t next_id = 0;
-  for (const SubmapEntry& e : manifest->submaps)
-    for (const SubmapKeyFrame& k : e.keyframe_poses) next_id = std::max(next_id, k.id + 1);
-  ReadSubmaps read = readSubmaps(
-      folder, *manifest, learning_.max_keyframes,
-      learnedModelParams(learning_, relocalizer_params_),
-      [&](const SubmapEntry& e) -> Expected<std::string> {
-        auto learner = continueActiveSubmap(folder, e, learning_, relocalizer_params_, mode_);
-        if (!learner) return makeError(learner.error());
-        // The index must list the store's key frames in the store's order (the
-        // next freeze finds its seeds by position). They are the manifest's
-        // unless a save was cut between the active's files and the manifest.
-        const std::vector<KeyFrameStore::Entry> stored = (*learner)->keyFrames();
-        std::vector<SubmapKeyFrame>& slot = slots[static_cast<std::size_t>(e.index)];
-        if (stored.size() == e.keyframe_poses.size()) {
-          slot = e.keyframe_poses;
-        } else {
-          for (const KeyFrameStore::Entry& k : stored) slot.push_back({next_id++, k->pose});
-        }
-        active = std::move(*learner);
-        active_index = e.index;
-        return active->status().last_error;
-      });
-  std::vector<std::string> warnings;
-  if (manifest->map_frame != names_.map_frame)
-    warnings.push_back(submapManifestPath(folder) + ": the set was learned in map frame " +
-                       manifest->map_frame + ", continued in " + names_.map_frame);
-  warnings.insert(warnings.end(), read.warnings.begin(), read.warnings.end());
-  frozen_.assign(static_cast<std::size_t>(count), Frozen{});
-  for (const SubmapEntry& e : manifest->submaps) {
-    const std::size_t i = static_cast<std::size_t>(e.index);
-    if (!read.frozen[i]) continue;
-    frozen_[i] = {std::move(read.frozen[i]), {}, true, e.model_id};
-    slots[i] = e.keyframe_poses;
-  }
-  for (const auto& slot : slots) added_ += static_cast<int>(slot.size());
-  index_.restore(std::move(slots), active_index);
-  active_ = std::move(active);
-  next_id_ = next_id;
-  folder_ = folder;
-  warnings_ = warnings;
-  return warnings;
 }
 
 std::vector<SubmapModel> SubmapLearner::models(bool current_place) const {

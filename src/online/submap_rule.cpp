@@ -69,6 +69,13 @@ std::vector<int> SubmapIndex::coveringSubmaps(const Pose& pose) const {
   return covering;
 }
 
+std::vector<int> SubmapIndex::surveyedSubmaps() const {
+  std::vector<int> surveyed;
+  for (int s = first_of_place_; s < submapCount(); ++s)
+    if (frozen(s) && keyFrames(s).empty()) surveyed.push_back(s);
+  return surveyed;
+}
+
 SubmapDecision SubmapIndex::decide(const Pose& pose, bool may_cover) const {
   if (may_cover && !coveringSubmaps(pose).empty()) return SubmapDecision::Covered;
   if (active_ < 0) return SubmapDecision::Start;

@@ -242,3 +242,17 @@ TEST(SubmapRule, ARestoredIndexDecidesAsTheOneItWasSavedFrom) {
   SubmapIndex fresh(smallSubmaps(), 4);
   EXPECT_THROW(fresh.restore({{}}, 1), std::invalid_argument);
 }
+
+// A survey made by `train` holds no key-frame poses, so no pose is covered by
+// it (its surface decides, place_change.h); it is listed while its place is
+// the one learned, never the active submap.
+TEST(SubmapRule, ASubmapWithoutKeyFramePosesIsListedAsSurveyed) {
+  SubmapIndex index(smallSubmaps(), 4);
+  index.restore({{}}, -1);
+  EXPECT_EQ(index.surveyedSubmaps(), std::vector<int>{0});
+  EXPECT_EQ(index.decide(walkPose(0)), D::Start);
+  EXPECT_EQ(index.place(0, walkPose(0)).submap, 1);
+  EXPECT_EQ(index.surveyedSubmaps(), std::vector<int>{0});  // the new submap holds a pose
+  index.startApart();
+  EXPECT_TRUE(index.surveyedSubmaps().empty());
+}

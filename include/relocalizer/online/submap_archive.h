@@ -43,19 +43,27 @@ struct ReadSubmaps {
   std::vector<std::string> warnings;  // the submaps skipped, naming each file and why
 };
 // Reads the submaps `manifest` names, in its order: a frozen one's model is
-// loaded, served with `served`, and must be the file the manifest names; the
+// loaded, served with `served` (`surveyed` for one without key-frame poses: a
+// model made by `train`, SubmapIndex::surveyedSubmaps), and must be the file
+// the manifest names; the
 // active one goes to `active` (or is read as frozen when it holds more key
 // frames than `max_keyframes`, which a store could not hold in order). A
 // submap named through a symbolic link, or that does not load, is skipped
 // with a warning; so are files the manifest does not name.
 ReadSubmaps readSubmaps(const std::string& folder, const SubmapManifest& manifest,
                         int max_keyframes, const RelocalizerParams& served,
-                        const ActiveSubmapReader& active);
+                        const RelocalizerParams& surveyed, const ActiveSubmapReader& active);
+
+// A model made by `train` (no key frames beside it) served with `params`, as a
+// surveyed submap; errors name `path` and say why.
+Expected<std::shared_ptr<const Relocalizer>> loadSurveyedModel(const std::string& path,
+                                                               const RelocalizerParams& params);
 
 // A saved set loaded to answer, not to learn more: every submap with a model
 // that loads, as places `<group>/<index>` of `group` in `map_frame` (empty:
 // the place name and map frame the set was saved with), served as the
-// learner served them (learnedModelParams), each with its file as source and
+// learner served them (learnedModelParams; a survey made by `train` as it was
+// made: with the parameters given), each with its file as source and
 // identity (a folder loaded twice, by a copy or another spelling, is refused
 // as one model file twice is: PlaceSet).
 struct SavedSubmaps {

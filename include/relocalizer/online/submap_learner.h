@@ -117,7 +117,14 @@ class SubmapLearner : public Learner {
   // back): the returned warnings, also kept in warnings(), name each such file
   // and why. `folder` may also be one model file and its key frames
   // (OnlineLearner::save, a place learned before submaps): it becomes the
-  // active submap 0, holding those key frames as they are.
+  // active submap 0, holding those key frames as they are. A model file with
+  // no key frames beside it (made by `train`) becomes frozen submap 0 as it
+  // is, surveyed (SubmapIndex::surveyedSubmaps): a key frame whose depth lies
+  // on its surface is covered (place_change.h: surveyCovers), one that sees
+  // what the survey did not (a changed or unsurveyed part) is learned into
+  // new submaps beside it, and the first save writes it into the set. It is
+  // served with the relocalizer parameters given here, as a trained model is
+  // (not learnedModelParams).
   Expected<std::vector<std::string>> resume(const std::string& folder);
 
   // From now on a frozen submap is written into `folder` (created if need be)
@@ -215,6 +222,8 @@ class SubmapLearner : public Learner {
   }
   // resume() of one model file (a place learned before submaps), under mutex_.
   Expected<std::vector<std::string>> resumeModelFile(const std::string& path);
+  // resume() of a model file without key frames (made by `train`), under mutex_.
+  Expected<std::vector<std::string>> resumeSurveyedModel(const std::string& path);
   // The manifest of the frozen submaps written into the working folder
   // `folder`, `finished` among them though still pending (its freeze is
   // ending), built under mutex_ and written outside it (the caller holds

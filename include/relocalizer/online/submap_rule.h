@@ -88,6 +88,11 @@ class SubmapIndex {
   SubmapPlacement place(std::int64_t id, const Pose& pose, bool may_cover = true);
   // The frozen submaps that would cover a key frame at `pose` (Covered).
   std::vector<int> coveringSubmaps(const Pose& pose) const;
+  // The frozen submaps of the place learned now that hold no key-frame poses:
+  // a model made by `train` and continued here (SubmapLearner::resume), whose
+  // coverage no pose tells but its surface does (place_change.h), or a submap
+  // a resume could not load (no model: it covers nothing).
+  std::vector<int> surveyedSubmaps() const;
   // The active submap is frozen (a new key frame then starts a new one): what
   // a save at the end of a run does.
   void freezeActive();
