@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # make bench-changes: the relocalizer in a world that changed after training.
 #   scripts/bench_changes.sh [BUILD_DIR]
-# Trains two models of each scene, with the default configuration and with
-# config/colour_normalised.yaml (the forests see colour through each frame's
-# own statistics), and relocalizes its test frames unchanged and
+# Trains a model of each scene with the default configuration and one with each
+# preset of CHANGES_PRESETS (config/NAME.yaml; light_augmented by default: each
+# training image under a drawn light, descriptors scaled per colour channel),
+# and relocalizes its test frames unchanged and
 # seen under other light (evaluate --light-stops/--light-kelvin/--light-gamma:
 # a global gain, colour temperature and tone curve applied in linear light, so
 # they are physically honest on real frames too), each at a few severities:
@@ -20,11 +21,21 @@
 # by more than 10 cm or 10 deg, and the change of the 5 cm share against the
 # unchanged frames. Everything goes to BUILD_DIR/bench_changes (models and the
 # room are reused by the next run; changes.json holds the table).
-# Environment: CHANGES_THREADS (2: threads of train and evaluate).
+# Environment: CHANGES_THREADS (2: threads of train and evaluate);
+# CHANGES_PRESETS ("light_augmented"; e.g. "light_augmented colour_normalised").
 . "$(dirname "$0")/bench_setup.sh"
 out="$root/$build_dir/bench_changes"
 mkdir -p "$out"
 threads=${CHANGES_THREADS:-2}
+read -r -a presets <<< "${CHANGES_PRESETS:-light_augmented}"
+for preset in "${presets[@]}"; do
+  [ -f "$root/config/$preset.yaml" ] ||
+    { echo "bench_changes: CHANGES_PRESETS names $preset, but config/$preset.yaml does not exist"; exit 2; }
+done
+# The model name suffixes: "" (the default configuration), then _PRESET each.
+suffixes=("" "${presets[@]/#/_}")
+# SCENE as a table names it with the model of SUFFIX: "SCENE" or "SCENE, PRESET".
+label() { echo "$1${2/_/, }"; }
 
 # NAME and evaluate's options of each change; "unchanged" first, as the reference.
 changes=(
@@ -63,13 +74,14 @@ measure() {  # SCENE MODEL TEST_ARGS...
 }
 
 # MODEL, then train's arguments: trained with the default configuration, and as
-# MODEL_normalised with config/colour_normalised.yaml; kept for the next run.
-train_both() {
+# MODEL_PRESET with config/PRESET.yaml each; kept for the next run (delete them
+# after a change of the code that trains).
+train_all() {
   local model=$1 name
   shift
-  for name in "" _normalised; do
+  for name in "${suffixes[@]}"; do
     local file="${model%.model}$name.model" config=()
-    [ -n "$name" ] && config=(--config "$root/config/colour_normalised.yaml")
+    [ -n "$name" ] && config=(--config "$root/config/${name#_}.yaml")
     [ -f "$file" ] && continue
     echo "bench_changes: training $file (log: ${file%.model}_train.log)"
     "$tools/train" "$@" --seed 42 --threads "$threads" "${config[@]}" --output "$file" \
@@ -79,9 +91,9 @@ train_both() {
 
 data=$kitchen
 if [ -f "$data/frame-000000.pose.txt" ]; then
-  train_both "$out/kitchen.model" --dataset "$data" --frames 0-99,200-299,400-499
-  for name in "" _normalised; do
-    measure "redkitchen-dev${name/_/, colour }" "$out/kitchen$name.model" --dataset "$data" \
+  train_all "$out/kitchen.model" --dataset "$data" --frames 0-99,200-299,400-499
+  for name in "${suffixes[@]}"; do
+    measure "$(label redkitchen-dev "$name")" "$out/kitchen$name.model" --dataset "$data" \
       --frames 100-199,300-399
   done
 else
@@ -94,9 +106,9 @@ if [ ! -f "$room/scene.json" ]; then
   "$tools/synthesize" --seed 1 --train-frames 300 --test-frames 100 --output "$room" \
     > "$out/room_synthesize.log"
 fi
-train_both "$out/room.model" --dataset "$room/train"
-for name in "" _normalised; do
-  measure "synthetic room${name/_/, colour }" "$out/room$name.model" --dataset "$room/test"
+train_all "$out/room.model" --dataset "$room/train"
+for name in "${suffixes[@]}"; do
+  measure "$(label "synthetic room" "$name")" "$out/room$name.model" --dataset "$room/test"
 done
 
 # The world changed: KEY and synthesize's options of each; the room's test frames rendered
@@ -123,8 +135,8 @@ for entry in "${world_changes[@]}"; do
   fi
   made=$(python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['test_changes']['made'][sys.argv[2]])" \
     "$changed/scene.json" "$key")
-  for name in "" _normalised; do
-    measure "synthetic room${name/_/, colour }: $options (made: $made)" "$out/room$name.model" \
+  for name in "${suffixes[@]}"; do
+    measure "$(label "synthetic room" "$name"): $options (made: $made)" "$out/room$name.model" \
       --dataset "$changed/test"
   done
 done

@@ -109,7 +109,7 @@ done
 # The same room surveyed by `train` (every frame of the lap before the change,
 # default training) instead of learned: continued in learn mode from that one
 # model file, it answers as frozen submap 0 and learns only what its surface
-# does not hold (online/place_change.h: surveyCovers).
+# does not hold (online/place_change.h: viewKnowledge).
 rm -rf "$out"/survey_healed_*
 echo "bench_heal: training the survey"
 "$tools/train" --dataset "$data" --frames 0-$((lap - 1)) --threads "$threads" \

@@ -8,9 +8,7 @@ namespace relocalizer {
 namespace {
 
 // The most any of the submaps in `which` agrees with `frame`'s depth at
-// `camera_to_world` (surface_fit.h, at each relocalizer's surface settings);
-// negative when none of them has a surface to compare with. The caller is the
-// one thread that changes the index.
+// `camera_to_world`; negative when none of them has a surface to compare with.
 double mostAgreement(const SubmapLearner& submaps, const std::vector<int>& which,
                      const RgbdFrame& frame, const Pose& camera_to_world) {
   double most = -1.0;
@@ -31,18 +29,18 @@ double mostAgreement(const SubmapLearner& submaps, const std::vector<int>& which
 
 }  // namespace
 
-bool placeChanged(const SubmapLearner& submaps, const RgbdFrame& frame,
-                  const Pose& camera_to_world) {
+ViewKnowledge viewKnowledge(const SubmapLearner& submaps, const RgbdFrame& frame,
+                            const Pose& camera_to_world) {
+  // The caller is the one thread that changes the index.
+  const SubmapIndex& index = submaps.index();
+  const double enough = submaps.submapParams().relearn_agreement;
+  const double survey = mostAgreement(submaps, index.surveyedSubmaps(), frame, camera_to_world);
+  if (survey >= enough) return ViewKnowledge::kSurveyed;
   // What SubmapIndex::decide calls "covered": some frozen submap covers this pose.
-  const double most = mostAgreement(submaps, submaps.index().coveringSubmaps(camera_to_world),
-                                    frame, camera_to_world);
-  return most >= 0.0 && most < submaps.submapParams().relearn_agreement;
-}
-
-bool surveyCovers(const SubmapLearner& submaps, const RgbdFrame& frame,
-                  const Pose& camera_to_world) {
-  return mostAgreement(submaps, submaps.index().surveyedSubmaps(), frame, camera_to_world) >=
-         submaps.submapParams().relearn_agreement;
+  const std::vector<int> covering = index.coveringSubmaps(camera_to_world);
+  const double learned = mostAgreement(submaps, covering, frame, camera_to_world);
+  const double known = covering.empty() ? survey : learned;
+  return known >= 0.0 && known < enough ? ViewKnowledge::kChanged : ViewKnowledge::kAsLearned;
 }
 
 }  // namespace relocalizer

@@ -110,14 +110,14 @@ Expected<SubmapPlacement> SubmapLearner::place(const RgbdFrame& frame,
   // placed (only an encoder failure is left, which the store reports).
   if (const std::string why = frameValidationError(frame); !why.empty())
     return makeError("key frame " + std::to_string(frame.id) + ": " + why);
-  const bool may_cover = !placeChanged(*this, frame, camera_to_world);
-  const bool surveyed = surveyCovers(*this, frame, camera_to_world);
+  const ViewKnowledge known = viewKnowledge(*this, frame, camera_to_world);
+  const bool may_cover = known != ViewKnowledge::kChanged;
   SubmapPlacement placement;
   std::shared_ptr<OnlineLearner> active;
   bool freeze_inline = false;
   {
     std::unique_lock<std::mutex> lock(mutex_);
-    if (surveyed) {
+    if (known == ViewKnowledge::kSurveyed) {
       placement.decision = SubmapDecision::Covered;
       ++covered_;
       return placement;

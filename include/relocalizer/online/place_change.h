@@ -13,23 +13,26 @@
 
 namespace relocalizer {
 
-// Whether `submaps` would cover a key frame `frame` at `camera_to_world`
-// (SubmapIndex::coveringSubmaps is not empty) but on none of the covering frozen submaps' surfaces
-// lies SubmapParams::relearn_agreement of its depth points (surface_fit.h's
-// agreement, at each relocalizer's surface settings). False where no covering
-// submap has a surface to compare with.
-bool placeChanged(const SubmapLearner& submaps, const RgbdFrame& frame,
-                  const Pose& camera_to_world);
+// What the frozen submaps know of the view of a key frame.
+enum class ViewKnowledge {
+  // A surveyed submap (SubmapIndex::surveyedSubmaps: a model made by `train`,
+  // a surface but no key-frame poses) holds it: covered, not stored.
+  kSurveyed,
+  // As the frozen submaps that cover its pose learned it, or no submap has a
+  // surface to compare with: the poses decide (SubmapIndex::decide).
+  kAsLearned,
+  // What it sees no longer lies on the surface of the frozen submaps covering
+  // its pose, or, where none covers it, on a survey's (a changed or unsurveyed
+  // part): learned again, unless the active submap holds a key frame as near
+  // (it is learning that view already).
+  kChanged,
+};
 
-// Whether a surveyed submap (SubmapIndex::surveyedSubmaps: a model made by
-// `train`, which has a surface but no key-frame poses) already knows what a
-// key frame `frame` at `camera_to_world` sees: SubmapParams::relearn_agreement
-// of its depth points lie on that submap's surface. Such a key frame is
-// covered; one that sees what the survey did not (furniture moved, or a part
-// of the place it never saw) is learned. False where no surveyed submap has a
-// surface; true for every key frame when relearn_agreement is 0 (never
-// relearn).
-bool surveyCovers(const SubmapLearner& submaps, const RgbdFrame& frame,
-                  const Pose& camera_to_world);
+// Which, for a key frame `frame` at SLAM's pose `camera_to_world`: a surface
+// holds the frame's depth points when SubmapParams::relearn_agreement of them
+// lie on it (surface_fit.h's agreement, at each relocalizer's surface
+// settings); relearn_agreement 0: every view is as learned or surveyed.
+ViewKnowledge viewKnowledge(const SubmapLearner& submaps, const RgbdFrame& frame,
+                            const Pose& camera_to_world);
 
 }  // namespace relocalizer

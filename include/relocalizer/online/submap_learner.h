@@ -120,7 +120,7 @@ class SubmapLearner : public Learner {
   // active submap 0, holding those key frames as they are. A model file with
   // no key frames beside it (made by `train`) becomes frozen submap 0 as it
   // is, surveyed (SubmapIndex::surveyedSubmaps): a key frame whose depth lies
-  // on its surface is covered (place_change.h: surveyCovers), one that sees
+  // on its surface is covered (place_change.h: viewKnowledge), one that sees
   // what the survey did not (a changed or unsurveyed part) is learned into
   // new submaps beside it, and the first save writes it into the set. It is
   // served with the relocalizer parameters given here, as a trained model is
