@@ -9,6 +9,7 @@
 #include "relocalizer/online/learned_places.h"
 #include "relocalizer/online/place_change.h"
 #include "relocalizer/online/submap_archive.h"
+#include "relocalizer/online/submap_resume.h"
 
 namespace relocalizer {
 
@@ -321,6 +322,24 @@ Status SubmapLearner::save(const std::string& folder) {
   }
   freeze_cv_.notify_all();
   return saved;
+}
+
+Expected<std::vector<std::string>> SubmapLearner::resume(const std::string& path) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (next_id_ != 0 || index_.submapCount() != 0)
+    return makeError("resume() must come before the first key frame, and only once");
+  auto resumed = readResumedSubmaps(path, learning_, relocalizer_params_, mode_, names_.map_frame);
+  if (!resumed) return makeError(resumed.error());
+  frozen_.clear();
+  for (ResumedFrozen& f : resumed->frozen)
+    frozen_.push_back({std::move(f.relocalizer), {}, f.written, f.model_id});
+  for (const auto& slot : resumed->key_frames) added_ += static_cast<int>(slot.size());
+  index_.restore(std::move(resumed->key_frames), resumed->active_index);
+  active_ = std::move(resumed->active);
+  next_id_ = resumed->next_id;
+  folder_ = resumed->folder;
+  warnings_ = resumed->warnings;
+  return warnings_;
 }
 
 std::vector<SubmapModel> SubmapLearner::models(bool current_place) const {

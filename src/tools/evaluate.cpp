@@ -268,8 +268,6 @@ std::string combinationError(const Options& o, const LearnOptions& learn, bool m
     return "--model is required (or --learn-frames to learn the model online)";
   if (!learn.learn_frames.empty() && !o.source.bag.empty())
     return "--learn-frames learns from a --dataset folder, not from --bag";
-  if (learn.submaps && !o.model_path.empty() && !placeIsFolder(o.model_path))
-    return "--submaps continues a folder of learned submaps: " + o.model_path + " is not a folder";
   // Frozen submaps are written into the working folder as they freeze: a
   // continued folder is only changed when asked to.
   if (learn.submaps && !o.model_path.empty() && learn.save_model.empty())

@@ -81,7 +81,9 @@ inline void addOptions(App& app, Options& o, LearnOptions& l) {
                 "Model file written by train (required without --learn-frames); with "
                 "--learn-frames a saved online model to continue (needs MODEL.keyframes). "
                 "A folder of learned submaps (--submaps --save-model) is evaluated as its set "
-                "of places, or continued with --learn-frames --submaps. "
+                "of places, or continued with --learn-frames --submaps; so is a model file "
+                "made by train (no key frames: it is kept as it is, and only what its surface "
+                "does not hold is learned, beside it). "
                 "Many places: repeat it as NAME=PATH; every frame is then relocalized against "
                 "the whole set, and places.csv names each frame's answering place");
   app.addOption("--expect-place", o.expect_place,

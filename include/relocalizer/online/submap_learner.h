@@ -220,10 +220,6 @@ class SubmapLearner : public Learner {
     return std::any_of(pending_.begin(), pending_.end(),
                        [&](const Pending& p) { return p.index == index; });
   }
-  // resume() of one model file (a place learned before submaps), under mutex_.
-  Expected<std::vector<std::string>> resumeModelFile(const std::string& path);
-  // resume() of a model file without key frames (made by `train`), under mutex_.
-  Expected<std::vector<std::string>> resumeSurveyedModel(const std::string& path);
   // The manifest of the frozen submaps written into the working folder
   // `folder`, `finished` among them though still pending (its freeze is
   // ending), built under mutex_ and written outside it (the caller holds
