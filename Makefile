@@ -83,7 +83,7 @@ bench-places: build
 bench-changes: build
 	@./scripts/bench_changes.sh $(BUILD_DIR)
 
-# A learned place, and one made by `train`, heal after furniture moved (~9 min).
+# A learned place, and one made by `train`, heal after furniture moved (~15 min).
 bench-heal: build
 	@./scripts/bench_heal.sh $(BUILD_DIR)
 
