@@ -246,8 +246,8 @@ ReadSubmaps readSubmaps(const std::string& folder, const SubmapManifest& manifes
 
 Expected<std::shared_ptr<const Relocalizer>> loadSurveyedModel(const std::string& path,
                                                                const RelocalizerParams& params) {
-  return loadSubmapModel(
-      path, [](const ModelFileId&) { return std::string(); }, params);
+  const ModelFileRefusal any_file = [](const ModelFileId&) { return std::string(); };
+  return loadSubmapModel(path, any_file, params);
 }
 
 Expected<SavedSubmaps> loadSavedSubmaps(const std::string& folder, std::string group,
