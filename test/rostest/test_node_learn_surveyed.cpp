@@ -22,6 +22,8 @@ TEST(LearnSurveyed, AModelMadeByTrainAnswersAndCoversTheRoomItSurveyed) {
   Listener<ResultMsg> results("/relocalizer/result", 1000);
   CameraPublisher camera;
   const std::vector<FrameMessages> test = loadFixtureFrames();
+  // The node advertises its services once the survey has loaded.
+  ASSERT_TRUE(ros::service::waitForService("/relocalizer/relocalize", ros::Duration(60)));
   const relocalizer::Relocalize::Response first =
       relocalizeUntilAnswered(camera, test[0], ros::WallTime::now() + ros::WallDuration(60.0));
   ASSERT_TRUE(first.success) << first.message;
