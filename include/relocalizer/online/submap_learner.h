@@ -107,15 +107,15 @@ class SubmapLearner : public Learner {
   SubmapLearner(const SubmapLearner&) = delete;
   SubmapLearner& operator=(const SubmapLearner&) = delete;
 
-  // Continues the set saved in `folder` (call before the first key frame):
+  // Continues the set saved in the folder `path` (call before the first key frame):
   // frozen submaps answer again and cover their areas, the active one goes on
   // learning (OnlineLearner::resume), new submaps take the next indices, and
-  // `folder` becomes the working folder (useFolder). Fails, naming
+  // `path` becomes the working folder (useFolder). Fails, naming
   // manifest.json, when the manifest is missing or unreadable: starting over
   // would overwrite the set at the next save. A submap whose model is missing
   // or damaged is skipped (its area is learned again when the camera comes
   // back): the returned warnings, also kept in warnings(), name each such file
-  // and why. `folder` may also be one model file and its key frames
+  // and why. `path` may also be one model file and its key frames
   // (OnlineLearner::save, a place learned before submaps): it becomes the
   // active submap 0, holding those key frames as they are. A model file with
   // no key frames beside it (made by `train`) becomes frozen submap 0 as it
@@ -125,7 +125,7 @@ class SubmapLearner : public Learner {
   // new submaps beside it, and the first save writes it into the set. It is
   // served with the relocalizer parameters given here, as a trained model is
   // (not learnedModelParams).
-  Expected<std::vector<std::string>> resume(const std::string& folder);
+  Expected<std::vector<std::string>> resume(const std::string& path);
 
   // From now on a frozen submap is written into `folder` (created if need be)
   // when it freezes, and its key frames leave memory; one frozen before is
