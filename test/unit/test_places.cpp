@@ -72,6 +72,13 @@ class Places : public ::testing::Test {
   static Place placeOf(const Room& room, const std::string& name = {}) {
     return {name.empty() ? room.name : name, room.name + "_map", "memory", room.relocalizer, {}};
   }
+  // Room 0's model with its evidence threshold out of reach: it screens as
+  // room 0 does and never answers.
+  static std::shared_ptr<const Relocalizer> blindRoom0() {
+    RelocalizerParams unreachable = relocalizer::testing::smallRoomRelocalizer();
+    unreachable.solver.min_inliers = 1000000;
+    return std::make_shared<const Relocalizer>(rooms_[0].relocalizer->model(), unreachable);
+  }
   static void putBothRooms(PlaceSet& set) {
     for (const Room& room : rooms_) EXPECT_TRUE(set.put(placeOf(room)).ok());
   }
@@ -255,10 +262,7 @@ TEST_F(Places, WhenTheBestPartOfAMapFailsItsNeighbourIsAsked) {
   // Runner-ups never count as close here (ratio above 1). Outside a group the
   // second is then not asked and the frame gets no pose; in one group it is
   // asked as the failing part's neighbour, and answers as it does alone.
-  RelocalizerParams unreachable = relocalizer::testing::smallRoomRelocalizer();
-  unreachable.solver.min_inliers = 1000000;
-  const auto blind =
-      std::make_shared<const Relocalizer>(rooms_[0].relocalizer->model(), unreachable);
+  const auto blind = blindRoom0();
   PlaceSearchParams params;
   params.runner_up_ratio = 1.5f;
   PlaceSet grouped(params), apart(params);
@@ -284,6 +288,41 @@ TEST_F(Places, WhenTheBestPartOfAMapFailsItsNeighbourIsAsked) {
     EXPECT_TRUE(answer.relocalization.pose.isApprox(alone.pose, 1e-12));
   }
   EXPECT_GE(answered, kTestFrames * 3 / 4);
+}
+
+TEST_F(Places, WhenTheBestFailsANeighbourLeftAtItsFirstLookIsScreenedFullyAndAsked) {
+  // A first look on 3 samples rarely finds a rigid set, so the part of the map
+  // that can answer is mostly left at its first look with no inlier, behind
+  // the failing part (added first). Once that has failed, the parts of its map
+  // left at their first look are screened fully and asked by those screens: a
+  // submap learned beside a survey that holds only the furniture moved since
+  // had no inlier among the first look's 50 samples, and 43-61 among 200.
+  const auto blind = blindRoom0();
+  PlaceSearchParams params;
+  params.first_look.samples = 3;
+  params.rescreen_all_below = 0;  // the first looks stand, however few inliers they find
+  params.runner_up_ratio = 1.5f;  // no runner-up is close: only the fallback asks
+  PlaceSet grouped(params);
+  ASSERT_TRUE(grouped.put(groupPlace(blind, "kitchen/0", "kitchen")).ok());
+  ASSERT_TRUE(grouped.put(groupPlace(rooms_[0].relocalizer, "kitchen/1", "kitchen")).ok());
+  int answered_after_an_empty_first_look = 0;
+  for (const RgbdFrame& frame : rooms_[0].test_frames) {
+    const Relocalization alone = rooms_[0].relocalizer->relocalize(frame);
+    const Expected<FrameSamples> samples = rooms_[0].relocalizer->sample(frame);
+    ASSERT_TRUE(samples.ok()) << samples.error();
+    const int first_look = rooms_[0].relocalizer->screen(*samples, params.first_look).inliers;
+    const PlaceAnswer answer = grouped.relocalize(frame);
+    ASSERT_EQ(answer.relocalization.success, alone.success) << answer.relocalization.message;
+    if (!alone.success) continue;
+    EXPECT_EQ(answer.place, "kitchen/1");
+    EXPECT_TRUE(answer.relocalization.pose.isApprox(alone.pose, 1e-12));
+    if (first_look > 0 || answer.attempts[0].place != "kitchen/0") continue;
+    ++answered_after_an_empty_first_look;
+    EXPECT_FALSE(answer.attempts[0].success);
+    EXPECT_TRUE(answer.attempts[1].screened_fully);
+    EXPECT_GT(answer.attempts[1].screen_inliers, 0);
+  }
+  EXPECT_GE(answered_after_an_empty_first_look, kTestFrames / 2);
 }
 
 TEST_F(Places, AGroupRunnerUpScreenedAtTheAnswersPoseIsNotSolved) {

@@ -16,7 +16,10 @@
 // Unless they are one map: places of one group (the submaps of a map, in its
 // one frame) whose answers agree give one answer, that pose; and a runner-up
 // of the group whose screen already agrees with a place that answered is not
-// solved at all (it could only agree, at the cost of a full solve).
+// solved at all (it could only agree, at the cost of a full solve). When the
+// best screened place fails, the other places of its map are asked however
+// weakly they screened (they cannot answer in a wrong frame), those left at
+// the first look screened fully first, best screened first.
 
 #include <memory>
 #include <string>
