@@ -38,7 +38,10 @@ keep_logs=1  # until the picture is saved: the logs say what went wrong
 trap 'stop_owned_processes; [ "$keep_logs" = 1 ] || rm -rf "$log_dir"' EXIT
 
 # An X server of our own: the first free display number, told through a pipe.
-exec 3< <(Xvfb -displayfd 1 -screen 0 1000x640x24 -nolisten tcp 2> "$log_dir/xvfb.log")
+# `exec`: $! is then Xvfb itself whatever the bash; else it can be the
+# substitution's subshell, whose stop leaves Xvfb running (an Xvfb outlived a
+# bullseye root's README test).
+exec 3< <(exec Xvfb -displayfd 1 -screen 0 1000x640x24 -nolisten tcp 2> "$log_dir/xvfb.log")
 own_process $!
 read -r -t 30 display <&3 || { echo "render_rviz: error: Xvfb did not start (see $log_dir/xvfb.log)" >&2; exit 1; }
 export DISPLAY=:$display
