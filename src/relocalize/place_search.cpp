@@ -90,6 +90,8 @@ struct Screened {
   std::vector<float> factors;
   std::vector<char> full;     // got the full screen (else the first look only)
   std::vector<size_t> order;  // best screened first
+  // Each place's one-leaf predictions of the shared samples, for a later, fuller screen.
+  std::vector<std::vector<Prediction>> predicted;
   double seconds = 0.0;
 };
 
@@ -123,11 +125,10 @@ bool closeRunnerUp(const PlaceAttempt& attempt, float factor, float best_screen,
 }
 
 // The best screened place failed: the places of its map left at their first
-// look get the full screen, and the ranking behind the best is made again, so
-// that the neighbour fallback (solveRanked) chooses among them by the screen's
-// samples rather than the first look's few. Those can miss a submap that holds
-// only a part of the frame: the furniture moved since a survey, learned into a
-// submap beside it, got no inlier among 50 samples and 43-61 among 200.
+// look get the full screen (reusing its predictions) and the ranking behind the
+// best is made again, so that the neighbour fallback (solveRanked) chooses by
+// it: a submap holding only the furniture moved since a survey beside it got
+// no inlier among the first look's 50 samples and 43-61 among 200.
 void screenNeighboursFully(const std::vector<std::shared_ptr<const Place>>& places,
                            const FrameSamples& samples, const PlaceSearchParams& params,
                            Screened& screened, std::vector<PlaceAttempt>& attempts,
@@ -141,7 +142,8 @@ void screenNeighboursFully(const std::vector<std::shared_ptr<const Place>>& plac
   if (unscreened.empty()) return;
   tbb::parallel_for(size_t{0}, unscreened.size(), [&](size_t k) {
     const size_t i = unscreened[k];
-    screened.results[i] = places[i]->relocalizer->screen(samples, params.screen);
+    screened.results[i] =
+        places[i]->relocalizer->screen(samples, params.screen, &screened.predicted[i]);
   });
   for (size_t i : unscreened) {
     screened.full[i] = 1;
@@ -306,7 +308,7 @@ void screenPlaces(const std::vector<std::shared_ptr<const Place>>& places, const
                   const FrameSamples& samples, const PlaceSearchParams& params,
                   Screened& screened) {
   const auto screen_start = Clock::now();
-  std::vector<std::vector<Prediction>> predicted(places.size());
+  screened.predicted.resize(places.size());
   std::vector<char> shared_recipe(places.size());
   for (size_t i = 0; i < places.size(); ++i)
     shared_recipe[i] = samples.recipe.sameAs(places[i]->relocalizer->samplingRecipe());
@@ -314,7 +316,7 @@ void screenPlaces(const std::vector<std::shared_ptr<const Place>>& places, const
   auto screenPlace = [&](size_t i, const ScreenParams& budget) {
     const Relocalizer& relocalizer = *places[i]->relocalizer;
     if (shared_recipe[i]) {
-      screened.results[i] = relocalizer.screen(samples, budget, &predicted[i]);
+      screened.results[i] = relocalizer.screen(samples, budget, &screened.predicted[i]);
     } else if (Expected<FrameSamples> sampled = relocalizer.sample(frame)) {
       screened.results[i] = relocalizer.screen(*sampled, params.screen);
     }
