@@ -20,14 +20,6 @@ using namespace relocalizer;
 
 namespace {
 
-LightAugmentation daylightToTungsten() {
-  LightAugmentation a;
-  a.max_stops = 1.0;
-  a.min_kelvin = 2500.0;
-  a.max_kelvin = 8500.0;
-  return a;
-}
-
 double meanGreen(const cv::Mat& bgr) { return cv::mean(bgr)[1]; }
 double redOverBlue(const cv::Mat& bgr) {
   const cv::Scalar m = cv::mean(bgr);
@@ -39,7 +31,7 @@ double redOverBlue(const cv::Mat& bgr) {
 // The lights cover the range asked for, evenly (stops uniform, kelvin uniform
 // in its logarithm), and none is drawn when nothing is asked.
 TEST(LightAugmentation, LightsAreDrawnEvenlyWithinTheRange) {
-  const LightAugmentation a = daylightToTungsten();
+  const LightAugmentation a = LightAugmentation::daylightToTungsten();
   std::mt19937_64 bits(5);
   std::vector<double> stops, log_kelvin;
   for (int i = 0; i < 4000; ++i) {
@@ -69,17 +61,17 @@ TEST(LightAugmentation, LightsAreDrawnEvenlyWithinTheRange) {
 
 TEST(LightAugmentation, ImpossibleRangesAreRefusedNamingTheKey) {
   EXPECT_EQ(LightAugmentation{}.validationError(), "");
-  EXPECT_EQ(daylightToTungsten().validationError(), "");
-  LightAugmentation a = daylightToTungsten();
+  EXPECT_EQ(LightAugmentation::daylightToTungsten().validationError(), "");
+  LightAugmentation a = LightAugmentation::daylightToTungsten();
   a.max_stops = -1.0;
   EXPECT_NE(a.validationError().find("light_augmentation.max_stops"), std::string::npos);
-  a = daylightToTungsten();
+  a = LightAugmentation::daylightToTungsten();
   a.max_stops = 4.0;
   EXPECT_NE(a.validationError().find("light_augmentation.max_stops"), std::string::npos);
-  a = daylightToTungsten();
+  a = LightAugmentation::daylightToTungsten();
   a.min_kelvin = 9000.0;  // above max_kelvin
   EXPECT_NE(a.validationError().find("min_kelvin"), std::string::npos);
-  a = daylightToTungsten();
+  a = LightAugmentation::daylightToTungsten();
   a.min_kelvin = 0.0;  // one end only
   EXPECT_NE(a.validationError().find("min_kelvin"), std::string::npos);
 
@@ -101,8 +93,9 @@ TEST(LightAugmentation, EachTrainingImageIsSeenUnderItsOwnRepeatableLight) {
     frames.push_back(room.render(paths.train[i], camera, static_cast<int>(i)));
 
   TrainingParams recorded;
+  recorded.light_augmentation = LightAugmentation::none();
   TrainingParams augmented;
-  augmented.light_augmentation = daylightToTungsten();
+  augmented.light_augmentation = LightAugmentation::daylightToTungsten();
   std::vector<TrainingImage> plain, first, second;
   for (const RgbdFrame& frame : frames) {
     ASSERT_TRUE(appendTrainingImage(frame, recorded, plain));
@@ -130,9 +123,11 @@ TEST(LightAugmentation, EachTrainingImageIsSeenUnderItsOwnRepeatableLight) {
 }
 
 TEST(LightAugmentation, ModelsKeepItAndModelsWithoutItWereTrainedOnTheRecordedLight) {
-  EXPECT_FALSE(TrainingParams{}.light_augmentation.enabled());
+  // The default since 2026-11-29: a model holds in the evening's light.
+  EXPECT_TRUE(TrainingParams{}.light_augmentation.enabled());
+  EXPECT_EQ(TrainingParams{}.descriptor_normalisation, DescriptorNormalisation::kPerChannel);
   TrainingParams augmented;
-  augmented.light_augmentation = daylightToTungsten();
+  augmented.light_augmentation = LightAugmentation::daylightToTungsten();
   nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(augmented));
   EXPECT_EQ(header["light_augmentation"]["max_kelvin"], 8500.0);
   auto same = trainingParamsFromJson(header.dump());
@@ -140,17 +135,17 @@ TEST(LightAugmentation, ModelsKeepItAndModelsWithoutItWereTrainedOnTheRecordedLi
   EXPECT_EQ(same->light_augmentation.max_stops, 1.0);
   EXPECT_EQ(same->light_augmentation.min_kelvin, 2500.0);
   EXPECT_EQ(same->light_augmentation.max_kelvin, 8500.0);
+  // A header written before it existed: the recorded light, whatever today's default.
   ASSERT_EQ(header.erase("light_augmentation"), 1u);
   auto older = trainingParamsFromJson(header.dump());
   ASSERT_TRUE(older.ok()) << older.error();
   EXPECT_FALSE(older->light_augmentation.enabled());
-  auto preset =
-      loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/light_augmented.yaml");
-  ASSERT_TRUE(preset.ok()) << preset.error();
-  EXPECT_EQ(preset->light_augmentation.max_stops, 1.0);
-  EXPECT_EQ(preset->light_augmentation.min_kelvin, 2500.0);
-  EXPECT_EQ(preset->colour_normalisation, ColourNormalisation::kNone);
-  EXPECT_EQ(preset->descriptor_normalisation, DescriptorNormalisation::kPerChannel);
+  auto recorded =
+      loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/recorded_light.yaml");
+  ASSERT_TRUE(recorded.ok()) << recorded.error();
+  EXPECT_FALSE(recorded->light_augmentation.enabled());
+  EXPECT_EQ(recorded->colour_normalisation, ColourNormalisation::kNone);
+  EXPECT_EQ(recorded->descriptor_normalisation, DescriptorNormalisation::kWhole);
   header["light_augmentation"] = {{"max_stops", 1.0}, {"min_kelvin", 3000.0}, {"max_kelvin", 0.0}};
   auto broken = trainingParamsFromJson(header.dump());
   ASSERT_FALSE(broken.ok());
