@@ -79,7 +79,7 @@ bench-places: build
 	@./scripts/bench_places.sh $(BUILD_DIR)
 
 # The world changed after training: other light, people, furniture and lamps on the test
-# frames; the default model beside config/recorded_light.yaml's (~35 min).
+# frames; the default model beside config/light_augmented.yaml's (~30 min).
 bench-changes: build
 	@./scripts/bench_changes.sh $(BUILD_DIR)
 

@@ -1,10 +1,9 @@
 #!/usr/bin/env bash
 # make bench-changes: the relocalizer in a world that changed after training.
 #   scripts/bench_changes.sh [BUILD_DIR]
-# Trains a model of each scene with the default configuration (each training
-# image under a drawn light, descriptors scaled per colour channel) and one with
-# each preset of CHANGES_PRESETS (config/NAME.yaml; recorded_light by default:
-# the recorded light, whole descriptors, the default before 2026-11-29),
+# Trains a model of each scene with the default configuration and one with each
+# preset of CHANGES_PRESETS (config/NAME.yaml; light_augmented by default: each
+# training image under a drawn light, descriptors scaled per colour channel),
 # and relocalizes its test frames unchanged and
 # seen under other light (evaluate --light-stops/--light-kelvin/--light-gamma:
 # a global gain, colour temperature and tone curve applied in linear light, so
@@ -23,12 +22,12 @@
 # unchanged frames. Everything goes to BUILD_DIR/bench_changes (models and the
 # room are reused by the next run; changes.json holds the table).
 # Environment: CHANGES_THREADS (2: threads of train and evaluate);
-# CHANGES_PRESETS ("recorded_light"; e.g. "recorded_light colour_normalised").
+# CHANGES_PRESETS ("light_augmented"; e.g. "light_augmented colour_normalised").
 . "$(dirname "$0")/bench_setup.sh"
 out="$root/$build_dir/bench_changes"
 mkdir -p "$out"
 threads=${CHANGES_THREADS:-2}
-read -r -a presets <<< "${CHANGES_PRESETS:-recorded_light}"
+read -r -a presets <<< "${CHANGES_PRESETS:-light_augmented}"
 for preset in "${presets[@]}"; do
   [ -f "$root/config/$preset.yaml" ] ||
     { echo "bench_changes: CHANGES_PRESETS names $preset, but config/$preset.yaml does not exist"; exit 2; }

@@ -145,9 +145,7 @@ void readTrainingParams(const json& j, TrainingParams& p) {
   p.colour_normalisation =
       readChoice(j, "", "colour_normalisation", ColourNormalisation::kNone,
                  colourNormalisationNamed, "\"channel_statistics\", \"local_mean\" or \"none\"");
-  // Models written before it existed were trained on the recorded light,
-  // whatever today's default.
-  p.light_augmentation = LightAugmentation::none();
+  // Models written before it existed were trained on the recorded light.
   if (j.contains("light_augmentation"))
     readLightAugmentation(j.at("light_augmentation"), p.light_augmentation);
   // Models written before it existed scaled the whole descriptor.

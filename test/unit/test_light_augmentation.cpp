@@ -20,6 +20,14 @@ using namespace relocalizer;
 
 namespace {
 
+LightAugmentation daylightToTungsten() {
+  LightAugmentation a;
+  a.max_stops = 1.0;
+  a.min_kelvin = 2500.0;
+  a.max_kelvin = 8500.0;
+  return a;
+}
+
 double meanGreen(const cv::Mat& bgr) { return cv::mean(bgr)[1]; }
 double redOverBlue(const cv::Mat& bgr) {
   const cv::Scalar m = cv::mean(bgr);
@@ -31,7 +39,7 @@ double redOverBlue(const cv::Mat& bgr) {
 // The lights cover the range asked for, evenly (stops uniform, kelvin uniform
 // in its logarithm), and none is drawn when nothing is asked.
 TEST(LightAugmentation, LightsAreDrawnEvenlyWithinTheRange) {
-  const LightAugmentation a = LightAugmentation::daylightToTungsten();
+  const LightAugmentation a = daylightToTungsten();
   std::mt19937_64 bits(5);
   std::vector<double> stops, log_kelvin;
   for (int i = 0; i < 4000; ++i) {
@@ -61,17 +69,17 @@ TEST(LightAugmentation, LightsAreDrawnEvenlyWithinTheRange) {
 
 TEST(LightAugmentation, ImpossibleRangesAreRefusedNamingTheKey) {
   EXPECT_EQ(LightAugmentation{}.validationError(), "");
-  EXPECT_EQ(LightAugmentation::daylightToTungsten().validationError(), "");
-  LightAugmentation a = LightAugmentation::daylightToTungsten();
+  EXPECT_EQ(daylightToTungsten().validationError(), "");
+  LightAugmentation a = daylightToTungsten();
   a.max_stops = -1.0;
   EXPECT_NE(a.validationError().find("light_augmentation.max_stops"), std::string::npos);
-  a = LightAugmentation::daylightToTungsten();
+  a = daylightToTungsten();
   a.max_stops = 4.0;
   EXPECT_NE(a.validationError().find("light_augmentation.max_stops"), std::string::npos);
-  a = LightAugmentation::daylightToTungsten();
+  a = daylightToTungsten();
   a.min_kelvin = 9000.0;  // above max_kelvin
   EXPECT_NE(a.validationError().find("min_kelvin"), std::string::npos);
-  a = LightAugmentation::daylightToTungsten();
+  a = daylightToTungsten();
   a.min_kelvin = 0.0;  // one end only
   EXPECT_NE(a.validationError().find("min_kelvin"), std::string::npos);
 
@@ -93,9 +101,8 @@ TEST(LightAugmentation, EachTrainingImageIsSeenUnderItsOwnRepeatableLight) {
     frames.push_back(room.render(paths.train[i], camera, static_cast<int>(i)));
 
   TrainingParams recorded;
-  recorded.light_augmentation = LightAugmentation::none();
   TrainingParams augmented;
-  augmented.light_augmentation = LightAugmentation::daylightToTungsten();
+  augmented.light_augmentation = daylightToTungsten();
   std::vector<TrainingImage> plain, first, second;
   for (const RgbdFrame& frame : frames) {
     ASSERT_TRUE(appendTrainingImage(frame, recorded, plain));
@@ -123,11 +130,9 @@ TEST(LightAugmentation, EachTrainingImageIsSeenUnderItsOwnRepeatableLight) {
 }
 
 TEST(LightAugmentation, ModelsKeepItAndModelsWithoutItWereTrainedOnTheRecordedLight) {
-  // The default since 2026-11-29: a model holds in the evening's light.
-  EXPECT_TRUE(TrainingParams{}.light_augmentation.enabled());
-  EXPECT_EQ(TrainingParams{}.descriptor_normalisation, DescriptorNormalisation::kPerChannel);
+  EXPECT_FALSE(TrainingParams{}.light_augmentation.enabled());
   TrainingParams augmented;
-  augmented.light_augmentation = LightAugmentation::daylightToTungsten();
+  augmented.light_augmentation = daylightToTungsten();
   nlohmann::json header = nlohmann::json::parse(trainingParamsToJson(augmented));
   EXPECT_EQ(header["light_augmentation"]["max_kelvin"], 8500.0);
   auto same = trainingParamsFromJson(header.dump());
@@ -135,17 +140,17 @@ TEST(LightAugmentation, ModelsKeepItAndModelsWithoutItWereTrainedOnTheRecordedLi
   EXPECT_EQ(same->light_augmentation.max_stops, 1.0);
   EXPECT_EQ(same->light_augmentation.min_kelvin, 2500.0);
   EXPECT_EQ(same->light_augmentation.max_kelvin, 8500.0);
-  // A header written before it existed: the recorded light, whatever today's default.
   ASSERT_EQ(header.erase("light_augmentation"), 1u);
   auto older = trainingParamsFromJson(header.dump());
   ASSERT_TRUE(older.ok()) << older.error();
   EXPECT_FALSE(older->light_augmentation.enabled());
-  auto recorded =
-      loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/recorded_light.yaml");
-  ASSERT_TRUE(recorded.ok()) << recorded.error();
-  EXPECT_FALSE(recorded->light_augmentation.enabled());
-  EXPECT_EQ(recorded->colour_normalisation, ColourNormalisation::kNone);
-  EXPECT_EQ(recorded->descriptor_normalisation, DescriptorNormalisation::kWhole);
+  auto preset =
+      loadTrainingParams(std::string(RELOCALIZER_SOURCE_DIR) + "/config/light_augmented.yaml");
+  ASSERT_TRUE(preset.ok()) << preset.error();
+  EXPECT_EQ(preset->light_augmentation.max_stops, 1.0);
+  EXPECT_EQ(preset->light_augmentation.min_kelvin, 2500.0);
+  EXPECT_EQ(preset->colour_normalisation, ColourNormalisation::kNone);
+  EXPECT_EQ(preset->descriptor_normalisation, DescriptorNormalisation::kPerChannel);
   header["light_augmentation"] = {{"max_stops", 1.0}, {"min_kelvin", 3000.0}, {"max_kelvin", 0.0}};
   auto broken = trainingParamsFromJson(header.dump());
   ASSERT_FALSE(broken.ok());

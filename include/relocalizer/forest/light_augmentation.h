@@ -25,12 +25,6 @@ struct LightAugmentation {
 
   static constexpr double kMostStops = 3.0;
 
-  // A stop darker or brighter and any white balance from a tungsten lamp
-  // (2700 K) to overcast daylight: the training default.
-  static constexpr LightAugmentation daylightToTungsten() { return {1.0, 2500.0, 8500.0}; }
-  // The recorded light: what models written before augmentation saw.
-  static constexpr LightAugmentation none() { return {}; }
-
   bool enabled() const { return max_stops > 0.0 || max_kelvin > 0.0; }
   // Empty when usable, otherwise why not (naming the field).
   std::string validationError() const;

@@ -58,17 +58,11 @@ struct TrainingParams {
   // one it knows (docs/benchmarks.md).
   ColourNormalisation colour_normalisation = ColourNormalisation::kNone;
   // The lights each training image is seen under before the normalisation
-  // (light_augmentation.h): by default a stop either way and 2500-8500 K, so
-  // that a model holds in the evening's light as in the day's; the recorded
-  // light alone (config/recorded_light.yaml) is about a point more precise
-  // in the light of training (docs/benchmarks.md). Models written before it
-  // existed read none.
-  LightAugmentation light_augmentation = LightAugmentation::daylightToTungsten();
-  // How the patch descriptors are scaled (patch_descriptor.h): per channel by
-  // default, so that a white balance cancels from the pick of a leaf's mode
-  // as it does from the augmented trees. Models written before it existed
-  // read kWhole.
-  DescriptorNormalisation descriptor_normalisation = DescriptorNormalisation::kPerChannel;
+  // (light_augmentation.h); models written before it existed read none.
+  LightAugmentation light_augmentation;
+  // How the patch descriptors are scaled (patch_descriptor.h); models written
+  // before it existed read kWhole.
+  DescriptorNormalisation descriptor_normalisation = DescriptorNormalisation::kWhole;
   bool train_points = true;
   bool train_lines = true;
   bool build_surface = true;  // fuse the images' depth into the scene surface (surface_model.h)
