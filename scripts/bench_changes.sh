@@ -74,15 +74,15 @@ measure() {  # SCENE MODEL TEST_ARGS...
 }
 
 # MODEL, then train's arguments: trained with the default configuration, and as
-# MODEL_PRESET with config/PRESET.yaml each; kept for the next run (delete them
-# after a change of the code that trains).
+# MODEL_PRESET with config/PRESET.yaml each; kept for the next run while
+# model_is_current (bench_setup.sh).
 train_all() {
   local model=$1 name
   shift
   for name in "${suffixes[@]}"; do
     local file="${model%.model}$name.model" config=()
     [ -n "$name" ] && config=(--config "$root/config/${name#_}.yaml")
-    [ -f "$file" ] && continue
+    model_is_current "$file" && continue
     echo "bench_changes: training $file (log: ${file%.model}_train.log)"
     "$tools/train" "$@" --seed 42 --threads "$threads" "${config[@]}" --output "$file" \
       > "${file%.model}_train.log" 2>&1

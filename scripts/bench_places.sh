@@ -12,7 +12,8 @@
 #  - the node's peak RSS with the 10 places loaded (`places` parameter), read
 #    from /proc once ~list_places lists all of them.
 # Synthesized rooms and trained models are kept in BUILD_DIR/bench_places and
-# reused; figures go to BUILD_DIR/bench_places/places.json and node.json.
+# reused (models while newer than the train tool); figures go to
+# BUILD_DIR/bench_places/places.json and node.json.
 # Environment: PLACES_TRAIN_FRAMES (200), PLACES_TEST_FRAMES (50), BENCH_ROUNDS (2: timed passes),
 # PLACES_KITCHEN_MODEL (a kitchen model to use instead of training one: `make bench`
 # passes the model it has just trained), PLACES_JSON (where places.json goes),
@@ -41,7 +42,7 @@ add_place() {  # NAME MODEL TEST
 train() {  # MODEL ARGS...
   local model=$1
   shift
-  [ -f "$model" ] && return 0
+  model_is_current "$model" && return 0
   echo "bench_places: training $model"
   "$tools/train" "$@" --output "$model" > "$model.log"
 }

@@ -71,26 +71,58 @@ cv::Vec3d whiteBalanceGains(double kelvin) {
   return gains / luma;
 }
 
-cv::Mat applyPhotometricChange(const cv::Mat& bgr, const PhotometricChange& change) {
-  if (bgr.type() != CV_8UC3)
-    throw std::invalid_argument("applyPhotometricChange: expected an 8-bit 3-channel image");
-  const std::string invalid = change.validationError();
-  if (!invalid.empty()) throw std::invalid_argument("applyPhotometricChange: " + invalid);
-  if (change.identity()) return bgr.clone();
-  const cv::Vec3d balance =
-      change.kelvin == 0.0 ? cv::Vec3d(1.0, 1.0, 1.0) : whiteBalanceGains(change.kelvin);
+namespace {
+
+// One table per channel: linear light times `gain` and 2^stops, clipped, the
+// tone curve, requantised.
+cv::Mat changedLight(const cv::Mat& bgr, double stops, const cv::Vec3d& gains, double gamma) {
   cv::Mat table(1, 256, CV_8UC3);
   for (int value = 0; value < 256; ++value)
     for (int c = 0; c < 3; ++c) {
-      const double light =
-          std::min(1.0, srgbToLinear(value / 255.0) * std::exp2(change.stops) * balance[c]);
-      const double encoded = std::pow(linearToSrgb(light), change.gamma);
+      const double light = std::min(1.0, srgbToLinear(value / 255.0) * std::exp2(stops) * gains[c]);
+      const double encoded = std::pow(linearToSrgb(light), gamma);
       table.at<cv::Vec3b>(0, value)[c] =
           static_cast<unsigned char>(std::lround(255.0 * std::clamp(encoded, 0.0, 1.0)));
     }
   cv::Mat changed;
   cv::LUT(bgr, table, changed);
   return changed;
+}
+
+void requireBgr(const cv::Mat& bgr, const char* caller) {
+  if (bgr.type() != CV_8UC3)
+    throw std::invalid_argument(std::string(caller) + ": expected an 8-bit 3-channel image");
+}
+
+}  // namespace
+
+cv::Mat applyPhotometricChange(const cv::Mat& bgr, const PhotometricChange& change) {
+  requireBgr(bgr, "applyPhotometricChange");
+  const std::string invalid = change.validationError();
+  if (!invalid.empty()) throw std::invalid_argument("applyPhotometricChange: " + invalid);
+  if (change.identity()) return bgr.clone();
+  const cv::Vec3d balance =
+      change.kelvin == 0.0 ? cv::Vec3d(1.0, 1.0, 1.0) : whiteBalanceGains(change.kelvin);
+  return changedLight(bgr, change.stops, balance, change.gamma);
+}
+
+cv::Mat applyChannelGains(const cv::Mat& bgr, const cv::Vec3d& gains) {
+  requireBgr(bgr, "applyChannelGains");
+  return changedLight(bgr, 0.0, gains, 1.0);
+}
+
+cv::Vec3d lightChromaticity(const cv::Mat& bgr) {
+  requireBgr(bgr, "lightChromaticity");
+  double linear[256];
+  for (int value = 0; value < 256; ++value) linear[value] = srgbToLinear(value / 255.0);
+  cv::Vec3d sum(0.0, 0.0, 0.0);
+  for (int y = 0; y < bgr.rows; y += 2) {
+    const cv::Vec3b* row = bgr.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < bgr.cols; x += 2)
+      for (int c = 0; c < 3; ++c) sum[c] += linear[row[x][c]];
+  }
+  const double luma = kLumaWeight[0] * sum[0] + kLumaWeight[1] * sum[1] + kLumaWeight[2] * sum[2];
+  return luma > 0.0 ? sum / luma : cv::Vec3d(0.0, 0.0, 0.0);
 }
 
 }  // namespace relocalizer

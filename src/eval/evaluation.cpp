@@ -42,6 +42,7 @@ EvaluationRecord recordAttempt(int id, double stamp, const Pose& truth,
   r.line_inliers = result.line_inliers;
   r.score = result.score;
   r.surface_agreement = result.surface_agreement;
+  r.light_cast = result.light_cast;
   r.timings = result.timings;
   return r;
 }
@@ -82,6 +83,11 @@ EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& recor
   for (const auto& r : records) timings.push_back(r.timings);
   EvaluationSummary s;
   s.accuracy = summarizeAccuracy(records);
+  for (const auto& r : records)
+    if (r.light_cast > 0.0f) {
+      ++s.asked_in_training_light;
+      s.answered_in_training_light += r.estimate ? 1 : 0;
+    }
   if (!expected_place.empty()) {
     s.expected_place = expected_place;
     s.wrong_place = countWrongPlace(records, expected_place);
@@ -107,6 +113,9 @@ std::string formatEvaluationTable(const EvaluationSummary& s, const std::string&
       << " / " << number(a.median_rotation_deg, "%.2f deg") << "\n";
   out << "  ATE RMSE (Horn-aligned)    " << number(100.0 * a.ate_rmse_m, "%.2f cm") << "\n";
   out << "  frames with no pose        " << (a.frames - a.frames_with_pose) << "\n";
+  if (s.asked_in_training_light > 0)
+    out << "  asked again in the training light " << s.asked_in_training_light << " ("
+        << s.answered_in_training_light << " answered)\n";
   char wrong_label[64];
   std::snprintf(wrong_label, sizeof wrong_label, "wrong (> %g cm or %g deg)",
                 100.0 * kWrongPose.metres, kWrongPose.degrees);
@@ -208,6 +217,8 @@ Status writeSummary(const std::string& path, const EvaluationSummary& summary,
   j["within_5cm_5deg"] = jsonNumber(a.within_5cm_5deg);
   j["within_2cm_2deg"] = jsonNumber(a.within_2cm_2deg);
   j["wrong_answers"] = a.wrong_answers;
+  j["asked_in_training_light"] = summary.asked_in_training_light;
+  j["answered_in_training_light"] = summary.answered_in_training_light;
   j["median_translation_cm"] = jsonNumber(100.0 * a.median_translation_m);
   j["median_rotation_deg"] = jsonNumber(a.median_rotation_deg);
   j["ate_rmse_cm"] = jsonNumber(100.0 * a.ate_rmse_m);

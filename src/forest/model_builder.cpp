@@ -2,12 +2,39 @@
 
 #include <chrono>
 
+#include "relocalizer/core/photometric_change.h"
+#include "relocalizer/core/version.h"
+
 namespace relocalizer {
 
 namespace {
 
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The part of a summary that follows from the training images: their count,
+// the bounds of their camera centres, the light's chromaticity, and this
+// build's software version.
+void summarizeTrainingImages(const std::vector<TrainingImage>& images, TrainingSummary& summary) {
+  summary.images = static_cast<int>(images.size());
+  summary.software_version = kSoftwareVersion;
+  if (images.empty()) return;
+  summary.scene_min = summary.scene_max = images.front().pose.translation().cast<float>();
+  for (const auto& image : images) {
+    summary.scene_min = summary.scene_min.cwiseMin(image.pose.translation().cast<float>());
+    summary.scene_max = summary.scene_max.cwiseMax(image.pose.translation().cast<float>());
+  }
+  cv::Vec3d chromaticity(0.0, 0.0, 0.0);
+  int coloured = 0;
+  for (const auto& image : images)
+    if (image.colour.type() == CV_8UC3 && !image.colour.empty()) {
+      chromaticity += lightChromaticity(image.colour);
+      ++coloured;
+    }
+  if (coloured > 0) chromaticity /= static_cast<double>(coloured);
+  summary.light_chromaticity =
+      Eigen::Vector3d(chromaticity[0], chromaticity[1], chromaticity[2]).cast<float>();
 }
 
 }  // namespace

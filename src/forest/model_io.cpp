@@ -64,6 +64,7 @@ json headerJson(const Model& m) {
             {"threads", s.threads},
             {"scene_min", vec3Json(s.scene_min)},
             {"scene_max", vec3Json(s.scene_max)},
+            {"light_chromaticity", vec3Json(s.light_chromaticity)},
             {"software_version", s.software_version}}},
           {"forests",
            {{"points",
@@ -360,6 +361,9 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
     readField(s, "training_set.", "threads", model.summary.threads);
     model.summary.scene_min = vec3From(s.at("scene_min"), "training_set.scene_min");
     model.summary.scene_max = vec3From(s.at("scene_max"), "training_set.scene_max");
+    if (s.contains("light_chromaticity"))  // kept since 2026-11-29
+      model.summary.light_chromaticity =
+          vec3From(s.at("light_chromaticity"), "training_set.light_chromaticity");
     model.summary.software_version = s.at("software_version");
   } catch (const std::exception& e) {
     return makeError(where + "model header is not valid: " + detail::jsonErrorReason(e));
@@ -385,17 +389,6 @@ uint32_t crc32Of(const uint8_t* data, size_t size) {
     offset += chunk;
   }
   return static_cast<uint32_t>(crc);
-}
-
-void summarizeTrainingImages(const std::vector<TrainingImage>& images, TrainingSummary& summary) {
-  summary.images = static_cast<int>(images.size());
-  summary.software_version = kSoftwareVersion;
-  if (images.empty()) return;
-  summary.scene_min = summary.scene_max = images.front().pose.translation().cast<float>();
-  for (const auto& image : images) {
-    summary.scene_min = summary.scene_min.cwiseMin(image.pose.translation().cast<float>());
-    summary.scene_max = summary.scene_max.cwiseMax(image.pose.translation().cast<float>());
-  }
 }
 
 FileReplacement modelFileReplacement(const std::string& path, std::vector<uint8_t> serialized) {

@@ -27,6 +27,7 @@ json toJson(const RelocalizerParams& p) {
           {"use_lines", p.use_lines},
           {"min_valid_depth", p.min_valid_depth},
           {"seed", p.seed},
+          {"light_retry_min_cast", p.light_retry_min_cast},
           {"solver",
            {{"hypotheses", s.hypotheses},
             {"batch_size", s.batch_size},
@@ -76,6 +77,9 @@ Expected<RelocalizerParams> relocalizerParamsFromJson(const std::string& json_te
     readField(j, "", "use_lines", p.use_lines);
     readField(j, "", "min_valid_depth", p.min_valid_depth);
     readField(j, "", "seed", p.seed);
+    // Written since the light retry (issue 40); older parameter files keep the default.
+    if (j.contains("light_retry_min_cast"))
+      readField(j, "", "light_retry_min_cast", p.light_retry_min_cast);
     const json& s = j.at("solver");
     const std::string at = "solver.";
     PoseSolverParams& q = p.solver;

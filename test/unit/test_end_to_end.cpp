@@ -194,6 +194,46 @@ TEST_F(SyntheticRoomRelocalization, TrainedUnderDrawnLightsEveningIsFoundFromThe
   EXPECT_EQ(s.wrong_answers, 0);
 }
 
+// The recorded colour's own way back (light_retry.h): a model trained on the
+// frames as recorded, asked about the evening, answers in the frames' own
+// colour only some of them; each frame it cannot answer is asked again with
+// its colour rebalanced into the training light, which the model keeps.
+// Frames in the light of training are never asked twice.
+TEST_F(SyntheticRoomRelocalization, RecordedColourFindsTheEveningByAskingAgainInTheTrainingLight) {
+  Model model = trainedOnRoom(TrainingParams{});
+  ASSERT_GT(model.summary.light_chromaticity.minCoeff(), 0.0f);
+  RelocalizerParams once = smallRelocalization();
+  once.light_retry_min_cast = 0.0f;
+  const Relocalizer own_colour(model, once);
+  const Relocalizer retrying(std::move(model), smallRelocalization());
+  const AccuracySummary alone = accuracyUnder(own_colour, test_frames_, evening());
+  const AccuracySummary asked_again = accuracyUnder(retrying, test_frames_, evening());
+  int retried = 0;
+  for (const RgbdFrame& recorded : test_frames_) {
+    RgbdFrame frame = recorded;
+    frame.colour = applyPhotometricChange(recorded.colour, evening());
+    const Relocalization evening_answer = retrying.relocalize(frame);
+    if (evening_answer.light_cast > 0.0f) {
+      ++retried;
+      EXPECT_GE(evening_answer.light_cast, retrying.params().light_retry_min_cast);
+    }
+    EXPECT_EQ(retrying.relocalize(recorded).light_cast, 0.0f) << "frame " << recorded.id;
+  }
+  std::printf(
+      "synthetic room trained in the recorded colour, evening: %.1f%% in the frames' colour, "
+      "%.1f%% asked again in the training light (%d frames asked again), %d wrong\n",
+      100 * alone.within_5cm_5deg, 100 * asked_again.within_5cm_5deg, retried,
+      asked_again.wrong_answers);
+  EXPECT_GT(retried, 0);
+  EXPECT_GE(asked_again.within_5cm_5deg, 0.80);
+  EXPECT_GE(asked_again.within_5cm_5deg, alone.within_5cm_5deg + 0.2);
+  EXPECT_EQ(asked_again.wrong_answers, 0);
+  RelocalizerParams negative = smallRelocalization();
+  negative.light_retry_min_cast = -0.1f;
+  EXPECT_NE(Relocalizer(retrying.model(), negative).validationError().find("light_retry_min_cast"),
+            std::string::npos);
+}
+
 // The room's ground truth is exact, so depth ICP against the surface fused from
 // the training frames must make the solver's poses more precise, and every
 // answer must lie on the surface.

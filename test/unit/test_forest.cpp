@@ -649,6 +649,7 @@ std::vector<uint8_t> oldVersionBytes(const Model& model, uint32_t version, float
   auto put32 = [&put](uint32_t v) { put(&v, 4); };
   nlohmann::json header_json = nlohmann::json::parse(modelHeaderJson(model, -1));
   header_json["format_version"] = version;
+  header_json["training_set"].erase("light_chromaticity");  // kept since version 3
   if (version == 1) {
     header_json.erase("surface");
     header_json["params"].erase("surface");
@@ -739,6 +740,22 @@ TEST_F(ModelFile, VersionTwoLoadsAsTheSameModelAndSavesAsTheCurrentVersion) {
   ASSERT_EQ(loaded->surface.elements().size(), 2u);
   EXPECT_EQ(loaded->surface.elements()[1].point, Eigen::Vector3f(1, 2.5f, 3));
   EXPECT_EQ(serializeModel(*loaded), bytes_);
+}
+
+// The light the forests learned colour in (light_retry.h asks a frame again
+// in it) is kept in the header; files written before it was kept load as not
+// knowing it, which turns the retry off for them.
+TEST_F(ModelFile, TheTrainingLightRoundTripsAndOlderFilesDoNotKnowIt) {
+  Model lit = model_;
+  lit.summary.light_chromaticity = Eigen::Vector3f(0.875f, 0.955f, 1.19f);
+  const std::string path = dir_.str() + "/lit.bin";
+  ASSERT_TRUE(saveModel(lit, path).ok());
+  auto loaded = loadModel(path);
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  EXPECT_EQ(loaded->summary.light_chromaticity, lit.summary.light_chromaticity);
+  auto old = loadModel(writeVariant(oldVersionBytes(lit, 2)));
+  ASSERT_TRUE(old.ok()) << old.error();
+  EXPECT_EQ(old->summary.light_chromaticity, Eigen::Vector3f::Zero());
 }
 
 TEST_F(ModelFile, OldVersionsLeafIndicesAreChecked) {

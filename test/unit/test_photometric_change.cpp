@@ -75,6 +75,55 @@ TEST(PhotometricChange, ColourTemperatureTintsAndKeepsAGreysLuma) {
   EXPECT_LT(grey[0], 100 - 20);
 }
 
+namespace {
+
+// Patches of several colours, none near saturation (a white balance applied
+// afterwards cannot bring back what clipped).
+cv::Mat colouredPatches() {
+  cv::Mat image(40, 60, CV_8UC3);
+  const cv::Vec3b colours[] = {{60, 90, 140}, {150, 120, 80}, {70, 160, 70}, {110, 110, 110}};
+  for (int y = 0; y < image.rows; ++y)
+    for (int x = 0; x < image.cols; ++x) image.at<cv::Vec3b>(y, x) = colours[(x / 15) % 4];
+  return image;
+}
+
+}  // namespace
+
+// What a lamp does to a frame's colour is what the frame's chromaticity sees
+// move: the white balance's gains, channel by channel, up to quantisation.
+TEST(PhotometricChange, ChromaticityMovesByTheLightsGains) {
+  const cv::Mat recorded = colouredPatches();
+  PhotometricChange lamp;
+  lamp.kelvin = 2700;
+  const cv::Vec3d before = lightChromaticity(recorded);
+  const cv::Vec3d after = lightChromaticity(applyPhotometricChange(recorded, lamp));
+  const cv::Vec3d gains = whiteBalanceGains(2700);
+  // Each channel's share relative to green: the luma scaling cancels.
+  for (int c : {0, 2})
+    EXPECT_NEAR((after[c] / after[1]) / (before[c] / before[1]), gains[c] / gains[1],
+                0.02 * gains[c] / gains[1])
+        << "channel " << c;
+  const cv::Vec3d grey = lightChromaticity(cv::Mat(8, 8, CV_8UC3, cv::Scalar(128, 128, 128)));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(grey[c], 1.0, 1e-9);
+  EXPECT_EQ(lightChromaticity(cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 0))), cv::Vec3d(0, 0, 0));
+  EXPECT_THROW(lightChromaticity(cv::Mat(4, 4, CV_8UC1)), std::invalid_argument);
+}
+
+// Gains that invert the lamp's bring the recorded colour back, within the
+// quantisation of the two 8-bit passes.
+TEST(PhotometricChange, ChannelGainsUndoAWhiteBalance) {
+  const cv::Mat recorded = colouredPatches();
+  PhotometricChange lamp;
+  lamp.kelvin = 3500;
+  const cv::Vec3d gains = whiteBalanceGains(3500);
+  const cv::Mat undone = applyChannelGains(applyPhotometricChange(recorded, lamp),
+                                           cv::Vec3d(1 / gains[0], 1 / gains[1], 1 / gains[2]));
+  EXPECT_LE(cv::norm(recorded, undone, cv::NORM_INF), 2.0);
+  EXPECT_EQ(cv::norm(recorded, applyChannelGains(recorded, cv::Vec3d(1, 1, 1)), cv::NORM_INF), 0.0);
+  EXPECT_THROW(applyChannelGains(cv::Mat(4, 4, CV_8UC1), cv::Vec3d(1, 1, 1)),
+               std::invalid_argument);
+}
+
 TEST(PhotometricChange, GammaBendsTheToneCurve) {
   PhotometricChange change;
   change.gamma = 2.0;

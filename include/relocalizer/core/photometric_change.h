@@ -43,4 +43,16 @@ cv::Vec3d whiteBalanceGains(double kelvin);
 // Throws std::invalid_argument on another image type or an invalid change.
 cv::Mat applyPhotometricChange(const cv::Mat& bgr, const PhotometricChange& change);
 
+// The colour of the light a frame was seen in, as far as the frame tells: the
+// mean linear light of each channel (B, G, R) over every other pixel of every
+// other row, scaled so that its luma is 1 (a grey scene under the balanced
+// light gives 1, 1, 1). What fills the view moves it too, so it compares
+// lights only where they differ by more than the scenes do. Zeros for a black
+// image. Throws std::invalid_argument on another image type than 8-bit BGR.
+cv::Vec3d lightChromaticity(const cv::Mat& bgr);
+
+// `bgr` with each channel's linear light times `gains` (B, G, R), clipped
+// where the sensor saturates: a white balance set afterwards.
+cv::Mat applyChannelGains(const cv::Mat& bgr, const cv::Vec3d& gains);
+
 }  // namespace relocalizer

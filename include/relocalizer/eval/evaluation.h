@@ -25,6 +25,7 @@ struct EvaluationRecord {
   int line_inliers = 0;
   float score = 0.0f;
   float surface_agreement = -1.0f;  // < 0: not checked
+  float light_cast = 0.0f;          // > 0: asked again in the training light (light_retry.h)
   StageTimings timings;
   std::string place;  // the answering place, with many places; empty: no pose, or one place
 };
@@ -50,6 +51,9 @@ struct EvaluationSummary {
   LatencySummary total, sampling, forest, ransac, refinement, surface, screening;
   std::string expected_place;  // with many places: where the frames were taken
   int wrong_place = -1;        // answers from another place; -1: not counted
+  // Frames asked again in the training light (light_retry.h), and how many of
+  // them got a pose that way.
+  int asked_in_training_light = 0, answered_in_training_light = 0;
 };
 
 // `expected_place` (many places): count the answers from any other place.

@@ -56,12 +56,12 @@ struct TrainingSummary {
   int threads = 0;
   Eigen::Vector3f scene_min = Eigen::Vector3f::Zero();  // bounds of the camera centres
   Eigen::Vector3f scene_max = Eigen::Vector3f::Zero();
+  // The light the forests learned colour in: the mean of the training images'
+  // lightChromaticity (core/photometric_change.h), B, G, R. Zeros: not known
+  // (models written before it was kept).
+  Eigen::Vector3f light_chromaticity = Eigen::Vector3f::Zero();
   std::string software_version;
 };
-
-// The part of a summary that follows from the training images: their count,
-// the bounds of their camera centres, and this build's software version.
-void summarizeTrainingImages(const std::vector<TrainingImage>& images, TrainingSummary& summary);
 
 struct Model {
   TrainingParams params;

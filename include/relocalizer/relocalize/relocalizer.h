@@ -30,6 +30,12 @@ struct RelocalizerParams {
   uint32_t seed = 1;           // each call restarts from it: same frame, same answer
   PoseSolverParams solver;
   SurfaceFitParams surface;  // depth ICP and the surface check after the solver
+  // A frame without a pose whose light is at least this far from the
+  // training light (light_retry.h: the largest |ln| ratio of a channel's
+  // share) is asked once more with its colour rebalanced into that light
+  // (0 = never; 0.25 is between a 4500 and a 3500 K lamp for a camera
+  // balanced for 5500 K).
+  float light_retry_min_cast = 0.25f;
 };
 
 // With two or more threads the line branch (LSD, line samples, line forest)
@@ -74,6 +80,10 @@ struct Relocalization {
   // check off, or no solver pose to check).
   float surface_agreement = -1.0f;
   bool surface_refined = false;  // depth ICP moved the solver's pose
+  // > 0: the frame was asked again with a colour cast of this size taken out
+  // (light_retry.h; RelocalizerParams::light_retry_min_cast), and the answer
+  // (pose or reason) is the second asking's.
+  float light_cast = 0.0f;
   StageTimings timings;
 };
 
@@ -162,6 +172,11 @@ class Relocalizer {
  private:
   // Empty when the frame can be relocalized, else why not.
   std::string frameRefusal(const RgbdFrame& frame) const;
+  // relocalize() in the frame's own colour, and the same frame asked again in
+  // the training light when that failed (light_retry.h).
+  Relocalization relocalizeAsSeen(const RgbdFrame& frame, const PoseHint* hint) const;
+  Relocalization askedInTrainingLight(const RgbdFrame& frame, Relocalization first,
+                                      const PoseHint* hint) const;
   Relocalization solve(const RgbdFrame& frame, const FrameSamples& samples,
                        const std::vector<Prediction>& point_predictions,
                        const std::vector<Prediction>& line_predictions, Relocalization result,

@@ -63,6 +63,7 @@ NodeOutput::ResultMsg NodeOutput::answer(const FrameInput& input,
   result.line_inliers = static_cast<uint32_t>(solved.line_inliers);
   result.score = solved.score;
   result.surface_agreement = solved.surface_agreement;
+  result.light_cast = solved.light_cast;
   result.time_sampling = static_cast<float>(solved.timings.sampling);
   result.time_forest = static_cast<float>(solved.timings.forest);
   result.time_ransac = static_cast<float>(solved.timings.ransac);
