@@ -33,6 +33,10 @@ double translationError(const Pose& estimate, const Pose& truth) {
   return (estimate.translation() - truth.translation()).norm();
 }
 
+bool posesAgree(const Pose& a, const Pose& b, double metres, double degrees) {
+  return translationError(a, b) <= metres && rotationErrorDegrees(a, b) <= degrees;
+}
+
 double rotationErrorDegrees(const Pose& estimate, const Pose& truth) {
   const Eigen::Matrix3d relative =
       nearestRotation(estimate.linear()).transpose() * nearestRotation(truth.linear());

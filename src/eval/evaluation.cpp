@@ -43,6 +43,7 @@ EvaluationRecord recordAttempt(int id, double stamp, const Pose& truth,
   r.score = result.score;
   r.surface_agreement = result.surface_agreement;
   r.light_cast = result.light_cast;
+  r.second_draw = result.second_draw;
   r.timings = result.timings;
   return r;
 }
@@ -83,11 +84,16 @@ EvaluationSummary summarizeEvaluation(const std::vector<EvaluationRecord>& recor
   for (const auto& r : records) timings.push_back(r.timings);
   EvaluationSummary s;
   s.accuracy = summarizeAccuracy(records);
-  for (const auto& r : records)
+  for (const auto& r : records) {
     if (r.light_cast > 0.0f) {
       ++s.asked_in_training_light;
       s.answered_in_training_light += r.estimate ? 1 : 0;
     }
+    if (r.second_draw) {
+      ++s.drawn_again;
+      s.confirmed_by_second_draw += r.estimate ? 1 : 0;
+    }
+  }
   if (!expected_place.empty()) {
     s.expected_place = expected_place;
     s.wrong_place = countWrongPlace(records, expected_place);
@@ -116,6 +122,9 @@ std::string formatEvaluationTable(const EvaluationSummary& s, const std::string&
   if (s.asked_in_training_light > 0)
     out << "  asked again in the training light " << s.asked_in_training_light << " ("
         << s.answered_in_training_light << " answered)\n";
+  if (s.drawn_again > 0)
+    out << "  weak answers drawn again   " << s.drawn_again << " (" << s.confirmed_by_second_draw
+        << " confirmed)\n";
   char wrong_label[64];
   std::snprintf(wrong_label, sizeof wrong_label, "wrong (> %g cm or %g deg)",
                 100.0 * kWrongPose.metres, kWrongPose.degrees);
@@ -191,17 +200,17 @@ Status writeErrors(const std::string& path, const std::vector<EvaluationRecord>&
     std::string message = r.message;
     for (char& c : message)
       if (c == '"') c = '\'';
-    char line[512];
+    // The message is streamed, not formatted: a reason asked twice (in the
+    // training light, by a second draw) runs past any fixed line.
+    char line[320];
     std::snprintf(
-        line, sizeof line, "%d,%.6f,%d,%s,%s,%d,%d,%.4f,%s,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,\"%s\"\n",
-        r.id, r.stamp, e.has_pose ? 1 : 0,
-        e.has_pose ? number(e.translation_m, "%.5f").c_str() : "",
+        line, sizeof line, "%d,%.6f,%d,%s,%s,%d,%d,%.4f,%s,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,", r.id,
+        r.stamp, e.has_pose ? 1 : 0, e.has_pose ? number(e.translation_m, "%.5f").c_str() : "",
         e.has_pose ? number(e.rotation_deg, "%.4f").c_str() : "", r.point_inliers, r.line_inliers,
         r.score, r.surface_agreement >= 0 ? number(r.surface_agreement, "%.4f").c_str() : "",
         1000 * r.timings.total, 1000 * r.timings.sampling, 1000 * r.timings.forest,
-        1000 * r.timings.ransac, 1000 * r.timings.refinement, 1000 * r.timings.surface,
-        message.c_str());
-    csv << line;
+        1000 * r.timings.ransac, 1000 * r.timings.refinement, 1000 * r.timings.surface);
+    csv << line << '"' << message << "\"\n";
   }
   return okStatus();
 }
@@ -219,6 +228,8 @@ Status writeSummary(const std::string& path, const EvaluationSummary& summary,
   j["wrong_answers"] = a.wrong_answers;
   j["asked_in_training_light"] = summary.asked_in_training_light;
   j["answered_in_training_light"] = summary.answered_in_training_light;
+  j["drawn_again"] = summary.drawn_again;
+  j["confirmed_by_second_draw"] = summary.confirmed_by_second_draw;
   j["median_translation_cm"] = jsonNumber(100.0 * a.median_translation_m);
   j["median_rotation_deg"] = jsonNumber(a.median_rotation_deg);
   j["ate_rmse_cm"] = jsonNumber(100.0 * a.ate_rmse_m);

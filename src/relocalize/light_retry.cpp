@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "relocalizer/core/photometric_change.h"
+#include "relocalizer/relocalize/relocalizer.h"
 
 namespace relocalizer {
 
@@ -22,6 +23,22 @@ std::optional<LightRebalance> rebalanceIntoTrainingLight(const cv::Mat& bgr, con
   }
   if (rebalance.cast < min_cast) return std::nullopt;
   return rebalance;
+}
+
+Relocalization Relocalizer::askedInTrainingLight(const RgbdFrame& frame, Relocalization first,
+                                                 const PoseHint* hint) const {
+  if (first.success || !frameRefusal(frame).empty()) return first;
+  const std::optional<LightRebalance> rebalance =
+      rebalanceIntoTrainingLight(frame.colour, model_, params_.light_retry_min_cast);
+  if (!rebalance) return first;
+  RgbdFrame rebalanced = frame;
+  rebalanced.colour = applyChannelGains(frame.colour, rebalance->gains);
+  Relocalization second = relocalizeAsSeen(rebalanced, hint);
+  second.light_cast = static_cast<float>(rebalance->cast);
+  second.timings.total += first.timings.total;
+  if (!second.success)
+    second.message = first.message + "; in the training light too: " + second.message;
+  return second;
 }
 
 }  // namespace relocalizer

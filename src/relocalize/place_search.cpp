@@ -70,10 +70,6 @@ bool oneMap(const Place& a, const Place& b) {
   return !a.group.empty() && a.group == b.group && a.map_frame == b.map_frame;
 }
 
-bool posesAgree(const Pose& a, const Pose& b, double metres, double degrees) {
-  return translationError(a, b) <= metres && rotationErrorDegrees(a, b) <= degrees;
-}
-
 std::string disagreementMessage(const std::string& a, const Relocalization& answer_a,
                                 const std::string& b, const Relocalization& answer_b) {
   char buffer[160];

@@ -4,10 +4,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <optional>
-
-#include "relocalizer/core/photometric_change.h"
-#include "relocalizer/relocalize/light_retry.h"
 
 namespace relocalizer {
 
@@ -51,6 +47,8 @@ std::string Relocalizer::validationError() const {
     return "point_samples and line_samples must be >= 0 and max_leaves >= 1";
   if (!(params_.light_retry_min_cast >= 0))
     return "light_retry_min_cast must be >= 0 (0 = never ask again in the training light)";
+  if (!(params_.confirm_below >= 0 && params_.confirm_below <= 1))
+    return "confirm_below must be an inlier share between 0 and 1 (0 = never draw again)";
   if (params_.solver.hypotheses < 1 || params_.solver.batch_size < 1)
     return "solver.hypotheses and solver.batch_size must be >= 1";
   if (!(params_.solver.hint_weight >= 0 && params_.solver.hint_weight <= 1))
@@ -221,23 +219,12 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame, const PoseHint* h
   return askedInTrainingLight(frame, relocalizeAsSeen(frame, hint), hint);
 }
 
-Relocalization Relocalizer::askedInTrainingLight(const RgbdFrame& frame, Relocalization first,
-                                                 const PoseHint* hint) const {
-  if (first.success || !frameRefusal(frame).empty()) return first;
-  const std::optional<LightRebalance> rebalance =
-      rebalanceIntoTrainingLight(frame.colour, model_, params_.light_retry_min_cast);
-  if (!rebalance) return first;
-  RgbdFrame rebalanced = frame;
-  rebalanced.colour = applyChannelGains(frame.colour, rebalance->gains);
-  Relocalization second = relocalizeAsSeen(rebalanced, hint);
-  second.light_cast = static_cast<float>(rebalance->cast);
-  second.timings.total += first.timings.total;
-  if (!second.success)
-    second.message = first.message + "; in the training light too: " + second.message;
-  return second;
+Relocalization Relocalizer::relocalizeAsSeen(const RgbdFrame& frame, const PoseHint* hint) const {
+  return confirmedByASecondDraw(frame, drawAndSolve(frame, hint, params_), hint);
 }
 
-Relocalization Relocalizer::relocalizeAsSeen(const RgbdFrame& frame, const PoseHint* hint) const {
+Relocalization Relocalizer::drawAndSolve(const RgbdFrame& frame, const PoseHint* hint,
+                                         const RelocalizerParams& drawing) const {
   const auto start = Clock::now();
   Relocalization result;
   if (std::string refusal = frameRefusal(frame); !refusal.empty())
@@ -245,7 +232,7 @@ Relocalization Relocalizer::relocalizeAsSeen(const RgbdFrame& frame, const PoseH
   FrameSamples samples;
   samples.recipe = samplingRecipe();
   ForestPredictions predictions;
-  sampleFrame(model_, params_, frame, samples, &predictions, result.timings);
+  sampleFrame(model_, drawing, frame, samples, &predictions, result.timings);
   return solve(frame, samples, predictions.points, predictions.lines, std::move(result), start,
                hint);
 }
@@ -272,10 +259,9 @@ Relocalization Relocalizer::relocalize(const RgbdFrame& frame, const FrameSample
   Relocalization result;
   ForestPredictions predictions;
   predictForests(model_, params_, samples, predictions, result.timings);
-  return askedInTrainingLight(
-      frame,
-      solve(frame, samples, predictions.points, predictions.lines, std::move(result), start, hint),
-      hint);
+  Relocalization first =
+      solve(frame, samples, predictions.points, predictions.lines, std::move(result), start, hint);
+  return askedInTrainingLight(frame, confirmedByASecondDraw(frame, std::move(first), hint), hint);
 }
 
 ScreenResult Relocalizer::screen(const FrameSamples& samples, const ScreenParams& screen,

@@ -28,6 +28,7 @@ json toJson(const RelocalizerParams& p) {
           {"min_valid_depth", p.min_valid_depth},
           {"seed", p.seed},
           {"light_retry_min_cast", p.light_retry_min_cast},
+          {"confirm_below", p.confirm_below},
           {"solver",
            {{"hypotheses", s.hypotheses},
             {"batch_size", s.batch_size},
@@ -77,9 +78,11 @@ Expected<RelocalizerParams> relocalizerParamsFromJson(const std::string& json_te
     readField(j, "", "use_lines", p.use_lines);
     readField(j, "", "min_valid_depth", p.min_valid_depth);
     readField(j, "", "seed", p.seed);
-    // Written since the light retry (issue 40); older parameter files keep the default.
+    // Written since the light retry and the second draw (issue 40); older parameter files keep
+    // the defaults.
     if (j.contains("light_retry_min_cast"))
       readField(j, "", "light_retry_min_cast", p.light_retry_min_cast);
+    if (j.contains("confirm_below")) readField(j, "", "confirm_below", p.confirm_below);
     const json& s = j.at("solver");
     const std::string at = "solver.";
     PoseSolverParams& q = p.solver;

@@ -30,6 +30,17 @@ double translationError(const Pose& estimate, const Pose& truth);
 // the nearest rotation matrix.
 double rotationErrorDegrees(const Pose& estimate, const Pose& truth);
 
+// Two answers that are each right (within 5 cm / 5 deg of the truth) are
+// within about twice that of each other: the tolerance at which two answers
+// for one frame count as one (the place search's answers of one map, a weak
+// answer and the second draw that confirms it).
+constexpr double kAnswersAgreeMetres = 0.10;
+constexpr double kAnswersAgreeDegrees = 10.0;
+
+// Both translationError and rotationErrorDegrees within the bounds.
+bool posesAgree(const Pose& a, const Pose& b, double metres = kAnswersAgreeMetres,
+                double degrees = kAnswersAgreeDegrees);
+
 // Pose from translation and quaternion (x, y, z, w order as in TUM files); the
 // quaternion is normalised.
 Pose poseFromTranslationQuaternion(const Eigen::Vector3d& t, const Eigen::Quaterniond& q);

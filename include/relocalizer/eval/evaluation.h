@@ -26,6 +26,7 @@ struct EvaluationRecord {
   float score = 0.0f;
   float surface_agreement = -1.0f;  // < 0: not checked
   float light_cast = 0.0f;          // > 0: asked again in the training light (light_retry.h)
+  bool second_draw = false;         // weak, so drawn again to confirm it (second_draw.h)
   StageTimings timings;
   std::string place;  // the answering place, with many places; empty: no pose, or one place
 };
@@ -54,6 +55,9 @@ struct EvaluationSummary {
   // Frames asked again in the training light (light_retry.h), and how many of
   // them got a pose that way.
   int asked_in_training_light = 0, answered_in_training_light = 0;
+  // Answers too weak to give unconfirmed (second_draw.h), and how many of them
+  // the second draw confirmed.
+  int drawn_again = 0, confirmed_by_second_draw = 0;
 };
 
 // `expected_place` (many places): count the answers from any other place.

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "relocalizer/core/frame.h"
+#include "relocalizer/core/pose.h"
 #include "relocalizer/pose/pose_hint.h"
 #include "relocalizer/relocalize/place.h"
 #include "relocalizer/relocalize/relocalizer.h"
@@ -60,11 +61,9 @@ struct PlaceSearchParams {
   // Two places that both answer: the weaker one is no rival below this share
   // of the stronger's inliers; at or above it the frame is ambiguous.
   float ambiguity_ratio = 0.8f;
-  // Two answers of one group agree within these (core/pose.h's errors): two
-  // right answers are each within ~5 cm / 5 deg of the truth, so of each other
-  // within about twice that.
-  double agreement_metres = 0.10;
-  double agreement_degrees = 10.0;
+  // Two answers of one group agree within these (core/pose.h's posesAgree).
+  double agreement_metres = kAnswersAgreeMetres;
+  double agreement_degrees = kAnswersAgreeDegrees;
   // A runner-up of the group whose screen pose is within these of the screen
   // pose of a place that answered is not solved; negative: every close
   // runner-up is solved. Coarse, as screens are (Kabsch on 200 samples), yet

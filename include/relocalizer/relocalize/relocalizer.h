@@ -36,6 +36,10 @@ struct RelocalizerParams {
   // (0 = never; 0.25 is between a 4500 and a 3500 K lamp for a camera
   // balanced for 5500 K).
   float light_retry_min_cast = 0.25f;
+  // An answer whose inlier share is below this is given only when a second
+  // draw of the frame (other pixels, another RANSAC stream) answers within
+  // core/pose.h's kAnswersAgree of it (second_draw.h; 0 = never asked).
+  float confirm_below = 0.25f;
 };
 
 // With two or more threads the line branch (LSD, line samples, line forest)
@@ -84,6 +88,9 @@ struct Relocalization {
   // (light_retry.h; RelocalizerParams::light_retry_min_cast), and the answer
   // (pose or reason) is the second asking's.
   float light_cast = 0.0f;
+  // The evidence was weak (second_draw.h), so the frame was drawn again to
+  // confirm it: with success, the second draw agreed.
+  bool second_draw = false;
   StageTimings timings;
 };
 
@@ -172,11 +179,18 @@ class Relocalizer {
  private:
   // Empty when the frame can be relocalized, else why not.
   std::string frameRefusal(const RgbdFrame& frame) const;
-  // relocalize() in the frame's own colour, and the same frame asked again in
-  // the training light when that failed (light_retry.h).
+  // relocalize() in the frame's own colour, a weak answer confirmed
+  // (second_draw.h); the same frame is asked again in the training light
+  // when that failed (light_retry.h).
   Relocalization relocalizeAsSeen(const RgbdFrame& frame, const PoseHint* hint) const;
+  // Samples the frame with `drawing`'s seed and solves it (no confirmation).
+  Relocalization drawAndSolve(const RgbdFrame& frame, const PoseHint* hint,
+                              const RelocalizerParams& drawing) const;
+  // In light_retry.cpp and second_draw.cpp, beside their rules.
   Relocalization askedInTrainingLight(const RgbdFrame& frame, Relocalization first,
                                       const PoseHint* hint) const;
+  Relocalization confirmedByASecondDraw(const RgbdFrame& frame, Relocalization first,
+                                        const PoseHint* hint) const;
   Relocalization solve(const RgbdFrame& frame, const FrameSamples& samples,
                        const std::vector<Prediction>& point_predictions,
                        const std::vector<Prediction>& line_predictions, Relocalization result,
