@@ -25,15 +25,43 @@ std::optional<LightRebalance> rebalanceIntoTrainingLight(const cv::Mat& bgr, con
   return rebalance;
 }
 
-Relocalization Relocalizer::askedInTrainingLight(const RgbdFrame& frame, Relocalization first,
-                                                 const PoseHint* hint) const {
-  if (first.success || !frameRefusal(frame).empty()) return first;
-  const std::optional<LightRebalance> rebalance =
-      rebalanceIntoTrainingLight(frame.colour, model_, params_.light_retry_min_cast);
+PlaceAnswer searchedAgainInTrainingLight(const std::vector<std::shared_ptr<const Place>>& places,
+                                         const RgbdFrame& frame, const PoseHint* hint,
+                                         const PlaceSearchParams& params, PlaceAnswer first) {
+  if (first.relocalization.success || places.size() < 2 || first.attempts.empty()) return first;
+  for (const PlaceAttempt& attempt : first.attempts)
+    if (attempt.success) return first;  // ambiguous
+  const auto best = std::find_if(places.begin(), places.end(), [&](const auto& place) {
+    return place->name == first.attempts.front().place;
+  });
+  if (best == places.end()) return first;
+  const Relocalizer& screened_best = *(*best)->relocalizer;
+  const std::optional<LightRebalance> rebalance = rebalanceIntoTrainingLight(
+      frame.colour, screened_best.model(), screened_best.params().light_retry_min_cast);
   if (!rebalance) return first;
   RgbdFrame rebalanced = frame;
   rebalanced.colour = applyChannelGains(frame.colour, rebalance->gains);
-  Relocalization second = relocalizeAsSeen(rebalanced, hint);
+  PlaceAnswer second = searchPlaces(places, rebalanced, hint, params);
+  float& cast = second.relocalization.light_cast;
+  cast = std::max(cast, static_cast<float>(rebalance->cast));
+  second.relocalization.timings.total += first.relocalization.timings.total;
+  if (second.relocalization.success) return second;
+  first.relocalization.message +=
+      "; searched again in the light of " + (*best)->name + ": " + second.relocalization.message;
+  first.relocalization.light_cast = cast;
+  first.relocalization.timings.total = second.relocalization.timings.total;
+  return first;
+}
+
+Relocalization askedAgainInTrainingLight(
+    const RgbdFrame& frame, Relocalization first, const Model& model, float min_cast,
+    const std::function<Relocalization(const RgbdFrame&)>& ask) {
+  const std::optional<LightRebalance> rebalance =
+      rebalanceIntoTrainingLight(frame.colour, model, min_cast);
+  if (!rebalance) return first;
+  RgbdFrame rebalanced = frame;
+  rebalanced.colour = applyChannelGains(frame.colour, rebalance->gains);
+  Relocalization second = ask(rebalanced);
   second.light_cast = static_cast<float>(rebalance->cast);
   second.timings.total += first.timings.total;
   if (!second.success)

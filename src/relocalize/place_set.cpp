@@ -4,6 +4,7 @@
 #include "relocalizer/relocalize/place_set.h"
 
 #include "relocalizer/core/file_io.h"
+#include "relocalizer/relocalize/light_retry.h"
 
 #include <algorithm>
 
@@ -203,7 +204,9 @@ std::vector<std::string> PlaceSet::names() const {
 }
 
 PlaceAnswer PlaceSet::relocalize(const RgbdFrame& frame, const PoseHint* hint) const {
-  return searchPlaces(snapshot(), frame, hint, params_);
+  const std::vector<std::shared_ptr<const Place>> places = snapshot();
+  return searchedAgainInTrainingLight(places, frame, hint, params_,
+                                      searchPlaces(places, frame, hint, params_));
 }
 
 size_t PlaceSet::size() const {

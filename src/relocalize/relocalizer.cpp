@@ -4,6 +4,10 @@
 
 #include <chrono>
 #include <cstdio>
+#include <utility>
+
+#include "relocalizer/relocalize/light_retry.h"
+#include "relocalizer/relocalize/second_draw.h"
 
 namespace relocalizer {
 
@@ -217,6 +221,25 @@ std::string Relocalizer::frameRefusal(const RgbdFrame& frame) const {
 
 Relocalization Relocalizer::relocalize(const RgbdFrame& frame, const PoseHint* hint) const {
   return askedInTrainingLight(frame, relocalizeAsSeen(frame, hint), hint);
+}
+
+Relocalization Relocalizer::askedInTrainingLight(const RgbdFrame& frame, Relocalization first,
+                                                 const PoseHint* hint) const {
+  if (first.success || !frameRefusal(frame).empty()) return first;
+  return askedAgainInTrainingLight(
+      frame, std::move(first), model_, params_.light_retry_min_cast,
+      [&](const RgbdFrame& rebalanced) { return relocalizeAsSeen(rebalanced, hint); });
+}
+
+Relocalization Relocalizer::confirmedByASecondDraw(const RgbdFrame& frame, Relocalization first,
+                                                   const PoseHint* hint) const {
+  if (!needsSecondDraw(first, params_.confirm_below)) return first;
+  // Another seed: other pixels, other descriptors, another RANSAC stream; the
+  // same frame and gates.
+  RelocalizerParams drawing = params_;
+  drawing.seed = params_.seed + 1;
+  return confirmedBySecondDraw(std::move(first), drawAndSolve(frame, hint, drawing),
+                               params_.confirm_below);
 }
 
 Relocalization Relocalizer::relocalizeAsSeen(const RgbdFrame& frame, const PoseHint* hint) const {

@@ -2,7 +2,6 @@
 
 #include <cstdio>
 #include <string>
-#include <utility>
 
 #include "relocalizer/core/pose.h"
 
@@ -33,17 +32,6 @@ Relocalization confirmedBySecondDraw(Relocalization first, const Relocalization&
   }
   first.success = false;
   return first;
-}
-
-Relocalization Relocalizer::confirmedByASecondDraw(const RgbdFrame& frame, Relocalization first,
-                                                   const PoseHint* hint) const {
-  if (!needsSecondDraw(first, params_.confirm_below)) return first;
-  // Another seed: other pixels, other descriptors, another RANSAC stream; the
-  // same frame and gates.
-  RelocalizerParams drawing = params_;
-  drawing.seed = params_.seed + 1;
-  return confirmedBySecondDraw(std::move(first), drawAndSolve(frame, hint, drawing),
-                               params_.confirm_below);
 }
 
 }  // namespace relocalizer

@@ -57,7 +57,9 @@ class PlaceSet {
   std::vector<std::shared_ptr<const Place>> places() const { return snapshot(); }
 
   // searchPlaces (place_search.h) over the places as they were when the call
-  // started: thread-safe, also against put/remove from other threads.
+  // started, searched again in the light of the best-screened place when no
+  // place answered (light_retry.h): thread-safe, also against put/remove from
+  // other threads.
   PlaceAnswer relocalize(const RgbdFrame& frame, const PoseHint* hint = nullptr) const;
 
   const PlaceSearchParams& params() const { return params_; }

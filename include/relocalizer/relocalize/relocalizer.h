@@ -186,7 +186,7 @@ class Relocalizer {
   // Samples the frame with `drawing`'s seed and solves it (no confirmation).
   Relocalization drawAndSolve(const RgbdFrame& frame, const PoseHint* hint,
                               const RelocalizerParams& drawing) const;
-  // In light_retry.cpp and second_draw.cpp, beside their rules.
+  // The rules of light_retry.h and second_draw.h, asked of this place.
   Relocalization askedInTrainingLight(const RgbdFrame& frame, Relocalization first,
                                       const PoseHint* hint) const;
   Relocalization confirmedByASecondDraw(const RgbdFrame& frame, Relocalization first,
