@@ -25,6 +25,17 @@ std::optional<LightRebalance> rebalanceIntoTrainingLight(const cv::Mat& bgr, con
   return rebalance;
 }
 
+namespace {
+
+// The frame with its colour rebalanced; depth and pose as they were.
+RgbdFrame inTrainingLight(const RgbdFrame& frame, const LightRebalance& rebalance) {
+  RgbdFrame rebalanced = frame;
+  rebalanced.colour = applyChannelGains(frame.colour, rebalance.gains);
+  return rebalanced;
+}
+
+}  // namespace
+
 PlaceAnswer searchedAgainInTrainingLight(const std::vector<std::shared_ptr<const Place>>& places,
                                          const RgbdFrame& frame, const PoseHint* hint,
                                          const PlaceSearchParams& params, PlaceAnswer first) {
@@ -39,9 +50,7 @@ PlaceAnswer searchedAgainInTrainingLight(const std::vector<std::shared_ptr<const
   const std::optional<LightRebalance> rebalance = rebalanceIntoTrainingLight(
       frame.colour, screened_best.model(), screened_best.params().light_retry_min_cast);
   if (!rebalance) return first;
-  RgbdFrame rebalanced = frame;
-  rebalanced.colour = applyChannelGains(frame.colour, rebalance->gains);
-  PlaceAnswer second = searchPlaces(places, rebalanced, hint, params);
+  PlaceAnswer second = searchPlaces(places, inTrainingLight(frame, *rebalance), hint, params);
   float& cast = second.relocalization.light_cast;
   cast = std::max(cast, static_cast<float>(rebalance->cast));
   second.relocalization.timings.total += first.relocalization.timings.total;
@@ -59,9 +68,7 @@ Relocalization askedAgainInTrainingLight(
   const std::optional<LightRebalance> rebalance =
       rebalanceIntoTrainingLight(frame.colour, model, min_cast);
   if (!rebalance) return first;
-  RgbdFrame rebalanced = frame;
-  rebalanced.colour = applyChannelGains(frame.colour, rebalance->gains);
-  Relocalization second = ask(rebalanced);
+  Relocalization second = ask(inTrainingLight(frame, *rebalance));
   second.light_cast = static_cast<float>(rebalance->cast);
   second.timings.total += first.timings.total;
   if (!second.success)
