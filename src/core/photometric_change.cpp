@@ -111,16 +111,49 @@ cv::Mat applyChannelGains(const cv::Mat& bgr, const cv::Vec3d& gains) {
   return changedLight(bgr, 0.0, gains, 1.0);
 }
 
-cv::Vec3d lightChromaticity(const cv::Mat& bgr) {
-  requireBgr(bgr, "lightChromaticity");
-  double linear[256];
-  for (int value = 0; value < 256; ++value) linear[value] = srgbToLinear(value / 255.0);
-  cv::Vec3d sum(0.0, 0.0, 0.0);
+namespace {
+
+// Calls `add(cell, linear B, G, R)` for every other pixel of every other row,
+// `cell` its kLightGridColumns x kLightGridRows grid cell: the one sampling
+// of a frame's light.
+template <typename Add>
+void forEachLightSample(const cv::Mat& bgr, Add&& add) {
+  static const std::array<double, 256> linear = [] {
+    std::array<double, 256> table{};
+    for (int value = 0; value < 256; ++value) table[value] = srgbToLinear(value / 255.0);
+    return table;
+  }();
   for (int y = 0; y < bgr.rows; y += 2) {
     const cv::Vec3b* row = bgr.ptr<cv::Vec3b>(y);
+    const int cell_row = y * kLightGridRows / bgr.rows * kLightGridColumns;
     for (int x = 0; x < bgr.cols; x += 2)
-      for (int c = 0; c < 3; ++c) sum[c] += linear[row[x][c]];
+      add(cell_row + x * kLightGridColumns / bgr.cols, linear[row[x][0]], linear[row[x][1]],
+          linear[row[x][2]]);
   }
+}
+
+}  // namespace
+
+LightGrid lightGrid(const cv::Mat& bgr) {
+  requireBgr(bgr, "lightGrid");
+  std::array<double, LightGrid().size()> sum{};
+  std::array<int, kLightGridColumns * kLightGridRows> samples{};
+  forEachLightSample(bgr, [&](int cell, double b, double g, double r) {
+    sum[3 * cell] += b;
+    sum[3 * cell + 1] += g;
+    sum[3 * cell + 2] += r;
+    ++samples[cell];
+  });
+  LightGrid grid{};
+  for (size_t i = 0; i < grid.size(); ++i)
+    grid[i] = samples[i / 3] > 0 ? static_cast<float>(sum[i] / samples[i / 3]) : 0.0f;
+  return grid;
+}
+
+cv::Vec3d lightChromaticity(const cv::Mat& bgr) {
+  requireBgr(bgr, "lightChromaticity");
+  cv::Vec3d sum(0.0, 0.0, 0.0);
+  forEachLightSample(bgr, [&sum](int, double b, double g, double r) { sum += cv::Vec3d(b, g, r); });
   const double luma = kLumaWeight[0] * sum[0] + kLumaWeight[1] * sum[1] + kLumaWeight[2] * sum[2];
   return luma > 0.0 ? sum / luma : cv::Vec3d(0.0, 0.0, 0.0);
 }

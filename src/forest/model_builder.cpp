@@ -14,11 +14,12 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
 }
 
 // The part of a summary that follows from the training images: their count,
-// the bounds of their camera centres, the light's chromaticity, and this
-// build's software version.
+// the bounds of their camera centres, the light's chromaticity and where each
+// image's light fell, and this build's software version.
 void summarizeTrainingImages(const std::vector<TrainingImage>& images, TrainingSummary& summary) {
   summary.images = static_cast<int>(images.size());
   summary.software_version = kSoftwareVersion;
+  summary.view_lights.clear();
   if (images.empty()) return;
   summary.scene_min = summary.scene_max = images.front().pose.translation().cast<float>();
   for (const auto& image : images) {
@@ -30,6 +31,7 @@ void summarizeTrainingImages(const std::vector<TrainingImage>& images, TrainingS
   for (const auto& image : images)
     if (image.colour.type() == CV_8UC3 && !image.colour.empty()) {
       chromaticity += lightChromaticity(image.colour);
+      summary.view_lights.push_back(lightGrid(image.colour));
       ++coloured;
     }
   if (coloured > 0) chromaticity /= static_cast<double>(coloured);

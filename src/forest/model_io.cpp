@@ -298,6 +298,17 @@ std::string preambleError(const uint8_t* data, size_t size, uint64_t total, uint
   return {};
 }
 
+bool readViewLights(ByteReader& r, std::vector<LightGrid>& view_lights, std::string& why) {
+  if (!r.array(view_lights)) return false;
+  for (const LightGrid& grid : view_lights)
+    for (float light : grid)
+      if (!(light >= 0.0f && light <= 1.0f)) {
+        why = "a cell's mean linear light is not in 0..1";
+        return false;
+      }
+  return true;
+}
+
 }  // namespace
 
 std::string modelHeaderJson(const Model& model, int indent) {
@@ -319,6 +330,7 @@ std::vector<uint8_t> serializeModel(const Model& model) {
     for (const auto& tree : packed) w.bytes(tree.data(), tree.size());
   }
   writeSurface(w, model.surface);
+  w.array(model.summary.view_lights);
 
   std::vector<uint8_t> out;
   out.reserve(kPreambleSize + body.size());
@@ -376,8 +388,11 @@ Expected<Model> deserializeModel(const uint8_t* data, size_t size, const std::st
   if (version >= 2 && !readSurface(b, model.surface, why))
     return makeError(
         where + (why.empty() ? "truncated model file (surface data)" : "invalid surface: " + why));
+  if (version >= 4 && !readViewLights(b, model.summary.view_lights, why))
+    return makeError(where + (why.empty() ? "truncated model file (view lights)"
+                                          : "invalid view lights: " + why));
   if (b.remaining() != 0)
-    return makeError(where + "unexpected bytes after the forests and surface");
+    return makeError(where + "unexpected bytes after the forests, surface and view lights");
   return model;
 }
 

@@ -251,10 +251,10 @@ TEST_F(SyntheticRoomRelocalization, TrainedUnderDrawnLightsEveningIsFoundFromThe
 }
 
 // The recorded colour's own way back (light_retry.h): a model trained on the
-// frames as recorded, asked about the evening, answers in the frames' own
-// colour only some of them; each frame it cannot answer is asked again with
-// its colour rebalanced into the training light, which the model keeps.
-// Frames in the light of training are never asked twice.
+// frames as recorded, asked about the evening or a dim room, answers in the
+// frames' own light only some of them; each frame it cannot answer is asked
+// again rebalanced into the training light, found by the training view it
+// resembles. Frames in the light of training are never asked twice.
 TEST_F(SyntheticRoomRelocalization, RecordedColourFindsTheEveningByAskingAgainInTheTrainingLight) {
   Model model = trainedOnRoom(TrainingParams{});
   ASSERT_GT(model.summary.light_chromaticity.minCoeff(), 0.0f);
@@ -284,6 +284,20 @@ TEST_F(SyntheticRoomRelocalization, RecordedColourFindsTheEveningByAskingAgainIn
   EXPECT_GE(asked_again.within_5cm_5deg, 0.80);
   EXPECT_GE(asked_again.within_5cm_5deg, alone.within_5cm_5deg + 0.2);
   EXPECT_EQ(asked_again.wrong_answers, 0);
+  // Two stops less light moves no colour but every value down the tone
+  // curve: the nearest training view tells the level too.
+  PhotometricChange dim;
+  dim.stops = -2;
+  const AccuracySummary dim_alone = accuracyUnder(own_colour, test_frames_, dim);
+  const AccuracySummary dim_asked_again = accuracyUnder(retrying, test_frames_, dim);
+  std::printf(
+      "synthetic room trained in the recorded colour, two stops darker: %.1f%% in the frames' "
+      "own light, %.1f%% asked again in the training light, %d wrong\n",
+      100 * dim_alone.within_5cm_5deg, 100 * dim_asked_again.within_5cm_5deg,
+      dim_asked_again.wrong_answers);
+  EXPECT_GE(dim_asked_again.within_5cm_5deg, 0.80);
+  EXPECT_GE(dim_asked_again.within_5cm_5deg, dim_alone.within_5cm_5deg + 0.2);
+  EXPECT_EQ(dim_asked_again.wrong_answers, 0);
   RelocalizerParams negative = smallRelocalization();
   negative.light_retry_min_cast = -0.1f;
   EXPECT_NE(Relocalizer(retrying.model(), negative).validationError().find("light_retry_min_cast"),

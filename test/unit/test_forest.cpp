@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -756,6 +757,46 @@ TEST_F(ModelFile, TheTrainingLightRoundTripsAndOlderFilesDoNotKnowIt) {
   auto old = loadModel(writeVariant(oldVersionBytes(lit, 2)));
   ASSERT_TRUE(old.ok()) << old.error();
   EXPECT_EQ(old->summary.light_chromaticity, Eigen::Vector3f::Zero());
+}
+
+// Where each training image's light fell (light_retry.h matches a frame's
+// with them) follows the surface; a version-3 file, written before they were
+// kept, loads without them, and a view light no image can have is refused.
+TEST_F(ModelFile, TheViewLightsRoundTripAndVersionThreeFilesLoadWithoutThem) {
+  Model lit = model_;
+  LightGrid grid{};
+  for (size_t i = 0; i < grid.size(); ++i) grid[i] = 0.001f * static_cast<float>(i);
+  lit.summary.view_lights = {grid, LightGrid{}};
+  const std::vector<uint8_t> bytes = serializeModel(lit);
+  auto loaded = deserializeModel(bytes.data(), bytes.size(), "lit.model");
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  EXPECT_EQ(loaded->summary.view_lights, lit.summary.view_lights);
+
+  // Version 3: the same bytes without the view lights' count at the end.
+  std::vector<uint8_t> version_three = bytes_;
+  version_three.resize(version_three.size() - 4);
+  const uint32_t three = 3;
+  const uint64_t body_size = version_three.size() - 28;
+  const uint32_t crc =
+      static_cast<uint32_t>(crc32(0L, version_three.data() + 28, static_cast<uInt>(body_size)));
+  std::memcpy(version_three.data() + 8, &three, 4);
+  std::memcpy(version_three.data() + 16, &body_size, 8);
+  std::memcpy(version_three.data() + 24, &crc, 4);
+  auto old = loadModel(writeVariant(version_three));
+  ASSERT_TRUE(old.ok()) << old.error();
+  EXPECT_TRUE(old->summary.view_lights.empty());
+  expectSameForest(old->points, model_.points);
+  EXPECT_EQ(old->surface.elements().size(), 2u);
+
+  for (float impossible : {-0.5f, std::numeric_limits<float>::quiet_NaN(), 1.5f}) {
+    Model broken = lit;
+    broken.summary.view_lights[1][7] = impossible;
+    const std::vector<uint8_t> broken_bytes = serializeModel(broken);
+    auto refused = deserializeModel(broken_bytes.data(), broken_bytes.size(), "lit.model");
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.error(),
+              "lit.model: invalid view lights: a cell's mean linear light is not in 0..1");
+  }
 }
 
 TEST_F(ModelFile, OldVersionsLeafIndicesAreChecked) {

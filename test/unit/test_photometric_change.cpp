@@ -109,6 +109,36 @@ TEST(PhotometricChange, ChromaticityMovesByTheLightsGains) {
   EXPECT_THROW(lightChromaticity(cv::Mat(4, 4, CV_8UC1)), std::invalid_argument);
 }
 
+// The light grid keeps where the light falls: each cell holds its own
+// patch's linear light, a lamp moves every cell by its gains, and the grid's
+// channels add up to the frame's chromaticity.
+TEST(PhotometricChange, LightGridKeepsWhereTheLightFalls) {
+  // A bluish left half, a reddish right half: lit by the lamp, neither clips
+  // nor falls where 8 bits quantise coarsely.
+  cv::Mat split(60, 80, CV_8UC3, cv::Scalar(200, 110, 70));
+  split(cv::Rect(40, 0, 40, 60)).setTo(cv::Scalar(90, 110, 170));
+  const LightGrid grid = lightGrid(split);
+  for (int row = 0; row < kLightGridRows; ++row)
+    for (int column = 0; column < kLightGridColumns; ++column) {
+      const bool left = column < kLightGridColumns / 2;
+      const float* cell = &grid[3 * (row * kLightGridColumns + column)];
+      EXPECT_NEAR(cell[0], linear(left ? 200 : 90), 1e-6) << row << ", " << column;
+      EXPECT_NEAR(cell[2], linear(left ? 70 : 170), 1e-6) << row << ", " << column;
+    }
+  PhotometricChange lamp;
+  lamp.kelvin = 3000;
+  const LightGrid lit = lightGrid(applyPhotometricChange(split, lamp));
+  const cv::Vec3d gains = whiteBalanceGains(3000);
+  for (size_t i = 0; i < grid.size(); ++i)
+    EXPECT_NEAR(lit[i] / grid[i], gains[i % 3], 0.03 * gains[i % 3]) << "value " << i;
+  cv::Vec3d sum(0, 0, 0);
+  for (size_t i = 0; i < grid.size(); ++i) sum[i % 3] += grid[i];
+  const cv::Vec3d chromaticity = lightChromaticity(split);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(sum[c] / sum[1], chromaticity[c] / chromaticity[1], 1e-6) << "channel " << c;
+  EXPECT_THROW(lightGrid(cv::Mat(4, 4, CV_8UC1)), std::invalid_argument);
+}
+
 // Gains that invert the lamp's bring the recorded colour back, within the
 // quantisation of the two 8-bit passes.
 TEST(PhotometricChange, ChannelGainsUndoAWhiteBalance) {

@@ -6,6 +6,7 @@
 // channel, as in the camera; the test frames of a benchmark go through it
 // (changed_frame_source.h), the geometry (depth, poses) stays as it was.
 
+#include <array>
 #include <opencv2/core.hpp>
 #include <string>
 
@@ -50,6 +51,17 @@ cv::Mat applyPhotometricChange(const cv::Mat& bgr, const PhotometricChange& chan
 // lights only where they differ by more than the scenes do. Zeros for a black
 // image. Throws std::invalid_argument on another image type than 8-bit BGR.
 cv::Vec3d lightChromaticity(const cv::Mat& bgr);
+
+// Where a view's light falls: the mean linear light of each channel in each
+// cell of a kLightGridColumns x kLightGridRows grid over the image (every
+// other pixel of every other row), row by row, B, G, R per cell. Unlike
+// lightChromaticity it keeps where the colours are, so two views of the same
+// place in other light differ by one gain per channel, and views of other
+// places do not (light_retry.h). Throws std::invalid_argument on another
+// image type than 8-bit BGR.
+constexpr int kLightGridColumns = 8, kLightGridRows = 6;
+using LightGrid = std::array<float, kLightGridColumns * kLightGridRows * 3>;
+LightGrid lightGrid(const cv::Mat& bgr);
 
 // `bgr` with each channel's linear light times `gains` (B, G, R), clipped
 // where the sensor saturates: a white balance set afterwards.

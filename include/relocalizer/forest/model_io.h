@@ -18,6 +18,7 @@
 //         stored byte plane by byte plane (byte 0 of every element, then byte
 //         1, ...), which lets deflate halve the model.
 //     surface: float voxel size, uint32 n + SurfaceElement[n]
+//     view lights: uint32 n + LightGrid[n] (float32), one per training image
 // Saving is deterministic: the same model gives the same bytes.
 //
 // Older versions still load, converted:
@@ -25,7 +26,8 @@
 //     SplitNode[n] (leaves as indices into the next array), uint32 n +
 //     LeafRange[n], uint32 n + 92-byte modes with the descriptor inline; no
 //     surface (relocalization then skips the surface fit and check, and says so).
-//   2: version 1's forests, then the surface as in version 3.
+//   2: version 1's forests, then the surface as in version 4.
+//   3: version 4 without the view lights.
 
 #include <cstdint>
 #include <string>
@@ -34,12 +36,13 @@
 
 #include "relocalizer/core/expected.h"
 #include "relocalizer/core/file_io.h"
+#include "relocalizer/core/photometric_change.h"
 #include "relocalizer/forest/forest.h"
 #include "relocalizer/forest/training.h"
 
 namespace relocalizer {
 
-constexpr uint32_t kModelFormatVersion = 3;
+constexpr uint32_t kModelFormatVersion = 4;
 // Every model file starts with it; a save replaces only files that do.
 constexpr std::string_view kModelMagic{"PLFOREST", 8};
 
@@ -60,6 +63,10 @@ struct TrainingSummary {
   // lightChromaticity (core/photometric_change.h), B, G, R. Zeros: not known
   // (models written before it was kept).
   Eigen::Vector3f light_chromaticity = Eigen::Vector3f::Zero();
+  // Where each training image's light fell (lightGrid), in training order:
+  // what a frame in other light is matched against (light_retry.h). Empty:
+  // not kept (format versions before 4).
+  std::vector<LightGrid> view_lights;
   std::string software_version;
 };
 

@@ -31,10 +31,10 @@ struct RelocalizerParams {
   PoseSolverParams solver;
   SurfaceFitParams surface;  // depth ICP and the surface check after the solver
   // A frame without a pose whose light is at least this far from the
-  // training light (light_retry.h: the largest |ln| ratio of a channel's
-  // share) is asked once more with its colour rebalanced into that light
-  // (0 = never; 0.25 is between a 4500 and a 3500 K lamp for a camera
-  // balanced for 5500 K).
+  // training light (light_retry.h: the largest |ln| gain of a channel that
+  // takes the frame into it, level and colour) is asked once more rebalanced
+  // into that light (0 = never; 0.25 is a third of a stop, or between a 4500
+  // and a 3500 K lamp for a camera balanced for 5500 K).
   float light_retry_min_cast = 0.25f;
   // An answer whose inlier share is below this is given only when a second
   // draw of the frame (other pixels, another RANSAC stream) answers within
@@ -84,7 +84,7 @@ struct Relocalization {
   // check off, or no solver pose to check).
   float surface_agreement = -1.0f;
   bool surface_refined = false;  // depth ICP moved the solver's pose
-  // > 0: the frame was asked again with a colour cast of this size taken out
+  // > 0: the frame was asked again with a change of light of this size taken out
   // (light_retry.h; RelocalizerParams::light_retry_min_cast), and the answer
   // (pose or reason) is the second asking's.
   float light_cast = 0.0f;
