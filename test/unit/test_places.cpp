@@ -134,10 +134,11 @@ TEST_F(Places, AFrameNoPlaceAnswersInALampsLightIsSearchedAgainInTheLightOfTheVi
         EXPECT_EQ(answer.place, first.place);  // an answer is never searched again
       } else if (answer.relocalization.light_cast > 0.0f) {
         ++searched_again;
-        if (!answer.relocalization.success)
+        if (!answer.relocalization.success) {
           EXPECT_NE(answer.relocalization.message.find("searched again in the light of"),
                     std::string::npos)
               << answer.relocalization.message;
+        }
       }
       EXPECT_EQ(set.relocalize(recorded).relocalization.light_cast, 0.0f);
     }
