@@ -128,6 +128,12 @@ TEST(Places, ListsTheTwoPlacesThatLoadedWithTheirFigures) {
 }
 
 TEST(Places, EachRoomIsAnsweredByItsPlaceInItsFrame) {
+  // ~result is not latched: an answer published before this test's
+  // subscriber is connected to the node is lost (a loaded machine takes
+  // seconds to connect them; fresh bookworm root, 2026-11-30).
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(30);
+  while (!g_results->connected() && ros::WallTime::now() < give_up) ros::WallDuration(0.05).sleep();
+  ASSERT_TRUE(g_results->connected()) << "the node does not publish /relocalizer/result";
   for (const Room& room : *g_rooms)
     for (size_t i : kFrames) {
       SCOPED_TRACE(room.place + " frame " + std::to_string(i));
