@@ -2,26 +2,10 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <Eigen/LU>
 #include <algorithm>
 #include <limits>
 
 namespace relocalizer {
-
-Eigen::Matrix3f LeafMode::informationMatrix() const {
-  const auto& s = information;
-  Eigen::Matrix3f m;
-  m << s[0], s[1], s[2], s[1], s[3], s[4], s[2], s[4], s[5];
-  return m;
-}
-
-Eigen::Matrix3f LeafMode::covariance() const { return informationMatrix().inverse(); }
-
-void LeafMode::setCovariance(const Eigen::Matrix3f& covariance) {
-  const Eigen::Matrix3f inverse = covariance.inverse();
-  information = {inverse(0, 0), inverse(0, 1), inverse(0, 2),
-                 inverse(1, 1), inverse(1, 2), inverse(2, 2)};
-}
 
 int Tree::depth() const {
   if (nodes.empty()) return 0;
@@ -131,29 +115,39 @@ inline int32_t splitStep(const std::vector<SplitNode>& nodes, int32_t index,
   return node.left + (go_left ? 0 : 1);
 }
 
+// The nearest mode of the leaves visited so far, by index into its tree's
+// modes: only the one kept is unpacked (candidateOf).
+struct NearestMode {
+  int32_t mode = -1;
+  int32_t distance = ModeCandidate::kNoDescriptorDistance;
+};
+
 // Keeps the nearest mode of `range` in `best` (the first of equals).
 inline void nearestMode(const Tree& tree, const LeafRange& range, const Descriptor& descriptor,
-                        ModeCandidate& best) {
+                        NearestMode& best) {
   for (uint32_t m = range.first_mode; m < range.first_mode + range.mode_count; ++m) {
     const int32_t d = descriptorDistance(tree.descriptors[m], descriptor);
-    if (d < best.descriptor_distance) {
-      best.descriptor_distance = d;
-      best.mode = &tree.modes[m];
+    if (d < best.distance) {
+      best.distance = d;
+      best.mode = static_cast<int32_t>(m);
     }
   }
 }
 
-ModeCandidate noCandidate() {
-  ModeCandidate none;
-  none.descriptor_distance = std::numeric_limits<int32_t>::max();
-  return none;
+ModeCandidate candidateOf(const Tree& tree, const NearestMode& nearest) {
+  ModeCandidate candidate;
+  if (nearest.mode < 0) return candidate;
+  candidate.mode = tree.mode(static_cast<uint32_t>(nearest.mode));
+  candidate.descriptor_distance = nearest.distance;
+  return candidate;
 }
 
 // predictInTree for many samples at once. A single descent is a chain of
 // dependent cache misses (each node's address comes from its parent, and a
 // model of tens of MB does not fit the cache), so one sample at a time leaves
 // the core waiting on DRAM. Here kLanes samples advance in turn, one memory
-// access each per round (a node, or a leaf's modes' descriptors) with the next access prefetched,
+// access each per round (a node, a leaf's modes' descriptors, or the chosen mode) with the next
+// access prefetched,
 // so up to kLanes misses are in flight; a split node takes two turns, the
 // second reading the pixel the first located and prefetched. Each lane runs exactly predictInTree's
 // steps in its order, so every candidate is the one predictInTree gives. Writes candidates[slot] of
@@ -181,7 +175,7 @@ class LockStepDescent {
   }
 
  private:
-  enum class Step : uint8_t { Descend, Split, Modes, Idle };
+  enum class Step : uint8_t { Descend, Split, Modes, Unpack, Idle };
   struct Lane {
     BranchQueue queue;
     size_t sample = 0;
@@ -190,7 +184,7 @@ class LockStepDescent {
     int qu = 0, qv = 0;  // the second pixel of `node`'s feature (Split)
     LeafRange range;
     int visited = 0;
-    ModeCandidate best;
+    NearestMode best;
     Step step = Step::Idle;
   };
 
@@ -206,7 +200,7 @@ class LockStepDescent {
     lane.node = 0;
     lane.visited = 0;
     lane.queue.reset(max_leaves_ - 1);
-    lane.best = noCandidate();
+    lane.best = NearestMode{};
     lane.step = Step::Descend;
     return true;
   }
@@ -233,7 +227,7 @@ class LockStepDescent {
           for (uint32_t m = r.first_mode; m < r.first_mode + r.mode_count; ++m) {
             const char* descriptor = reinterpret_cast<const char*>(tree_.descriptors[m].data());
             __builtin_prefetch(descriptor);
-            __builtin_prefetch(descriptor + kDescriptorSize - 1);
+            __builtin_prefetch(descriptor + sizeof(Descriptor) - 1);
           }
           lane.step = Step::Modes;
         }
@@ -255,13 +249,19 @@ class LockStepDescent {
         nearestMode(tree_, lane.range, descriptors_[lane.sample], lane.best);
         ++lane.visited;
         if (lane.visited >= std::max(1, max_leaves_) || lane.queue.empty()) {
-          out_[lane.sample].candidates[slot_] = lane.best;
-          return false;
+          // The chosen mode is unpacked on the lane's next turn, its read
+          // overlapped with the other lanes' like every other.
+          if (lane.best.mode >= 0) __builtin_prefetch(&tree_.modes[lane.best.mode]);
+          lane.step = Step::Unpack;
+          return true;
         }
         lane.node = lane.queue.pop();
         __builtin_prefetch(&nodes[lane.node]);
         lane.step = Step::Descend;
         return true;
+      case Step::Unpack:
+        out_[lane.sample].candidates[slot_] = candidateOf(tree_, lane.best);
+        return false;
       case Step::Idle:
         break;
     }
@@ -284,8 +284,8 @@ class LockStepDescent {
 
 ModeCandidate predictInTree(const Tree& tree, const FeatureImage& image, const Sample& sample,
                             const Descriptor& descriptor, int max_leaves) {
-  ModeCandidate best = noCandidate();
-  if (tree.nodes.empty()) return best;
+  NearestMode best;
+  if (tree.nodes.empty()) return {};
   BranchQueue queue(max_leaves - 1);
   const FeatureSite site = FeatureSite::at(sample.u, sample.v, sample.depth);
   int32_t start = 0;
@@ -297,7 +297,7 @@ ModeCandidate predictInTree(const Tree& tree, const FeatureImage& image, const S
     if (queue.empty()) break;
     start = queue.pop();
   }
-  return best;
+  return candidateOf(tree, best);
 }
 
 void predictForest(const Forest& forest, const FeatureImage& image,
@@ -312,7 +312,7 @@ void predictForest(const Forest& forest, const FeatureImage& image,
                       for (int t = 0; t < trees; ++t) {
                         if (forest.trees[t].nodes.empty()) {
                           for (size_t i = first; i < range.end(); ++i)
-                            out[i].candidates[t] = noCandidate();
+                            out[i].candidates[t] = ModeCandidate{};
                           continue;
                         }
                         LockStepDescent(forest.trees[t], image, params.max_leaves)
@@ -324,7 +324,7 @@ void predictForest(const Forest& forest, const FeatureImage& image,
                         Prediction& p = out[i];
                         p.count = 0;
                         for (int t = 0; t < trees; ++t)
-                          if (p.candidates[t].mode) p.candidates[p.count++] = p.candidates[t];
+                          if (p.candidates[t].found()) p.candidates[p.count++] = p.candidates[t];
                       }
                     });
 }

@@ -114,8 +114,18 @@ DescriptorF computeDescriptor(const FeatureImage& image, int u, int v,
 
 Descriptor quantizeDescriptor(const DescriptorF& descriptor) {
   Descriptor out;
-  for (int i = 0; i < kDescriptorSize; ++i)
-    out[i] = static_cast<int8_t>(std::clamp(std::lround(descriptor[i] * 127.0f), -127L, 127L));
+  for (int c = 0; c < kDescriptorChannels; ++c)
+    for (int k = 0; k < kKeptPerChannel; ++k)
+      out[c * kKeptPerChannel + k] = static_cast<int8_t>(
+          std::clamp(std::lround(descriptor[c * kDescriptorPerChannel + k] * 127.0f), -127L, 127L));
+  return out;
+}
+
+Descriptor keptCoefficients(const std::array<int8_t, kDescriptorSize>& whole) {
+  Descriptor out;
+  for (int c = 0; c < kDescriptorChannels; ++c)
+    for (int k = 0; k < kKeptPerChannel; ++k)
+      out[c * kKeptPerChannel + k] = whole[c * kDescriptorPerChannel + k];
   return out;
 }
 

@@ -141,6 +141,9 @@ class TreeGrower {
   std::vector<Eigen::Vector3f> points_;
   std::vector<size_t> members_;
   std::vector<int> assignment_;
+  // Every leaf's modes at full precision, packed on the tree's grid once the
+  // tree is grown and the grid known.
+  std::vector<LeafMode> leaf_modes_;
 };
 
 TreeGrower::TreeGrower(const std::vector<TrainingImage>& images, TreeSamples& samples,
@@ -187,6 +190,7 @@ Tree TreeGrower::grow() {
       makeLeaf(tree, task);
     }
   }
+  packModes(leaf_modes_, tree.grid, tree.modes);
   return tree;
 }
 
@@ -344,10 +348,10 @@ void TreeGrower::makeLeaf(Tree& tree, const NodeTask& task) {
   const std::vector<Mode3D> modes = meanShiftModes(points_, params_.mean_shift, &assignment_);
   std::vector<DescriptorF> descriptors = modeDescriptorSums(modes.size());
   LeafRange range;
-  range.first_mode = static_cast<uint32_t>(tree.modes.size());
+  range.first_mode = static_cast<uint32_t>(leaf_modes_.size());
   range.mode_count = static_cast<uint32_t>(modes.size());
   for (size_t m = 0; m < modes.size(); ++m) {
-    tree.modes.push_back(leafMode(modes[m]));
+    leaf_modes_.push_back(leafMode(modes[m]));
     tree.descriptors.push_back(modeDescriptor(descriptors[m]));
   }
   tree.nodes[task.node] = SplitNode::leaf(range);

@@ -350,6 +350,7 @@ std::vector<SubmapModel> SubmapLearner::models(bool current_place) const {
     model.index = s;
     model.frozen = index_.frozen(s);
     model.keyframes = static_cast<int>(index_.keyFrames(s).size());
+    model.part = s >= index_.firstOfPlace() ? 1 : 0;
     if (model.frozen && s < static_cast<int>(frozen_.size())) {
       model.relocalizer = frozen_[static_cast<std::size_t>(s)].relocalizer;
       model.file = frozen_[static_cast<std::size_t>(s)].model_id;

@@ -79,7 +79,7 @@ inline int bestMode(const Prediction& prediction, const Eigen::Vector3f& world, 
   int chosen = -1;
   best = std::numeric_limits<float>::max();
   for (int c = 0; c < prediction.count; ++c) {
-    const LeafMode& m = *prediction.candidates[c].mode;
+    const LeafMode& m = prediction.candidates[c].mode;
     const float e = m.mahalanobisSquared(world);
     if (e < best) {
       best = e;
@@ -107,7 +107,7 @@ void collectTerms(const std::vector<const SolverSample*>& samples, const Pose& p
     float distance = 0;
     const int c = bestMode(*s->prediction, r * s->camera_point + t, distance);
     if (c < 0 || distance >= params.inlier_chi2) continue;
-    const LeafMode& mode = *s->prediction->candidates[c].mode;
+    const LeafMode& mode = s->prediction->candidates[c].mode;
     RefinementTerm term;
     term.camera_point = s->camera_point.cast<double>();
     term.mode_mean = mode.mean.cast<double>();
@@ -167,14 +167,8 @@ std::vector<Hypothesis> drawHypotheses(const std::vector<const SolverSample*>& a
                                        std::mt19937& rng) {
   std::vector<Hypothesis> hypotheses;
   hypotheses.reserve(params.hypotheses);
-  // About 19 minimal sets in 20 fail the checks (redkitchen-dev), and each
-  // reads three modes at random, most for the first time in the frame (the
-  // forests compared descriptors, which are stored apart): one set's reads
-  // waited for the last one's checks. Fetching every candidate first lets
-  // those misses overlap.
-  for (int i = 0; i < point_count; ++i)
-    for (int c = 0; c < all[i]->prediction->count; ++c)
-      __builtin_prefetch(all[i]->prediction->candidates[c].mode);
+  // The candidates' modes are unpacked into the predictions (forest.h), which
+  // the forests wrote just now: no read here reaches into the model.
   std::uniform_int_distribution<int> pick_point(0, point_count - 1);
   for (int attempt = 0;
        attempt < attempts && static_cast<int>(hypotheses.size()) < params.hypotheses; ++attempt) {
@@ -185,7 +179,7 @@ std::vector<Hypothesis> drawHypotheses(const std::vector<const SolverSample*>& a
     for (int k = 0; k < 3; ++k) {
       std::uniform_int_distribution<int> pick_mode(0, s[k]->prediction->count - 1);
       camera[k] = s[k]->camera_point.cast<double>();
-      world[k] = s[k]->prediction->candidates[pick_mode(rng)].mode->mean.cast<double>();
+      world[k] = s[k]->prediction->candidates[pick_mode(rng)].mode.mean.cast<double>();
     }
     if (!plausibleMinimalSet(camera, world, params)) continue;
     Pose pose;
@@ -245,7 +239,7 @@ class PreemptiveRounds {
       const Eigen::Vector3f& p = s.camera_point;
       batch_.push_back({{p.x(), p.y(), p.z()}, s.prediction->count, index});
       for (int c = 0; c < s.prediction->count; ++c) {
-        const LeafMode& m = *s.prediction->candidates[c].mode;
+        const LeafMode& m = s.prediction->candidates[c].mode;
         const auto& in = m.information;
         batch_modes_.push_back(
             {{m.mean.x(), m.mean.y(), m.mean.z()}, {in[0], in[1], in[2], in[3], in[4], in[5]}});

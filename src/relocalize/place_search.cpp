@@ -4,6 +4,8 @@
 
 #include "relocalizer/relocalize/place_search.h"
 
+#include "place_rules.h"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -18,29 +20,17 @@ namespace relocalizer {
 
 namespace {
 
+using detail::ambiguityMessage;
+using detail::disagreementMessage;
+using detail::hintFactor;
+using detail::hintFor;
+using detail::inliersOf;
+using detail::oneMap;
+using detail::otherPart;
+
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-int inliersOf(const Relocalization& answer) { return answer.point_inliers + answer.line_inliers; }
-
-// The hint for a place: only a place in the hint's frame hears it.
-const PoseHint* hintFor(const Place& place, const PoseHint* hint) {
-  return hint && hint->frame == place.map_frame ? hint : nullptr;
-}
-
-// What a place's evidence counts for against another place: its hint's factor
-// at the pose (the largest, 1 + hint_weight, for a screen that has no pose).
-// Float, as the ratios it meets are: without a hint every comparison is the
-// one made before hints existed.
-float hintFactor(const Place& place, const PoseHint* hint, const Pose* pose) {
-  const PoseHint* heard = hintFor(place, hint);
-  if (!heard) return 1.0f;
-  const double weight = place.relocalizer->params().solver.hint_weight;
-  if (!pose) return static_cast<float>(1.0 + weight);
-  const Expected<HintPrior> prior = HintPrior::make(*heard);
-  return prior ? static_cast<float>(prior->factor(*pose, weight)) : 1.0f;
 }
 
 // Places `first` to `last` of a ranking put best screened first: the fully
@@ -51,32 +41,6 @@ void sortByScreen(std::vector<size_t>::iterator first, std::vector<size_t>::iter
     if (attempts[a].screened_fully != attempts[b].screened_fully) return attempts[a].screened_fully;
     return attempts[a].screen_inliers * factors[a] > attempts[b].screen_inliers * factors[b];
   });
-}
-
-std::string ambiguityMessage(const std::string& a, const Relocalization& answer_a,
-                             const std::string& b, const Relocalization& answer_b) {
-  char buffer[400];
-  std::snprintf(buffer, sizeof buffer,
-                "ambiguous place: the frame fits %s (%d inliers) and %s (%d inliers) alike",
-                a.c_str(), inliersOf(answer_a), b.c_str(), inliersOf(answer_b));
-  return buffer;
-}
-
-// One map: answers of the two places are poses in one world, so agreeing
-// ones are one answer. Places of one group share their frame (put refuses
-// otherwise); the frame is checked again so that the rule never compares
-// poses of two worlds.
-bool oneMap(const Place& a, const Place& b) {
-  return !a.group.empty() && a.group == b.group && a.map_frame == b.map_frame;
-}
-
-std::string disagreementMessage(const std::string& a, const Relocalization& answer_a,
-                                const std::string& b, const Relocalization& answer_b) {
-  char buffer[160];
-  std::snprintf(buffer, sizeof buffer, "; one map, but their poses are %.2f m and %.1f deg apart",
-                translationError(answer_a.pose, answer_b.pose),
-                rotationErrorDegrees(answer_a.pose, answer_b.pose));
-  return ambiguityMessage(a, answer_a, b, answer_b) + buffer;
 }
 
 // The frame screened: every place's screen, the hint's factor it was weighed
@@ -175,6 +139,25 @@ std::vector<size_t> solvedIfBestAnswers(const std::vector<std::shared_ptr<const 
   return solved;
 }
 
+// A place that answered has a newer part of its map (Place::part) none of
+// whose places was solved yet, and place `i` is that part's best screened
+// place with any inlier: it is asked too, so that the two parts' answers are
+// compared (judge). A SLAM map reset leaves the room in both parts, and the
+// first look can screen the part SLAM now uses at 3 inliers where the old one
+// has 16. An older part is not asked after a newer one answered: the newer
+// is the map SLAM uses.
+bool unaskedPart(const std::vector<std::shared_ptr<const Place>>& places, const Solves& solves,
+                 const std::vector<PlaceAttempt>& attempts, size_t i) {
+  if (solves.answered.empty() || attempts[i].screen_inliers <= 0) return false;
+  const Place& lead = *places[solves.answered.front().first];
+  const Place& place = *places[i];
+  if (!otherPart(lead, place) || place.part < lead.part) return false;
+  for (size_t k = 0; k < places.size(); ++k)
+    if (attempts[k].solved && places[k]->part == place.part && oneMap(*places[k], place))
+      return false;
+  return true;
+}
+
 // Full solves for the best screened place and the runners-up that screened
 // close to it: a look-alike place must not win by being asked alone. A place
 // that screened far below the best is not asked even when the best fails: its
@@ -219,7 +202,7 @@ Solves solveRanked(const std::vector<std::shared_ptr<const Place>>& places, Scre
     // gate its pose.
     const bool neighbour =
         solves.answered.empty() && attempt.screen_inliers > 0 && oneMap(*places[best], place);
-    if (rank > 0 && !close && !neighbour) continue;
+    if (rank > 0 && !close && !neighbour && !unaskedPart(places, solves, attempts, i)) continue;
     if (!solves.answered.empty()) {
       const size_t lead = solves.answered.front().first;
       if (oneMap(*places[lead], place) &&
@@ -280,7 +263,11 @@ void judge(const std::vector<std::shared_ptr<const Place>>& places, Solves& solv
                                    params.agreement_degrees);
     answer.attempts[other].agrees = agrees;
     if (agrees || !rivalry.empty()) continue;
-    if (weighed(answered[k]) < params.ambiguity_ratio * weighed(answered.front())) continue;
+    // An answer of a newer part of the map (the one SLAM uses since its map
+    // moved) that disagrees is always a rival of an older part's.
+    const bool newer_part = otherPart(place, *places[other]) && places[other]->part > place.part;
+    if (weighed(answered[k]) < params.ambiguity_ratio * weighed(answered.front()) && !newer_part)
+      continue;
     rivalry = oneMap(place, *places[other])
                   ? disagreementMessage(place.name, winning, places[other]->name, answer_other)
                   : ambiguityMessage(place.name, winning, places[other]->name, answer_other);

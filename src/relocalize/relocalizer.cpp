@@ -432,9 +432,9 @@ Expected<PredictionQuality> Relocalizer::measurePredictions(const RgbdFrame& rec
     for (int c = 0; c < p.count; ++c) {
       if (p.candidates[c].descriptor_distance < p.candidates[chosen].descriptor_distance)
         chosen = c;
-      any = any || (p.candidates[c].mode->mean - truth).norm() < radius;
+      any = any || (p.candidates[c].mode.mean - truth).norm() < radius;
     }
-    const float error = (p.candidates[chosen].mode->mean - truth).norm();
+    const float error = (p.candidates[chosen].mode.mean - truth).norm();
     ++quality.samples;
     quality.chosen_within += error < radius ? 1 : 0;
     quality.any_within += any ? 1 : 0;

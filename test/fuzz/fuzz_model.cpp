@@ -88,9 +88,9 @@ void useForest(const Forest& forest) {
     for (const Sample& s : corners) {
       (void)tree.descend(image.view, s.u, s.v, s.depth);
       const ModeCandidate c = predictInTree(tree, image.view, s, descriptor, 8);
-      if (c.mode) {
-        (void)c.mode->mahalanobisSquared(Eigen::Vector3f(1.0f, 2.0f, 3.0f));
-        (void)c.mode->covariance();
+      if (c.found()) {
+        (void)c.mode.mahalanobisSquared(Eigen::Vector3f(1.0f, 2.0f, 3.0f));
+        (void)c.mode.covariance();
       }
     }
   }

@@ -16,7 +16,11 @@ void addMode(Tree& t, float x, float y, float z, int8_t d0) {
   LeafMode m;
   m.mean = Eigen::Vector3f(x, y, z);
   m.setCovariance(Eigen::Matrix3f::Identity() * 0.01f);
-  t.modes.push_back(m);
+  // The tree's grid spans every mode: repacked with each one added.
+  std::vector<LeafMode> modes;
+  for (uint32_t i = 0; i < t.modes.size(); ++i) modes.push_back(t.mode(i));
+  modes.push_back(m);
+  packModes(modes, t.grid, t.modes);
   Descriptor d{};
   d[0] = d0;
   t.descriptors.push_back(d);

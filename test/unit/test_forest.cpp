@@ -3,6 +3,8 @@
 #include <sys/resource.h>
 #include <tbb/global_control.h>
 #include <zlib.h>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <climits>
 #include <cmath>
@@ -21,6 +23,7 @@
 #include "relocalizer/forest/forest.h"
 #include "relocalizer/forest/mean_shift.h"
 #include "relocalizer/forest/model_io.h"
+#include "relocalizer/forest/packed_mode.h"
 #include "relocalizer/forest/sampling.h"
 #include "relocalizer/forest/training.h"
 #include "relocalizer/forest/training_config.h"
@@ -358,6 +361,50 @@ TEST(Descriptor, SameFloatsAsTheFullFloatTransformInsideAndAtBorders) {
   EXPECT_GT(compared, 300);
 }
 
+bool sameMode(const LeafMode& a, const LeafMode& b) {
+  return std::memcmp(&a, &b, sizeof(LeafMode)) == 0;
+}
+
+// Packing keeps what RANSAC and refinement read: the mean within half a grid
+// step, the Mahalanobis distances within a fraction of a percent, and a
+// positive definite information however elongated the mode (half-precision
+// rounding of the matrix itself would make this one indefinite).
+TEST(PackedMode, KeepsTheMeanTheDistancesAndPositiveDefiniteness) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> where(-4.0f, 6.0f), spread(0.01f, 0.5f);
+  std::vector<LeafMode> modes(500);
+  for (LeafMode& mode : modes) {
+    mode.mean = Eigen::Vector3f(where(rng), where(rng), where(rng) / 3.0f);
+    const Eigen::Matrix3f axes = Eigen::Quaternionf::UnitRandom().toRotationMatrix();
+    const Eigen::Vector3f sigma(spread(rng), spread(rng), spread(rng));
+    mode.setCovariance(axes * sigma.cwiseProduct(sigma).asDiagonal() * axes.transpose());
+  }
+  LeafMode needle;  // 1 cm across, 1 m along a diagonal
+  const Eigen::Vector3f along = Eigen::Vector3f(1, 1, 0.5f).normalized();
+  needle.setCovariance(1e-4f * Eigen::Matrix3f::Identity() + 1.0f * along * along.transpose());
+  modes.push_back(needle);
+  ModeGrid grid;
+  std::vector<PackedMode> packed;
+  packModes(modes, grid, packed);
+  EXPECT_LT(grid.step, 10.0f / 65535.0f * 1.001f);
+  for (size_t m = 0; m < modes.size(); ++m) {
+    const LeafMode back = unpackMode(packed[m], grid);
+    EXPECT_LE((back.mean - modes[m].mean).cwiseAbs().maxCoeff(), 0.51f * grid.step) << m;
+    EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f>(back.informationMatrix())
+                  .eigenvalues()
+                  .minCoeff(),
+              0.0f)
+        << m;
+    for (int k = 0; k < 20; ++k) {
+      const Eigen::Vector3f x = modes[m].mean + 0.1f * Eigen::Vector3f::Random();
+      const float truth = modes[m].mahalanobisSquared(x);
+      EXPECT_NEAR(back.mahalanobisSquared(back.mean + (x - modes[m].mean)), truth,
+                  0.005f * truth + 1e-3f)
+          << m;
+    }
+  }
+}
+
 class TrainedTree : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -401,8 +448,8 @@ TEST(TreeGrowing, ModesKeepTheDescriptorScalingTheModelNames) {
     cv::multiply(image.colour, cv::Scalar(0.25, 1.0, 1.0), image.colour);
   auto blueShare = [](const Descriptor& d) {
     double blue = 0.0, others = 0.0;
-    for (int i = 0; i < kDescriptorSize; ++i) {
-      (i < kDescriptorPerChannel ? blue : others) += d[i] * d[i];
+    for (int i = 0; i < kKeptDescriptorSize; ++i) {
+      (i < kKeptPerChannel ? blue : others) += d[i] * d[i];
     }
     return blue / (blue + others);
   };
@@ -494,10 +541,12 @@ TEST_F(TrainedTree, OneLeafBacktrackingEqualsPlainDescentAndMoreLeavesNeverWorse
     for (uint32_t m = range.first_mode; m < range.first_mode + range.mode_count; ++m)
       nearest = std::min(nearest, descriptorDistance(tree.descriptors[m], descriptors[i]));
     const ModeCandidate one = predictInTree(tree, image.view(), s, descriptors[i], 1);
-    ASSERT_NE(one.mode, nullptr);
+    ASSERT_TRUE(one.found());
     EXPECT_EQ(one.descriptor_distance, nearest);
-    EXPECT_GE(one.mode, &tree.modes[range.first_mode]);
-    EXPECT_LT(one.mode, &tree.modes[range.first_mode + range.mode_count]);
+    bool of_the_leaf = false;
+    for (uint32_t m = range.first_mode; m < range.first_mode + range.mode_count; ++m)
+      of_the_leaf = of_the_leaf || sameMode(one.mode, tree.mode(m));
+    EXPECT_TRUE(of_the_leaf) << "sample " << i;
     int32_t previous = one.descriptor_distance;
     for (int leaves = 2; leaves <= 16; leaves *= 2) {
       const ModeCandidate more = predictInTree(tree, image.view(), s, descriptors[i], leaves);
@@ -537,11 +586,11 @@ TEST_F(TrainedTree, LockStepPredictionEqualsPerSamplePrediction) {
           for (const Tree& tree : forest.trees) {
             const ModeCandidate c =
                 predictInTree(tree, image.view(), samples[i], descriptors[i], max_leaves);
-            if (c.mode) expected.push_back(c);
+            if (c.found()) expected.push_back(c);
           }
           ASSERT_EQ(predictions[i].count, static_cast<int>(expected.size()));
           for (size_t k = 0; k < expected.size(); ++k) {
-            EXPECT_EQ(predictions[i].candidates[k].mode, expected[k].mode)
+            EXPECT_TRUE(sameMode(predictions[i].candidates[k].mode, expected[k].mode))
                 << "sample " << i << ", candidate " << k << ", max_leaves " << max_leaves;
             EXPECT_EQ(predictions[i].candidates[k].descriptor_distance,
                       expected[k].descriptor_distance);
@@ -620,6 +669,43 @@ TEST_F(ModelFile, SurfaceRoundTrips) {
 
 namespace {
 
+void appendBytes(std::vector<uint8_t>& out, const void* data, size_t n) {
+  out.insert(out.end(), static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + n);
+}
+
+// `body` behind a model file's preamble of `version`.
+std::vector<uint8_t> withPreamble(uint32_t version, const std::vector<uint8_t>& body) {
+  std::vector<uint8_t> out = {'P', 'L', 'F', 'O', 'R', 'E', 'S', 'T'};
+  const uint32_t reserved = 0;
+  const uint64_t size = body.size();
+  const uint32_t crc =
+      static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size())));
+  for (const auto& [data, n] : std::initializer_list<std::pair<const void*, size_t>>{
+           {&version, 4}, {&reserved, 4}, {&size, 8}, {&crc, 4}})
+    appendBytes(out, data, n);
+  out.insert(out.end(), body.begin(), body.end());
+  return out;
+}
+
+// A descriptor as formats 1 to 4 stored it, all 48 coefficients: the kept ones
+// where they stand, the others (which loading drops) a pattern of their own.
+std::array<int8_t, kDescriptorSize> wholeDescriptor(const Descriptor& kept) {
+  std::array<int8_t, kDescriptorSize> whole;
+  for (int i = 0; i < kDescriptorSize; ++i) whole[i] = static_cast<int8_t>(i - 20);
+  for (int c = 0; c < kDescriptorChannels; ++c)
+    for (int k = 0; k < kKeptPerChannel; ++k)
+      whole[c * kDescriptorPerChannel + k] = kept[c * kKeptPerChannel + k];
+  return whole;
+}
+
+// `planes` of `count` elements of `size` bytes, byte plane by byte plane, as
+// formats 3 to 5 store a tree's arrays.
+void appendBytePlanes(std::vector<uint8_t>& out, const void* data, size_t count, size_t size) {
+  const auto* bytes = static_cast<const uint8_t*>(data);
+  for (size_t b = 0; b < size; ++b)
+    for (size_t i = 0; i < count; ++i) out.push_back(bytes[i * size + b]);
+}
+
 void expectSameForest(const Forest& a, const Forest& b) {
   ASSERT_EQ(a.trees.size(), b.trees.size());
   for (size_t t = 0; t < a.trees.size(); ++t) {
@@ -630,8 +716,9 @@ void expectSameForest(const Forest& a, const Forest& b) {
     ASSERT_EQ(x.descriptors.size(), y.descriptors.size());
     EXPECT_EQ(std::memcmp(x.nodes.data(), y.nodes.data(), x.nodes.size() * sizeof(SplitNode)), 0)
         << "tree " << t;
-    EXPECT_EQ(std::memcmp(x.modes.data(), y.modes.data(), x.modes.size() * sizeof(LeafMode)), 0)
+    EXPECT_EQ(std::memcmp(x.modes.data(), y.modes.data(), x.modes.size() * sizeof(PackedMode)), 0)
         << "tree " << t;
+    EXPECT_EQ(std::memcmp(&x.grid, &y.grid, sizeof(ModeGrid)), 0) << "tree " << t;
     EXPECT_EQ(x.descriptors, y.descriptors) << "tree " << t;
   }
 }
@@ -643,10 +730,7 @@ void expectSameForest(const Forest& a, const Forest& b) {
 // names it in the header; version 1 has neither.
 std::vector<uint8_t> oldVersionBytes(const Model& model, uint32_t version, float support = 7.0f) {
   std::vector<uint8_t> body;
-  auto put = [&body](const void* data, size_t n) {
-    body.insert(body.end(), static_cast<const uint8_t*>(data),
-                static_cast<const uint8_t*>(data) + n);
-  };
+  auto put = [&body](const void* data, size_t n) { appendBytes(body, data, n); };
   auto put32 = [&put](uint32_t v) { put(&v, 4); };
   nlohmann::json header_json = nlohmann::json::parse(modelHeaderJson(model, -1));
   header_json["format_version"] = version;
@@ -675,12 +759,13 @@ std::vector<uint8_t> oldVersionBytes(const Model& model, uint32_t version, float
       put(leaves.data(), leaves.size() * sizeof(LeafRange));
       put32(static_cast<uint32_t>(tree.modes.size()));
       for (size_t m = 0; m < tree.modes.size(); ++m) {
-        put(tree.modes[m].mean.data(), 12);
+        const LeafMode mode = tree.mode(static_cast<uint32_t>(m));
+        put(mode.mean.data(), 12);
         put(&support, 4);
-        put(tree.modes[m].information.data(), 24);
+        put(mode.information.data(), 24);
         const float log_det = -9.0f;
         put(&log_det, 4);
-        put(tree.descriptors[m].data(), kDescriptorSize);
+        put(wholeDescriptor(tree.descriptors[m]).data(), kDescriptorSize);
       }
     }
   }
@@ -690,16 +775,54 @@ std::vector<uint8_t> oldVersionBytes(const Model& model, uint32_t version, float
     put32(static_cast<uint32_t>(model.surface.elements().size()));
     put(model.surface.elements().data(), model.surface.elements().size() * sizeof(SurfaceElement));
   }
-  std::vector<uint8_t> out = {'P', 'L', 'F', 'O', 'R', 'E', 'S', 'T'};
-  const uint32_t reserved = 0;
-  const uint64_t size = body.size();
-  const uint32_t crc =
-      static_cast<uint32_t>(crc32(0L, body.data(), static_cast<uInt>(body.size())));
-  for (const auto& [data, n] : std::initializer_list<std::pair<const void*, size_t>>{
-           {&version, 4}, {&reserved, 4}, {&size, 8}, {&crc, 4}})
-    out.insert(out.end(), static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + n);
-  out.insert(out.end(), body.begin(), body.end());
-  return out;
+  return withPreamble(version, body);
+}
+
+// The model as format version 3 or 4 wrote it: each tree's nodes, its modes
+// at full precision (LeafMode) and its descriptors whole, byte plane by byte
+// plane and deflated; then the surface, and in version 4 the view lights.
+std::vector<uint8_t> fullPrecisionVersionBytes(const Model& model, uint32_t version) {
+  std::vector<uint8_t> body;
+  auto put = [&body](const void* data, size_t n) { appendBytes(body, data, n); };
+  auto put32 = [&put](uint32_t v) { put(&v, 4); };
+  nlohmann::json header_json = nlohmann::json::parse(modelHeaderJson(model, -1));
+  header_json["format_version"] = version;
+  const std::string header = header_json.dump();
+  put32(static_cast<uint32_t>(header.size()));
+  put(header.data(), header.size());
+  for (const Forest* forest : {&model.points, &model.lines}) {
+    put32(static_cast<uint32_t>(forest->trees.size()));
+    for (const Tree& tree : forest->trees) {
+      std::vector<LeafMode> modes;
+      std::vector<std::array<int8_t, kDescriptorSize>> descriptors;
+      for (size_t m = 0; m < tree.modes.size(); ++m) {
+        modes.push_back(tree.mode(static_cast<uint32_t>(m)));
+        descriptors.push_back(wholeDescriptor(tree.descriptors[m]));
+      }
+      std::vector<uint8_t> raw;
+      appendBytePlanes(raw, tree.nodes.data(), tree.nodes.size(), sizeof(SplitNode));
+      appendBytePlanes(raw, modes.data(), modes.size(), sizeof(LeafMode));
+      appendBytePlanes(raw, descriptors.data(), descriptors.size(), kDescriptorSize);
+      uLongf stored = compressBound(static_cast<uLong>(raw.size()));
+      std::vector<uint8_t> deflated(stored);
+      EXPECT_EQ(compress2(deflated.data(), &stored, raw.data(), static_cast<uLong>(raw.size()), 1),
+                Z_OK);
+      put32(static_cast<uint32_t>(tree.nodes.size()));
+      put32(static_cast<uint32_t>(modes.size()));
+      const uint64_t stored_size = stored;
+      put(&stored_size, 8);
+      put(deflated.data(), stored);
+    }
+  }
+  const float voxel_size = model.surface.voxelSize();
+  put(&voxel_size, 4);
+  put32(static_cast<uint32_t>(model.surface.elements().size()));
+  put(model.surface.elements().data(), model.surface.elements().size() * sizeof(SurfaceElement));
+  if (version >= 4) {
+    put32(static_cast<uint32_t>(model.summary.view_lights.size()));
+    put(model.summary.view_lights.data(), model.summary.view_lights.size() * sizeof(LightGrid));
+  }
+  return withPreamble(version, body);
 }
 
 }  // namespace
@@ -714,7 +837,7 @@ TEST_F(ModelFile, RoundTripKeepsEveryNodeModeAndDescriptor) {
   for (const Forest* f : {&model_.points, &model_.lines})
     for (const Tree& t : f->trees)
       raw += t.nodes.size() * sizeof(SplitNode) +
-             t.modes.size() * (sizeof(LeafMode) + sizeof(Descriptor));
+             t.modes.size() * (sizeof(PackedMode) + sizeof(Descriptor));
   EXPECT_LT(bytes_.size(), raw * 3 / 4);
 }
 
@@ -730,6 +853,19 @@ TEST_F(ModelFile, VersionOneLoadsTheSameForestsWithoutASurfaceAndSaysSo) {
   EXPECT_NE(relocalizer.limitations().find("no scene surface"), std::string::npos)
       << relocalizer.limitations();
   EXPECT_EQ(Relocalizer(model_).limitations(), "");
+}
+
+// Formats 3 and 4 kept every mode at full precision and every descriptor
+// whole: they load packed as training packs, the same model.
+TEST_F(ModelFile, VersionFourLoadsAsTheSameModelAndSavesAsTheCurrentVersion) {
+  Model lit = model_;
+  lit.summary.view_lights = {LightGrid{}};
+  auto loaded = loadModel(writeVariant(fullPrecisionVersionBytes(lit, 4)));
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  expectSameForest(loaded->points, model_.points);
+  expectSameForest(loaded->lines, model_.lines);
+  EXPECT_EQ(loaded->summary.view_lights.size(), 1u);
+  EXPECT_EQ(serializeModel(*loaded), serializeModel(lit));
 }
 
 TEST_F(ModelFile, VersionTwoLoadsAsTheSameModelAndSavesAsTheCurrentVersion) {
@@ -772,16 +908,9 @@ TEST_F(ModelFile, TheViewLightsRoundTripAndVersionThreeFilesLoadWithoutThem) {
   ASSERT_TRUE(loaded.ok()) << loaded.error();
   EXPECT_EQ(loaded->summary.view_lights, lit.summary.view_lights);
 
-  // Version 3: the same bytes without the view lights' count at the end.
-  std::vector<uint8_t> version_three = bytes_;
-  version_three.resize(version_three.size() - 4);
-  const uint32_t three = 3;
-  const uint64_t body_size = version_three.size() - 28;
-  const uint32_t crc =
-      static_cast<uint32_t>(crc32(0L, version_three.data() + 28, static_cast<uInt>(body_size)));
-  std::memcpy(version_three.data() + 8, &three, 4);
-  std::memcpy(version_three.data() + 16, &body_size, 8);
-  std::memcpy(version_three.data() + 24, &crc, 4);
+  // Version 3: version 4's trees (modes at full precision, descriptors whole)
+  // without the view lights.
+  const std::vector<uint8_t> version_three = fullPrecisionVersionBytes(model_, 3);
   auto old = loadModel(writeVariant(version_three));
   ASSERT_TRUE(old.ok()) << old.error();
   EXPECT_TRUE(old->summary.view_lights.empty());

@@ -37,7 +37,7 @@ Model smallModel() {
   root.feature.channel_p = 2;
   root.feature.channel_q = 0;
   tree.nodes = {root, SplitNode::leaf({0, 1}), SplitNode::leaf({1, 1})};
-  tree.modes = {LeafMode{}, LeafMode{}};
+  tree.modes = {PackedMode{}, PackedMode{}};
   tree.descriptors = {Descriptor{}, Descriptor{}};
   model.points.trees = {tree};
   return model;

@@ -37,7 +37,6 @@ LeafMode isotropicMode(const Eigen::Vector3f& mean, float sigma) {
 // A synthetic correspondence set: camera points in front of the camera, their
 // true world points, and a share of samples whose every candidate is wrong.
 struct Scenario {
-  std::vector<LeafMode> modes;  // owns what predictions point to
   std::vector<Prediction> predictions;
   std::vector<SolverSample> points, lines;
   std::vector<Line3D> line_models;
@@ -47,7 +46,6 @@ struct Scenario {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> u(-1.5f, 1.5f), z(1.0f, 4.0f), unit(0, 1);
     std::normal_distribution<float> n(0.0f, noise);
-    modes.reserve(count * candidates);
     predictions.resize(count);
     for (int i = 0; i < count; ++i) {
       const Eigen::Vector3f camera(u(rng), u(rng), z(rng));
@@ -60,8 +58,7 @@ struct Scenario {
         const bool right = !outlier && c == 0;
         const Eigen::Vector3f where =
             right ? world : Eigen::Vector3f(u(rng) * 3, u(rng) * 3, u(rng) * 3);
-        modes.push_back(isotropicMode(where, 0.02f));
-        p.candidates[p.count++] = {&modes.back(), 0};
+        p.candidates[p.count++] = {isotropicMode(where, 0.02f), 0};
       }
       points.push_back({camera, &predictions[i], nullptr});
     }
@@ -248,8 +245,8 @@ std::vector<RefinementTerm> pointTerms(const Scenario& s) {
   for (const auto& sample : s.points) {
     RefinementTerm t;
     t.camera_point = sample.camera_point.cast<double>();
-    t.mode_mean = sample.prediction->candidates[0].mode->mean.cast<double>();
-    t.information = sample.prediction->candidates[0].mode->informationMatrix().cast<double>();
+    t.mode_mean = sample.prediction->candidates[0].mode.mean.cast<double>();
+    t.information = sample.prediction->candidates[0].mode.informationMatrix().cast<double>();
     terms.push_back(t);
   }
   return terms;

@@ -10,36 +10,16 @@
 #include <array>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 #include "relocalizer/forest/features.h"
+#include "relocalizer/forest/leaf_mode.h"
+#include "relocalizer/forest/packed_mode.h"
 #include "relocalizer/forest/patch_descriptor.h"
 #include "relocalizer/forest/sampling.h"
 
 namespace relocalizer {
-
-// One mean-shift mode of the world coordinates that reached a leaf: what
-// RANSAC and refinement read. A plain fixed-size struct: leaves are ranges
-// into one array of these; the modes' descriptors, read only to choose among
-// modes, are a parallel array (Tree::descriptors).
-struct LeafMode {
-  Eigen::Vector3f mean = Eigen::Vector3f::Zero();  // world, metres
-  // Inverse covariance, upper triangle (xx xy xz yy yz zz), 1/m^2: what the
-  // Mahalanobis distances in RANSAC and refinement need.
-  std::array<float, 6> information{};
-
-  Eigen::Matrix3f informationMatrix() const;
-  Eigen::Matrix3f covariance() const;
-  void setCovariance(const Eigen::Matrix3f& covariance);
-  // (x - mean)^T Sigma^-1 (x - mean)
-  float mahalanobisSquared(const Eigen::Vector3f& x) const {
-    const Eigen::Vector3f d = x - mean;
-    const auto& s = information;
-    return s[0] * d.x() * d.x() + s[3] * d.y() * d.y() + s[5] * d.z() * d.z() +
-           2.0f * (s[1] * d.x() * d.y() + s[2] * d.x() * d.z() + s[4] * d.y() * d.z());
-  }
-};
-static_assert(sizeof(LeafMode) == 36, "LeafMode layout is part of the model format");
 
 struct LeafRange {
   uint32_t first_mode = 0;
@@ -70,9 +50,14 @@ static_assert(sizeof(SplitNode) == 16, "SplitNode layout is part of the model fo
 static_assert(sizeof(LeafRange) == sizeof(PixelFeature), "a leaf's range replaces the feature");
 
 struct Tree {
-  std::vector<SplitNode> nodes;         // nodes[0] is the root; children follow their parent
-  std::vector<LeafMode> modes;          // leaves' modes, leaf by leaf
+  std::vector<SplitNode> nodes;  // nodes[0] is the root; children follow their parent
+  // Leaves' modes, leaf by leaf, packed on the grid (packed_mode.h); the
+  // descriptors, read only to choose among modes, are a parallel array.
+  ModeGrid grid;
+  std::vector<PackedMode> modes;
   std::vector<Descriptor> descriptors;  // descriptors[m]: the mean WHT descriptor of modes[m]
+
+  LeafMode mode(uint32_t m) const { return unpackMode(modes[m], grid); }
 
   int depth() const;
   size_t leafCount() const;
@@ -90,9 +75,13 @@ struct Forest {
 
 constexpr int kMaxTrees = 16;
 
+// A tree's choice for one sample: its mode unpacked, so that RANSAC and
+// refinement read it from the prediction and not from the model.
 struct ModeCandidate {
-  const LeafMode* mode = nullptr;
-  int32_t descriptor_distance = 0;
+  LeafMode mode;
+  int32_t descriptor_distance = kNoDescriptorDistance;
+  static constexpr int32_t kNoDescriptorDistance = std::numeric_limits<int32_t>::max();
+  bool found() const { return descriptor_distance != kNoDescriptorDistance; }
 };
 
 // Candidate world modes for one sample, one per tree that had any mode.

@@ -13,10 +13,11 @@
 //                      set summary (human readable with `strings` or `head -c`)
 //     forest points, forest lines, each:
 //       uint32 trees; per tree:
-//         uint32 nodes n, uint32 modes m, uint64 length of the zlib stream, the
-//         stream of: SplitNode[n], LeafMode[m], Descriptor[m], each array
+//         uint32 nodes n, uint32 modes m, ModeGrid (packed_mode.h), uint64
+//         length of the zlib stream, the stream of: SplitNode[n],
+//         PackedMode[m], Descriptor[m] (the 24 kept coefficients), each array
 //         stored byte plane by byte plane (byte 0 of every element, then byte
-//         1, ...), which lets deflate halve the model.
+//         1, ...), where deflate finds what repeats.
 //     surface: float voxel size, uint32 n + SurfaceElement[n]
 //     view lights: uint32 n + LightGrid[n] (float32), one per training image
 // Saving is deterministic: the same model gives the same bytes.
@@ -28,6 +29,9 @@
 //     surface (relocalization then skips the surface fit and check, and says so).
 //   2: version 1's forests, then the surface as in version 4.
 //   3: version 4 without the view lights.
+//   4: trees without a ModeGrid, of SplitNode[n], LeafMode[m] (36 bytes, full
+//     precision) and 48-byte descriptors; loading packs the modes and keeps
+//     the descriptors' first 24 (as training now does).
 
 #include <cstdint>
 #include <string>
@@ -42,7 +46,7 @@
 
 namespace relocalizer {
 
-constexpr uint32_t kModelFormatVersion = 4;
+constexpr uint32_t kModelFormatVersion = 5;
 // Every model file starts with it; a save replaces only files that do.
 constexpr std::string_view kModelMagic{"PLFOREST", 8};
 

@@ -64,6 +64,9 @@ struct SubmapModel {
   int index = 0;  // in the run, from 0 (the place name's suffix)
   bool frozen = false;
   int keyframes = 0;  // the key frames it was (or, active, is being) learned from
+  // 1: of the current place (from the last startNewPlace() on); 0: learned in
+  // the map SLAM had before (Place::part).
+  int part = 1;
   std::shared_ptr<const Relocalizer> relocalizer;
   // A frozen submap's file, once written (or resumed); size 0: none (the
   // active one, whose model changes).

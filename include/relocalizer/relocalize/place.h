@@ -25,6 +25,15 @@ struct Place {
   // folder's loader (place_files.h) read it; empty for a model that is no
   // file's (built in memory, learned).
   std::string model_id;
+  // Places of one group learned in different stretches of SLAM's map (the
+  // submaps before and after SLAM's map moved under them, a reset: the
+  // learner's new place) are different parts. Where both know the room their
+  // answers in the one frame are metres apart, so one part never answers
+  // alone where a newer could: when a place answers, the best screened place
+  // of every newer part of its group is solved too, and an older part's
+  // answer is given only when no newer part's disagrees, however few the
+  // newer one's inliers (place_search.h). The higher part is the newer.
+  int part = 0;
 };
 
 // A model file's identity for Place::model_id, from its contents (CRC-32 and
