@@ -19,7 +19,9 @@
 // solved at all (it could only agree, at the cost of a full solve). When the
 // best screened place fails, the other places of its map are asked however
 // weakly they screened (they cannot answer in a wrong frame), those left at
-// the first look screened fully first, best screened first.
+// the first look screened fully first, best screened first. A map in parts
+// (Place::part: SLAM's map moved under the older) is one map with a caveat:
+// an older part's answer stands only where no newer part, asked too, disagrees.
 
 #include <memory>
 #include <string>
