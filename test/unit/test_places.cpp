@@ -106,45 +106,51 @@ TEST_F(Places, AFrameNoPlaceAnswersInALampsLightIsSearchedAgainInTheLightOfTheVi
   PlaceSet set;
   putBothRooms(set);
   const std::vector<std::shared_ptr<const Place>> places = set.places();
-  // As warm as a candle: here the search once loses 6 of the 24 frames
-  // (2500 K, one stop darker: none).
-  PhotometricChange lamp;
-  lamp.kelvin = 1500;
+  // As warm as a candle, and darker: which of these frames the search once
+  // loses depends on the platform's image arithmetic (with model format 5,
+  // 1500 K alone lost 5 of the 24 on Debian 12 and none on Debian 11), so the
+  // frames are asked in four lamps' light, 96 in all: 16 lost once on Debian 12.
   int once = 0, again = 0, searched_again = 0, frames = 0;
-  for (const Room& room : rooms_) {
-    for (const RgbdFrame& recorded : room.test_frames) {
-      RgbdFrame frame = recorded;
-      frame.colour = applyPhotometricChange(recorded.colour, lamp);
-      const PlaceAnswer first = searchPlaces(places, frame, nullptr, set.params());
-      const PlaceAnswer answer = set.relocalize(frame);
-      ++frames;
-      std::optional<double> own_mismatch, other_mismatch;
-      for (const Room& any : rooms_) {
-        const auto nearest =
-            nearestViewLight(lightGrid(frame.colour), any.relocalizer->model().summary.view_lights);
-        ASSERT_TRUE(nearest) << any.name;
-        (any.name == room.name ? own_mismatch : other_mismatch) = nearest->mismatch;
-      }
-      EXPECT_LT(*own_mismatch, *other_mismatch) << "frame " << frame.id << " of " << room.name;
-      once += correct(first, frame) ? 1 : 0;
-      again += correct(answer, frame) ? 1 : 0;
-      EXPECT_TRUE(answer.place.empty() || answer.place == room.name)
-          << "a frame of " << room.name << " in a lamp's light was answered by " << answer.place;
-      if (first.relocalization.success) {
-        EXPECT_EQ(answer.place, first.place);  // an answer is never searched again
-      } else if (answer.relocalization.light_cast > 0.0f) {
-        ++searched_again;
-        if (!answer.relocalization.success) {
-          EXPECT_NE(answer.relocalization.message.find("searched again in the light of"),
-                    std::string::npos)
-              << answer.relocalization.message;
+  for (const auto& [kelvin, stops] : {std::pair{1500.0, 0.0}, std::pair{1500.0, -1.0},
+                                      std::pair{1200.0, 0.0}, std::pair{1500.0, -2.0}}) {
+    PhotometricChange lamp;
+    lamp.kelvin = kelvin;
+    lamp.stops = stops;
+    for (const Room& room : rooms_) {
+      for (const RgbdFrame& recorded : room.test_frames) {
+        RgbdFrame frame = recorded;
+        frame.colour = applyPhotometricChange(recorded.colour, lamp);
+        const PlaceAnswer first = searchPlaces(places, frame, nullptr, set.params());
+        const PlaceAnswer answer = set.relocalize(frame);
+        ++frames;
+        std::optional<double> own_mismatch, other_mismatch;
+        for (const Room& any : rooms_) {
+          const auto nearest = nearestViewLight(lightGrid(frame.colour),
+                                                any.relocalizer->model().summary.view_lights);
+          ASSERT_TRUE(nearest) << any.name;
+          (any.name == room.name ? own_mismatch : other_mismatch) = nearest->mismatch;
         }
+        EXPECT_LT(*own_mismatch, *other_mismatch) << "frame " << frame.id << " of " << room.name;
+        once += correct(first, frame) ? 1 : 0;
+        again += correct(answer, frame) ? 1 : 0;
+        EXPECT_TRUE(answer.place.empty() || answer.place == room.name)
+            << "a frame of " << room.name << " in a lamp's light was answered by " << answer.place;
+        if (first.relocalization.success) {
+          EXPECT_EQ(answer.place, first.place);  // an answer is never searched again
+        } else if (answer.relocalization.light_cast > 0.0f) {
+          ++searched_again;
+          if (!answer.relocalization.success) {
+            EXPECT_NE(answer.relocalization.message.find("searched again in the light of"),
+                      std::string::npos)
+                << answer.relocalization.message;
+          }
+        }
+        EXPECT_EQ(set.relocalize(recorded).relocalization.light_cast, 0.0f);
       }
-      EXPECT_EQ(set.relocalize(recorded).relocalization.light_cast, 0.0f);
     }
   }
   std::printf(
-      "both rooms at 1500 K: %d of %d frames right searched once, %d searched "
+      "both rooms in four lamps' light: %d of %d frames right searched once, %d searched "
       "again in the light of the views each resembles (%d frames searched again)\n",
       once, frames, again, searched_again);
   EXPECT_GT(searched_again, 0);
