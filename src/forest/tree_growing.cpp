@@ -114,7 +114,8 @@ class TreeGrower {
   // Per mode, the sum of the WHT descriptors of the samples assigned to it.
   std::vector<DescriptorF> modeDescriptorSums(size_t mode_count) const;
 
-  // A mode as the model stores it: the covariance as its inverse.
+  // A mode at full precision, the covariance as its inverse (packed with the
+  // tree once it is grown).
   static LeafMode leafMode(const Mode3D& mode);
   // A mode's descriptor: the sum of its samples' scaled as the model says, and quantised.
   Descriptor modeDescriptor(DescriptorF& descriptor_sum) const;
