@@ -146,11 +146,11 @@ ModeCandidate candidateOf(const Tree& tree, const NearestMode& nearest) {
 // dependent cache misses (each node's address comes from its parent, and a
 // model of tens of MB does not fit the cache), so one sample at a time leaves
 // the core waiting on DRAM. Here kLanes samples advance in turn, one memory
-// access each per round (a node, a leaf's modes' descriptors, or the chosen mode) with the next
-// access prefetched,
-// so up to kLanes misses are in flight; a split node takes two turns, the
-// second reading the pixel the first located and prefetched. Each lane runs exactly predictInTree's
-// steps in its order, so every candidate is the one predictInTree gives. Writes candidates[slot] of
+// access each per round (a node, a leaf's modes' descriptors, or the chosen
+// mode) with the next access prefetched, so up to kLanes misses are in flight;
+// a split node takes two turns, the second reading the pixel the first located
+// and prefetched. Each lane runs exactly predictInTree's steps in its order, so
+// every candidate is the one predictInTree gives. Writes candidates[slot] of
 // each prediction.
 class LockStepDescent {
  public:

@@ -11,6 +11,10 @@ namespace relocalizer::detail {
 
 namespace {
 
+// Versions 1 to 4 stored each mode's descriptor whole, 3 and 4 each mode at
+// full precision (LeafMode).
+using WholeDescriptor = std::array<int8_t, kDescriptorSize>;
+
 // Versions 1 and 2 stored leaves as an index into a range array and 92-byte
 // modes with their descriptor, support and log-determinant inline.
 namespace v1 {
@@ -19,12 +23,10 @@ struct LeafMode {
   float support;
   float information[6];
   float log_det_covariance;
-  std::array<int8_t, kDescriptorSize> descriptor;
+  WholeDescriptor descriptor;
 };
 static_assert(sizeof(LeafMode) == 92, "version-1 mode layout");
 }  // namespace v1
-// Versions 3 and 4 stored each mode at full precision and its descriptor whole.
-using WholeDescriptor = std::array<int8_t, kDescriptorSize>;
 
 // A tree's arrays as version 2 stores them: each array byte plane by byte
 // plane (byte 0 of every element, then byte 1, ...), so that the bytes that

@@ -673,6 +673,14 @@ void appendBytes(std::vector<uint8_t>& out, const void* data, size_t n) {
   out.insert(out.end(), static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + n);
 }
 
+// The header JSON as every format stores it: its length, then its text.
+void putHeader(std::vector<uint8_t>& body, const nlohmann::json& header_json) {
+  const std::string header = header_json.dump();
+  const uint32_t size = static_cast<uint32_t>(header.size());
+  appendBytes(body, &size, 4);
+  appendBytes(body, header.data(), header.size());
+}
+
 // `body` behind a model file's preamble of `version`.
 std::vector<uint8_t> withPreamble(uint32_t version, const std::vector<uint8_t>& body) {
   std::vector<uint8_t> out = {'P', 'L', 'F', 'O', 'R', 'E', 'S', 'T'};
@@ -739,9 +747,7 @@ std::vector<uint8_t> oldVersionBytes(const Model& model, uint32_t version, float
     header_json.erase("surface");
     header_json["params"].erase("surface");
   }
-  const std::string header = header_json.dump();
-  put32(static_cast<uint32_t>(header.size()));
-  put(header.data(), header.size());
+  putHeader(body, header_json);
   for (const Forest* forest : {&model.points, &model.lines}) {
     put32(static_cast<uint32_t>(forest->trees.size()));
     for (const Tree& tree : forest->trees) {
@@ -787,9 +793,7 @@ std::vector<uint8_t> fullPrecisionVersionBytes(const Model& model, uint32_t vers
   auto put32 = [&put](uint32_t v) { put(&v, 4); };
   nlohmann::json header_json = nlohmann::json::parse(modelHeaderJson(model, -1));
   header_json["format_version"] = version;
-  const std::string header = header_json.dump();
-  put32(static_cast<uint32_t>(header.size()));
-  put(header.data(), header.size());
+  putHeader(body, header_json);
   for (const Forest* forest : {&model.points, &model.lines}) {
     put32(static_cast<uint32_t>(forest->trees.size()));
     for (const Tree& tree : forest->trees) {
